@@ -1,0 +1,65 @@
+#include "decoder.h"
+
+#include <c10/core/InferenceMode.h>
+
+#include "gru_inference.h"
+
+namespace mm {
+
+DecoderImpl::DecoderImpl(const DecoderShape& shape)
+    : shape_(shape),
+      from_code_(register_module("from_code", torch::nn::Linear(shape.latent, shape.hidden))),
+      cell_(register_module("cell", torch::nn::GRUCell(shape.pose_dims + (shape.feed_code ? shape.latent : 0),
+                                                        shape.hidden))),
+      to_pose_(register_module("to_pose", torch::nn::Linear(shape.hidden, shape.pose_dims))) {}
+
+at::Tensor DecoderImpl::forward(const at::Tensor& z) {
+  const int64_t batch = z.size(0);
+  auto hidden = from_code_->forward(z);
+  auto previous = at::zeros({batch, shape_.pose_dims}, z.options());  // no frame after the last one
+  std::vector<at::Tensor> generated;
+  generated.reserve(shape_.frames);
+  for (int step = 0; step < shape_.frames; ++step) {
+    auto input = shape_.feed_code ? at::cat({previous, z}, 1) : previous;
+    hidden = cell_->forward(input, hidden);                       // Eq. 2 / 5
+    auto pose = to_pose_->forward(hidden);                        // Eq. 3
+    if (shape_.residual) pose = pose + previous;                  // Eq. 6
+    generated.push_back(pose);
+    previous = pose;
+  }
+  return at::stack(generated, 1).flip(1);  // generated last frame first
+}
+
+at::Tensor DecoderImpl::generate(const at::Tensor& z) const {
+  c10::InferenceMode inference;
+  if (!z.device().is_cpu() || z.scalar_type() != at::kFloat) {
+    return const_cast<DecoderImpl*>(this)->forward(z);
+  }
+  const int64_t batch = z.size(0), hidden_size = shape_.hidden, dims = shape_.pose_dims;
+  const auto& cell = *cell_;
+  auto code = z.contiguous();
+  auto hidden = at::empty({batch, hidden_size});
+  auto from_code = at::Tensor(from_code_->weight);
+  affine_into(hidden, from_code_->bias, from_code, code);
+
+  const int64_t input_size = dims + (shape_.feed_code ? shape_.latent : 0);
+  auto input = at::zeros({batch, input_size});
+  if (shape_.feed_code) input.narrow(1, dims, shape_.latent).copy_(code);
+  auto input_gates = at::empty({batch, 3 * hidden_size});
+  auto hidden_gates = at::empty({batch, 3 * hidden_size});
+  auto pose = at::empty({batch, dims});
+  auto generated = at::empty({shape_.frames, batch, dims});
+
+  for (int step = 0; step < shape_.frames; ++step) {
+    affine_into(input_gates, cell.bias_ih, cell.weight_ih, input);
+    gru_update(hidden, input_gates, hidden_gates, cell.weight_hh, cell.bias_hh);
+    affine_into(pose, to_pose_->bias, to_pose_->weight, hidden);
+    auto previous = input.narrow(1, 0, dims);
+    if (shape_.residual) pose.add_(previous);
+    previous.copy_(pose);
+    generated.select(0, step).copy_(pose);
+  }
+  return generated.flip(0).transpose(0, 1).contiguous();
+}
+
+}  // namespace mm

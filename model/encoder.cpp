@@ -1,0 +1,36 @@
+#include "encoder.h"
+
+#include <c10/core/InferenceMode.h>
+
+#include "gru_inference.h"
+
+namespace mm {
+
+EncoderImpl::EncoderImpl(int pose_dims, int hidden, int latent)
+    : gru_(register_module("gru", torch::nn::GRU(torch::nn::GRUOptions(pose_dims, hidden).batch_first(true)))),
+      to_code_(register_module("to_code", torch::nn::Linear(hidden, latent))) {}
+
+at::Tensor EncoderImpl::forward(const at::Tensor& motion) {
+  auto last_hidden = std::get<1>(gru_->forward(motion));  // (1, B, hidden)
+  return to_code_->forward(last_hidden.squeeze(0));
+}
+
+at::Tensor EncoderImpl::encode(const at::Tensor& motion) const {
+  c10::InferenceMode inference;
+  if (!motion.device().is_cpu() || motion.scalar_type() != at::kFloat) {
+    return const_cast<EncoderImpl*>(this)->forward(motion);
+  }
+  const auto& gru = *gru_;
+  const auto weight_ih = gru.named_parameters()["weight_ih_l0"], bias_ih = gru.named_parameters()["bias_ih_l0"];
+  const auto weight_hh = gru.named_parameters()["weight_hh_l0"], bias_hh = gru.named_parameters()["bias_hh_l0"];
+  const int64_t batch = motion.size(0), frames = motion.size(1), hidden_size = weight_hh.size(1);
+  // Every frame's input gates in one matrix product: (T, B, 3H).
+  auto input_gates = at::addmm(bias_ih, motion.transpose(0, 1).reshape({frames * batch, -1}), weight_ih.t())
+                         .view({frames, batch, 3 * hidden_size});
+  auto hidden = at::zeros({batch, hidden_size});
+  auto hidden_gates = at::empty({batch, 3 * hidden_size});
+  for (int64_t t = 0; t < frames; ++t) gru_update(hidden, input_gates.select(0, t), hidden_gates, weight_hh, bias_hh);
+  return at::addmm(to_code_->bias, hidden, to_code_->weight.t());
+}
+
+}  // namespace mm

@@ -1,0 +1,32 @@
+// The encoder of Sec. 3.2.1: a GRU over the clip, then one linear layer from
+// its last hidden state to the manifold code z (Eq. 1).
+//
+// Thread safety: forward() on a module in eval mode under NoGradGuard may be
+// called concurrently; training is single-threaded.
+#pragma once
+
+#include <torch/nn/module.h>
+#include <torch/nn/modules/linear.h>
+#include <torch/nn/modules/rnn.h>
+#include <torch/nn/pimpl.h>
+
+namespace mm {
+
+class EncoderImpl : public torch::nn::Module {
+ public:
+  EncoderImpl(int pose_dims, int hidden, int latent);
+
+  // motion: (B, T, pose_dims) normalised poses in time order. Returns (B, latent).
+  at::Tensor forward(const at::Tensor& motion);
+
+  // Same result as forward() for inference: no autograd graph and, on the
+  // CPU, a fused GRU loop (see gru_inference.h). Safe to call concurrently.
+  at::Tensor encode(const at::Tensor& motion) const;
+
+ private:
+  torch::nn::GRU gru_{nullptr};
+  torch::nn::Linear to_code_{nullptr};
+};
+TORCH_MODULE(Encoder);
+
+}  // namespace mm

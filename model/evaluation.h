@@ -1,0 +1,36 @@
+// Table 1 of the paper: reconstruction errors of a model on a fixed, seeded
+// set of test clips, per 1.2 s interval, in the paper's normalised units and
+// in physical units.
+//
+// Thread safety: reads the model only; may run beside other inference.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "format/prepared_dataset.h"
+#include "motion_manifold.h"
+
+namespace mm {
+
+struct EvaluationOptions {
+  int clips = 30;       // the paper averages 30 random test motions
+  uint64_t seed = 0;    // fixes which clips
+  int intervals = 5;    // 150 frames in 5 intervals of 1.2 s
+};
+
+// For each decoder of the model, per interval:
+//   E_r  mean over clips and frames of |q_hat - q| over the normalised pose;
+//   E_p  the same for joint positions over all 32 joints, in the model's
+//        position unit (mm / position_scale_mm);
+//   mpjpe_mm  mean per-joint position error in millimetres;
+//   angle_error_rad  mean geodesic angle between predicted and true joint
+//        rotations, over the joints the model animates;
+// and E_z, the mean absolute difference between z and Enc(Dec(z)).
+// Returns JSON text (documented in docs/ and by the tool). InputError if the
+// test sequences hold no clip of the model's length.
+std::string evaluate_reconstruction(const MotionManifold& model, const std::vector<const PreparedSequence*>& test,
+                                    const EvaluationOptions& options);
+
+}  // namespace mm

@@ -1,0 +1,77 @@
+// Motion text: the exponential-map text layout of Human3.6M used by Martinez
+// et al. 2017 (one frame a line, comma-separated floats with 7 decimals, no
+// header, 50 Hz), and the in-memory frame matrix it parses into.
+//
+// For H3.6M a frame has 99 values: [0:3] root translation (mm, per-frame
+// change), then 32 joints x 3 exponential-map values in radians, joint j at
+// columns 3+3j..5+3j. Other column counts are accepted for other skeletons.
+//
+// All functions here are reentrant: they touch only their arguments, so they
+// may be called concurrently on different objects.
+#pragma once
+
+#include <cstdint>
+#include <iosfwd>
+#include <string>
+#include <vector>
+
+namespace mm {
+
+constexpr int kH36mColumns = 99;
+constexpr double kH36mFrameRate = 50.0;  // frames per second of the text files
+
+// A sequence of frames, row-major: values[i * columns + c] is column c of
+// frame i. Plain value type; not synchronised.
+struct MotionFrames {
+  int columns = kH36mColumns;
+  std::vector<float> values;
+
+  // Number of frames: values.size() / columns (0 when columns <= 0).
+  int64_t frame_count() const;
+  // Pointer to the `columns` values of frame i. No bounds check: i must be in
+  // [0, frame_count()). Valid until `values` is resized.
+  const float* frame(int64_t i) const;
+  float* frame(int64_t i);
+};
+
+// Parses motion text from `in`. `source_name` is used only in error messages
+// (give the file name). Every non-blank line must hold exactly
+// `expected_columns` finite numbers separated by commas; spaces around a value,
+// a trailing '\r' and blank lines at the end are accepted.
+// Returns frames with columns == expected_columns and at least one frame.
+// Throws InputError "<source>:<line>: ..." naming the offending value and what
+// was expected: wrong number of values, a value that is not a number, NaN or
+// infinity, a blank line followed by more frames, or no frames at all.
+MotionFrames parse_motion_text(std::istream& in, const std::string& source_name,
+                               int expected_columns = kH36mColumns);
+
+// Same as parse_motion_text on an in-memory buffer (used by the file reader,
+// which reads the whole file at once for speed).
+MotionFrames parse_motion_text_buffer(const char* data, size_t size,
+                                      const std::string& source_name,
+                                      int expected_columns = kH36mColumns);
+
+// Reads and parses the file at `path`; error messages name `path`.
+// Throws InputError when the file cannot be opened or is malformed.
+MotionFrames read_motion_text(const std::string& path, int expected_columns = kH36mColumns);
+
+// Writes one line per frame, values with 7 decimals ("%.7f", as in the data
+// set) separated by commas, '\n' line ends. Throws std::runtime_error if the
+// stream fails. Float values round-trip to within 5e-8 absolute plus one
+// float ulp.
+void write_motion_text(const MotionFrames& motion, std::ostream& out);
+
+// Writes the file atomically (temporary file in the same directory, then
+// rename), so readers never see a partial file. Throws InputError when the
+// directory is not writable, std::runtime_error on I/O failure.
+void write_motion_text_file(const MotionFrames& motion, const std::string& path);
+
+// Splits a sequence into `factor` sequences at rate/factor: phase k holds
+// frames k, k+factor, k+2*factor, ... (Martinez et al. keep only phase 0 when
+// downsampling 50 -> 25 Hz; keeping every phase uses all recorded frames).
+// Returns exactly `factor` sequences with motion's column count; a phase is
+// empty when motion has fewer than k+1 frames. factor 1 returns a copy.
+// Throws InputError when factor < 1.
+std::vector<MotionFrames> split_phases(const MotionFrames& motion, int factor);
+
+}  // namespace mm

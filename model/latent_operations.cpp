@@ -1,0 +1,119 @@
+#include "latent_operations.h"
+
+#include <ATen/CPUGeneratorImpl.h>
+#include <c10/core/InferenceMode.h>
+
+#include <cmath>
+#include <cstring>
+#include <random>
+
+#include "format/input_error.h"
+
+namespace mm {
+namespace {
+
+void check_motion(const MotionManifold& model, const MotionFrames& m, size_t index) {
+  const std::string name = "motions[" + std::to_string(index) + "]";
+  if (m.columns != model.normalization().input_columns()) {
+    throw InputError(name + ": expected " + std::to_string(model.normalization().input_columns()) +
+                     " values per frame, found " + std::to_string(m.columns));
+  }
+  if (m.frame_count() != model.config().frames) {
+    throw InputError(name + ": expected " + std::to_string(model.config().frames) + " frames at 25 Hz, found " +
+                     std::to_string(m.frame_count()));
+  }
+}
+
+void check_code(const at::Tensor& code, int64_t latent, const char* name) {
+  if (code.dim() != 1 || code.size(0) != latent) {
+    throw InputError(std::string(name) + ": expected a code of " + std::to_string(latent) + " values, found shape " +
+                     c10::str(code.sizes()));
+  }
+}
+
+}  // namespace
+
+at::Tensor encode_motions(const MotionManifold& model, const std::vector<MotionFrames>& motions) {
+  c10::InferenceMode inference;
+  if (motions.empty()) throw InputError("motions: expected at least one motion");
+  const int64_t frames = model.config().frames, columns = model.normalization().input_columns();
+  auto raw = at::empty({static_cast<int64_t>(motions.size()), frames, columns});
+  for (size_t i = 0; i < motions.size(); ++i) {
+    check_motion(model, motions[i], i);
+    std::memcpy(raw[static_cast<int64_t>(i)].data_ptr<float>(), motions[i].values.data(), sizeof(float) * frames * columns);
+  }
+  return model.encode(model.to_normalized(raw.to(model.device()))).cpu();
+}
+
+std::vector<MotionFrames> decode_codes(const MotionManifold& model, const at::Tensor& codes, DecoderKind kind,
+                                       const std::vector<MotionFrames>* translation_from) {
+  c10::InferenceMode inference;
+  const int64_t latent = model.config().latent;
+  if (codes.dim() != 2 || codes.size(1) != latent) {
+    throw InputError("codes: expected shape (n, " + std::to_string(latent) + "), found " + c10::str(codes.sizes()));
+  }
+  if (!at::isfinite(codes).all().item<bool>()) throw InputError("codes: values must be finite numbers");
+  auto raw = model.to_raw(model.decode(codes.to(at::kFloat), kind)).cpu().contiguous();
+  std::vector<MotionFrames> result(static_cast<size_t>(codes.size(0)));
+  const int64_t per_motion = raw.size(1) * raw.size(2);
+  for (size_t i = 0; i < result.size(); ++i) {
+    result[i].columns = static_cast<int>(raw.size(2));
+    const float* src = raw.data_ptr<float>() + static_cast<int64_t>(i) * per_motion;
+    result[i].values.assign(src, src + per_motion);
+    if (translation_from) {
+      const auto& source = (*translation_from)[i];
+      for (int64_t f = 0; f < result[i].frame_count(); ++f) std::memcpy(result[i].frame(f), source.frame(f), 3 * sizeof(float));
+    }
+  }
+  return result;
+}
+
+at::Tensor sample_codes(const MotionManifold& model, int n, uint64_t seed, double prior_variance) {
+  if (n < 1) throw InputError("count: expected at least 1, found " + std::to_string(n));
+  auto generator = at::detail::createCPUGenerator(seed);
+  return at::randn({n, model.config().latent}, generator) * std::sqrt(prior_variance);
+}
+
+at::Tensor interpolate_codes(const at::Tensor& a, const at::Tensor& b, int steps, bool spherical) {
+  check_code(a, a.numel(), "from");
+  check_code(b, a.numel(), "to");
+  if (steps < 2) throw InputError("steps: expected at least 2, found " + std::to_string(steps));
+  auto t = at::linspace(0.0, 1.0, steps).unsqueeze(1);
+  if (!spherical) return a.unsqueeze(0) * (1 - t) + b.unsqueeze(0) * t;
+  const double norm_a = a.norm().item<double>(), norm_b = b.norm().item<double>();
+  const double cos_angle = std::clamp(a.dot(b).item<double>() / std::max(norm_a * norm_b, 1e-12), -1.0, 1.0);
+  const double angle = std::acos(cos_angle);
+  if (angle < 1e-6) return a.unsqueeze(0) * (1 - t) + b.unsqueeze(0) * t;  // parallel: slerp is linear
+  auto unit_a = a / norm_a, unit_b = b / norm_b;
+  auto direction = (at::sin((1 - t) * angle) * unit_a + at::sin(t * angle) * unit_b) / std::sin(angle);
+  return direction * ((1 - t) * norm_a + t * norm_b);
+}
+
+at::Tensor analogy_code(const at::Tensor& a, const at::Tensor& b, const at::Tensor& c) {
+  check_code(b, a.numel(), "b");
+  check_code(c, a.numel(), "c");
+  return a - b + c;
+}
+
+std::vector<MotionFrames> denoise_motions(const MotionManifold& model, const std::vector<MotionFrames>& motions,
+                                          DecoderKind kind) {
+  return decode_codes(model, encode_motions(model, motions), kind, &motions);
+}
+
+MotionFrames corrupt_motion(const MotionFrames& motion, const PoseNormalization& normalization, double probability,
+                            uint64_t seed) {
+  if (!(probability >= 0 && probability <= 1)) {
+    throw InputError("probability: expected a value in [0, 1], found " + std::to_string(probability));
+  }
+  std::mt19937_64 engine(seed);
+  std::bernoulli_distribution zeroed(probability);
+  MotionFrames corrupted = motion;
+  for (int64_t f = 0; f < corrupted.frame_count(); ++f) {
+    for (int c : normalization.kept_columns) {
+      if (zeroed(engine)) corrupted.frame(f)[c] = 0.0f;
+    }
+  }
+  return corrupted;
+}
+
+}  // namespace mm

@@ -1,0 +1,53 @@
+// The operations on the manifold that the applications of Sec. 5 and the
+// service use: encode, decode, sample, interpolate, analogy, denoise, and the
+// paper's corruption for the denoising experiment.
+//
+// Motions are raw frames in the input's layout (MotionFrames with the
+// normalisation's input columns, 99 for H3.6M, radians) at 25 Hz and exactly
+// config().frames long. Codes are (latent) or (n, latent) float tensors on
+// the CPU. Bad input (wrong frame or column count, wrong code size) is an
+// InputError naming the argument, the value and what was expected.
+//
+// Thread safety: all functions may be called concurrently on one model.
+#pragma once
+
+#include <ATen/ATen.h>
+
+#include <cstdint>
+#include <vector>
+
+#include "format/motion_text.h"
+#include "motion_manifold.h"
+
+namespace mm {
+
+// Codes of the motions, (n, latent).
+at::Tensor encode_motions(const MotionManifold& model, const std::vector<MotionFrames>& motions);
+
+// One motion per row of codes (n, latent), un-normalised. Dropped root
+// translation is zero unless `translation_from` (same count as codes) gives
+// motions whose translation columns are copied.
+std::vector<MotionFrames> decode_codes(const MotionManifold& model, const at::Tensor& codes, DecoderKind kind,
+                                       const std::vector<MotionFrames>* translation_from = nullptr);
+
+// n codes drawn from the prior N(0, prior_variance I), reproducible by seed.
+at::Tensor sample_codes(const MotionManifold& model, int n, uint64_t seed, double prior_variance = 1.0);
+
+// `steps` codes from a to b inclusive (steps >= 2): linear, or spherical
+// (slerp on the angle between a and b, scaled by the interpolated norm).
+at::Tensor interpolate_codes(const at::Tensor& a, const at::Tensor& b, int steps, bool spherical);
+
+// a - b + c (Sec. 5.5).
+at::Tensor analogy_code(const at::Tensor& a, const at::Tensor& b, const at::Tensor& c);
+
+// Projects each motion onto the manifold and decodes it (Sec. 5.4); root
+// translation is carried over from the input.
+std::vector<MotionFrames> denoise_motions(const MotionManifold& model, const std::vector<MotionFrames>& motions,
+                                          DecoderKind kind);
+
+// The corruption of Sec. 5.4: every modelled joint-angle value of every
+// frame is set to zero with the given probability, reproducibly by seed.
+MotionFrames corrupt_motion(const MotionFrames& motion, const PoseNormalization& normalization, double probability,
+                            uint64_t seed);
+
+}  // namespace mm

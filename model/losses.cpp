@@ -1,0 +1,44 @@
+#include "losses.h"
+
+namespace mm {
+namespace {
+
+// sqrt has an infinite derivative at 0; a perfect frame must not produce NaN.
+constexpr double kNormEpsilon = 1e-12;
+
+at::Tensor mean_norm_over_last(const at::Tensor& difference, int64_t dims_to_flatten) {
+  auto flat = difference.flatten(difference.dim() - dims_to_flatten, -1);
+  return (flat.pow(2).sum(-1) + kNormEpsilon).sqrt().mean();
+}
+
+at::Tensor imq_kernel(const at::Tensor& x, const at::Tensor& y, double c) {
+  auto squared_distance = (x.unsqueeze(1) - y.unsqueeze(0)).pow(2).sum(-1);
+  return c / (c + squared_distance);
+}
+
+}  // namespace
+
+at::Tensor angle_loss(const at::Tensor& q_hat, const at::Tensor& q) { return mean_norm_over_last(q_hat - q, 1); }
+
+at::Tensor position_loss(const at::Tensor& p_hat, const at::Tensor& p) { return mean_norm_over_last(p_hat - p, 2); }
+
+at::Tensor manifold_loss(const at::Tensor& z_hat, const at::Tensor& z) { return (z_hat - z).abs().mean(); }
+
+at::Tensor mmd_inverse_multiquadratic(const at::Tensor& codes, const at::Tensor& prior_samples, double prior_variance) {
+  const int64_t n = codes.size(0);
+  const double c = 2.0 * static_cast<double>(codes.size(1)) * prior_variance;
+  const double pairs = static_cast<double>(n) * static_cast<double>(n - 1);
+  // k(x, x) = 1, so each within-set sum drops exactly n from its diagonal.
+  auto within_codes = (imq_kernel(codes, codes, c).sum() - static_cast<double>(n)) / pairs;
+  auto within_prior = (imq_kernel(prior_samples, prior_samples, c).sum() - static_cast<double>(n)) / pairs;
+  auto across = imq_kernel(codes, prior_samples, c).mean();
+  return within_codes + within_prior - 2.0 * across;
+}
+
+at::Tensor lsgan_discriminator_loss(const at::Tensor& real_scores, const at::Tensor& fake_scores) {
+  return 0.5 * fake_scores.pow(2).mean() + 0.5 * (real_scores - 1.0).pow(2).mean();
+}
+
+at::Tensor lsgan_generator_loss(const at::Tensor& fake_scores) { return 0.5 * (fake_scores - 1.0).pow(2).mean(); }
+
+}  // namespace mm

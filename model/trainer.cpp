@@ -1,0 +1,278 @@
+#include "trainer.h"
+
+#include <ATen/CPUGeneratorImpl.h>
+#include <torch/nn/utils/clip_grad.h>
+#include <torch/optim/adam.h>
+#include <torch/serialize/input-archive.h>
+#include <torch/serialize/output-archive.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include <sstream>
+
+#include "format/atomic_file.h"
+#include "clip_sampler.h"
+#include "format/input_error.h"
+#include "losses.h"
+
+namespace mm {
+
+struct Optimizers {
+  torch::optim::Adam generator;
+  torch::optim::Adam discriminator;
+};
+
+namespace {
+
+constexpr const char* kCheckpointFormat = "motion-manifold-checkpoint-1";
+const char* const kLogColumns[] = {"L_ang", "L_pos", "L_R", "L_M", "L_W", "L_G", "L_D", "total"};
+
+void set_learning_rate(torch::optim::Optimizer& optimizer, double lr) {
+  for (auto& group : optimizer.param_groups()) static_cast<torch::optim::AdamOptions&>(group.options()).lr(lr);
+}
+
+std::string read_string(torch::serialize::InputArchive& archive, const std::string& key, const std::string& path) {
+  c10::IValue value;
+  if (!archive.try_read(key, value) || !value.isString()) throw InputError(path + ": checkpoint has no " + key);
+  return value.toStringRef();
+}
+
+}  // namespace
+
+double position_scale_for(const PreparedDataset& data, const Skeleton& skeleton) {
+  ForwardKinematics fk(skeleton);
+  const auto& norm = data.normalization;
+  // Every 5th frame of the training set is plenty for one scalar.
+  constexpr int kStride = 5;
+  std::vector<float> raw;
+  for (const auto* s : data.subset(data.train_subjects)) {
+    for (int64_t f = 0; f < s->normalized.frame_count(); f += kStride) {
+      raw.resize(raw.size() + norm.input_columns());
+      norm.denormalize(s->normalized.frame(f), raw.data() + raw.size() - norm.input_columns());
+  }
+  }
+  if (raw.empty()) throw InputError("dataset: no training frames to measure the position scale on");
+  const int64_t n = static_cast<int64_t>(raw.size()) / norm.input_columns();
+  auto frames = at::from_blob(raw.data(), {n, norm.input_columns()}).to(at::kDouble);
+  auto positions = fk.positions(frames).reshape({n, -1});
+  auto centred = positions - positions.mean(0, true);
+  return std::sqrt(centred.pow(2).mean().item<double>());
+}
+
+Trainer::Trainer(const TrainConfig& config, const PreparedDataset& data, at::Device device)
+    : Trainer(config, data, device, true) {}
+
+Trainer::~Trainer() = default;
+
+Trainer::Trainer(const TrainConfig& config, const PreparedDataset& data, at::Device device, bool seed_init)
+    : config_(config), device_(device), prior_generator_(at::detail::createCPUGenerator(config.seed + 1)) {
+  if (data.normalization.dims() != config_.model.pose_dims) {
+    throw InputError("model.pose_dims: " + std::to_string(config_.model.pose_dims) + " does not match the dataset's " +
+                     std::to_string(data.normalization.dims()) + " pose dimensions");
+  }
+  if (seed_init) torch::manual_seed(config_.seed);
+  model_ = std::make_unique<MotionManifold>(config_.model, data.normalization, Skeleton::h36m());
+  model_->to(device_);
+  model_->train(true);
+  const auto adam = torch::optim::AdamOptions(config_.learning_rate);
+  optimizers_.reset(new Optimizers{torch::optim::Adam(model_->generator_parameters(), adam),
+                                   torch::optim::Adam(model_->discriminator()->parameters(), adam)});
+  sampler_ = std::make_unique<ClipSampler>(data.subset(data.train_subjects), config_.model.frames, config_.seed);
+}
+
+double Trainer::learning_rate() const {
+  return config_.learning_rate * std::pow(config_.lr_decay, static_cast<double>(iteration_ / config_.decay_every));
+}
+
+LossValues Trainer::step() {
+  const auto& w = config_.weights;
+  const double lr = learning_rate();
+  set_learning_rate(optimizers_->generator, lr);
+  set_learning_rate(optimizers_->discriminator, lr);
+  model_->train(true);
+
+  auto motion = sampler_->sample(config_.batch).to(device_);
+  auto code = model_->encoder()->forward(motion);
+  std::vector<at::Tensor> decoded;
+  for (auto kind : {DecoderKind::kRotation, DecoderKind::kVelocity}) {
+    if (model_->has_decoder(kind)) decoded.push_back(model_->decoder(kind)->forward(code));
+  }
+  LossValues losses;
+
+  // Discriminator first (Eq. 16), on the generator's current output.
+  if (w.adversarial > 0) {
+    auto& d = model_->discriminator();
+    auto fake = at::cat(decoded, 0).detach();
+    auto loss_d = lsgan_discriminator_loss(d->forward(motion), d->forward(fake));
+    optimizers_->discriminator.zero_grad();
+    (w.adversarial * loss_d).backward();
+    optimizers_->discriminator.step();
+    losses["L_D"] = loss_d.item<double>();
+  }
+
+  // Generator (Eq. 15): every term summed over the decoders.
+  auto zero = at::zeros({}, motion.options());
+  auto l_ang = zero, l_pos = zero, l_m = zero, l_g = zero, l_w = zero;
+  const auto target_positions = w.position > 0 ? model_->positions_scaled(motion) : at::Tensor();
+  for (const auto& q_hat : decoded) {
+    l_ang = l_ang + angle_loss(q_hat, motion);
+    if (w.position > 0) l_pos = l_pos + position_loss(model_->positions_scaled(q_hat), target_positions);
+    if (w.manifold > 0) l_m = l_m + manifold_loss(model_->encoder()->forward(q_hat), code);
+    if (w.adversarial > 0) l_g = l_g + lsgan_generator_loss(model_->discriminator()->forward(q_hat));
+  }
+  if (w.wasserstein > 0) {
+    auto prior = at::randn({config_.batch, config_.model.latent}, prior_generator_).to(device_) *
+                 std::sqrt(w.prior_variance);
+    l_w = mmd_inverse_multiquadratic(code, prior, w.prior_variance);
+  }
+  auto l_r = l_ang + w.position * l_pos;  // Eq. 8
+  auto total = l_r + w.manifold * l_m + w.wasserstein * l_w + w.adversarial * l_g;
+  optimizers_->generator.zero_grad();
+  total.backward();
+  if (config_.clip_norm > 0) torch::nn::utils::clip_grad_norm_(model_->generator_parameters(), config_.clip_norm);
+  optimizers_->generator.step();
+  ++iteration_;
+
+  losses["L_ang"] = l_ang.item<double>();
+  losses["L_pos"] = l_pos.item<double>();
+  losses["L_R"] = l_r.item<double>();
+  losses["L_M"] = l_m.item<double>();
+  losses["L_W"] = l_w.item<double>();
+  losses["L_G"] = l_g.item<double>();
+  losses["total"] = total.item<double>();
+  if (!losses.count("L_D")) losses["L_D"] = 0;
+  return losses;
+}
+
+TrainOutcome Trainer::run(const ProgressCallback& progress, const std::atomic<bool>* cancel) {
+  using Clock = std::chrono::steady_clock;
+  const auto started = Clock::now();
+  const int64_t first = iteration_;
+  const bool has_output = !config_.output_dir.empty();
+  if (has_output) std::filesystem::create_directories(config_.output_dir);
+  const std::string checkpoint = config_.output_dir + "/checkpoint.pt";
+  TrainOutcome outcome = TrainOutcome::kFinished;
+  LossValues losses;
+  auto report = [&] {
+    TrainProgress p;
+    p.iteration = iteration_;
+    p.total = config_.iterations;
+    p.losses = losses;
+    p.learning_rate = learning_rate();
+    const double seconds = std::chrono::duration<double>(Clock::now() - started).count();
+    p.iterations_per_second = seconds > 0 ? static_cast<double>(iteration_ - first) / seconds : 0;
+    p.eta_seconds = p.iterations_per_second > 0
+                        ? static_cast<double>(config_.iterations - iteration_) / p.iterations_per_second
+                        : 0;
+    if (progress) progress(p);
+  };
+  while (iteration_ < config_.iterations) {
+    if (cancel && cancel->load()) {
+      outcome = TrainOutcome::kCancelled;
+      break;
+  }
+    losses = step();
+    if (iteration_ % config_.log_every == 0) {
+      if (has_output) append_log(losses);
+      report();
+  }
+    if (has_output && config_.checkpoint_every > 0 && iteration_ % config_.checkpoint_every == 0) {
+      save_checkpoint(checkpoint);
+  }
+  }
+  if (!losses.empty() && iteration_ % config_.log_every != 0) report();
+  if (has_output) save_checkpoint(checkpoint);
+  return outcome;
+}
+
+void Trainer::append_log(const LossValues& losses) const {
+  const std::string path = config_.output_dir + "/train_log.csv";
+  const bool fresh = !std::filesystem::exists(path);
+  std::ofstream out(path, std::ios::app);
+  if (fresh) {
+    out << "iteration,learning_rate";
+    for (const char* c : kLogColumns) out << ',' << c;
+    out << '\n';
+  }
+  out << iteration_ << ',' << learning_rate();
+  for (const char* c : kLogColumns) out << ',' << losses.at(c);
+  out << '\n';
+}
+
+void Trainer::save_checkpoint(const std::string& path) const {
+  torch::serialize::OutputArchive archive;
+  archive.write("format", c10::IValue(std::string(kCheckpointFormat)));
+  archive.write("config", c10::IValue(to_json_text(config_)));
+  archive.write("normalization", c10::IValue(model_->normalization().to_json_text()));
+  archive.write("skeleton", c10::IValue(model_->skeleton().to_json_text()));
+  archive.write("iteration", c10::IValue(iteration_));
+  archive.write("sampler_state", c10::IValue(sampler_->state()));
+  archive.write("prior_generator_state", prior_generator_.get_state());
+  auto nested = [&](const char* key, const auto& saveable) {
+    torch::serialize::OutputArchive sub;
+    saveable.save(sub);
+    archive.write(key, sub);
+  };
+  nested("encoder", *model_->encoder());
+  for (auto kind : {DecoderKind::kRotation, DecoderKind::kVelocity}) {
+    if (model_->has_decoder(kind)) nested((std::string(decoder_name(kind)) + "_decoder").c_str(), *model_->decoder(kind));
+  }
+  nested("discriminator", *model_->discriminator());
+  nested("optimizer_generator", optimizers_->generator);
+  nested("optimizer_discriminator", optimizers_->discriminator);
+  std::ostringstream bytes;
+  archive.save_to(bytes);
+  write_file_atomically(path, bytes.str());
+}
+
+std::unique_ptr<Trainer> Trainer::resume(const std::string& path, const PreparedDataset& data, at::Device device,
+                                         int64_t iterations) {
+  if (!std::filesystem::exists(path)) throw InputError(path + ": checkpoint not found");
+  torch::serialize::InputArchive archive;
+  try {
+    archive.load_from(path, device);
+  } catch (const c10::Error& e) {
+    throw InputError(path + ": not a readable checkpoint: " + e.what_without_backtrace());
+  }
+  if (read_string(archive, "format", path) != kCheckpointFormat) {
+    throw InputError(path + ": format: expected " + std::string(kCheckpointFormat));
+  }
+  TrainConfig config = train_config_from_json_text(read_string(archive, "config", path), path + ": config");
+  if (iterations > 0) config.iterations = iterations;
+  if (read_string(archive, "normalization", path) != data.normalization.to_json_text()) {
+    throw InputError(path + ": the checkpoint was trained on a differently prepared dataset");
+  }
+  std::unique_ptr<Trainer> trainer(new Trainer(config, data, device, false));
+  auto nested = [&](const char* key, auto& loadable) {
+    torch::serialize::InputArchive sub;
+    if (!archive.try_read(key, sub)) throw InputError(path + ": checkpoint has no " + key);
+    loadable.load(sub);
+  };
+  try {
+  nested("encoder", *trainer->model_->encoder());
+  for (auto kind : {DecoderKind::kRotation, DecoderKind::kVelocity}) {
+      if (trainer->model_->has_decoder(kind)) {
+        nested((std::string(decoder_name(kind)) + "_decoder").c_str(), *trainer->model_->decoder(kind));
+      }
+  }
+  nested("discriminator", *trainer->model_->discriminator());
+  nested("optimizer_generator", trainer->optimizers_->generator);
+  nested("optimizer_discriminator", trainer->optimizers_->discriminator);
+    c10::IValue iteration;
+    archive.read("iteration", iteration);
+    trainer->iteration_ = iteration.toInt();
+    at::Tensor state;
+    archive.read("prior_generator_state", state);
+    trainer->prior_generator_.set_state(state.cpu());
+  } catch (const c10::Error& e) {
+    throw InputError(path + ": damaged checkpoint: " + e.what_without_backtrace());
+  }
+  trainer->sampler_->set_state(read_string(archive, "sampler_state", path));
+  trainer->model_->to(device);
+  return trainer;
+}
+
+}  // namespace mm

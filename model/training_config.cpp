@@ -1,0 +1,216 @@
+#include "training_config.h"
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
+
+#include "format/input_error.h"
+
+namespace mm {
+namespace {
+
+using nlohmann::json;
+
+json model_to_json(const ModelConfig& m) {
+  return {{"pose_dims", m.pose_dims},
+          {"hidden", m.hidden},
+          {"latent", m.latent},
+          {"frames", m.frames},
+          {"rotation_decoder", m.rotation_decoder},
+          {"velocity_decoder", m.velocity_decoder},
+          {"feed_code", m.feed_code}};
+}
+
+json weights_to_json(const LossWeights& w) {
+  return {{"position", w.position},
+          {"manifold", w.manifold},
+          {"wasserstein", w.wasserstein},
+          {"adversarial", w.adversarial},
+          {"prior_variance", w.prior_variance}};
+}
+
+// Reads the fields of one JSON object into a struct, rejecting unknown keys
+// and wrong types with the full field path in the message.
+class FieldReader {
+ public:
+  FieldReader(const json& object, std::string path, std::string source)
+      : object_(object), path_(std::move(path)), source_(std::move(source)) {
+    if (!object_.is_object()) fail(path_, "expected an object");
+  }
+  ~FieldReader() noexcept(false) {
+    if (std::uncaught_exceptions() > 0) return;
+    for (auto it = object_.begin(); it != object_.end(); ++it) {
+      if (!seen_.count(it.key())) fail(path_ + it.key(), "unknown field");
+    }
+  }
+  template <typename T>
+  void read(const std::string& key, T& target, double min = -1e300, double max = 1e300) {
+    seen_.insert(key);
+    auto it = object_.find(key);
+    if (it == object_.end()) return;
+    const std::string field = path_ + key;
+    if constexpr (std::is_same_v<T, bool>) {
+      if (!it->is_boolean()) fail(field, "expected true or false, found " + it->dump());
+      target = it->template get<bool>();
+    } else if constexpr (std::is_same_v<T, std::string>) {
+      if (!it->is_string()) fail(field, "expected a string, found " + it->dump());
+      target = it->template get<std::string>();
+    } else if constexpr (std::is_integral_v<T>) {
+      if (!it->is_number_integer() && !it->is_number_unsigned()) fail(field, "expected an integer, found " + it->dump());
+      const double v = it->template get<double>();
+      if (v < min || v > max) fail(field, "value " + it->dump() + " out of range [" + num(min) + ", " + num(max) + "]");
+      target = it->template get<T>();
+    } else {
+      if (!it->is_number()) fail(field, "expected a number, found " + it->dump());
+      const double v = it->template get<double>();
+      if (!(v >= min && v <= max)) fail(field, "value " + it->dump() + " out of range [" + num(min) + ", " + num(max) + "]");
+      target = static_cast<T>(v);
+    }
+  }
+  const json* child(const std::string& key) {
+    seen_.insert(key);
+    auto it = object_.find(key);
+    return it == object_.end() ? nullptr : &*it;
+  }
+  [[noreturn]] void fail(const std::string& field, const std::string& what) const {
+    throw InputError(source_ + ": " + field + ": " + what);
+  }
+
+ private:
+  static std::string num(double v) {
+    std::ostringstream s;
+    s << v;
+    return s.str();
+  }
+  const json& object_;
+  std::string path_, source_;
+  std::set<std::string> seen_;
+};
+
+void read_model(const json& j, ModelConfig& m, const std::string& path, const std::string& source) {
+  FieldReader r(j, path, source);
+  r.read("pose_dims", m.pose_dims, 1, 10000);
+  r.read("hidden", m.hidden, 1, 65536);
+  r.read("latent", m.latent, 1, 65536);
+  r.read("frames", m.frames, 8, 100000);
+  r.read("rotation_decoder", m.rotation_decoder);
+  r.read("velocity_decoder", m.velocity_decoder);
+  r.read("feed_code", m.feed_code);
+  if (!m.rotation_decoder && !m.velocity_decoder) r.fail(path + "rotation_decoder", "at least one decoder must be on");
+}
+
+json parse(const std::string& text, const std::string& source) {
+  try {
+    return json::parse(text);
+  } catch (const json::parse_error& e) {
+    throw InputError(source + ": not valid JSON: " + e.what());
+  }
+}
+
+}  // namespace
+
+const std::vector<std::string>& variant_names() {
+  static const std::vector<std::string> names{"S", "D", "DK", "DKG", "DKGM", "DKGMZ", "Seq2seq"};
+  return names;
+}
+
+TrainConfig variant_config(const std::string& variant) {
+  TrainConfig c;
+  c.variant = variant;
+  auto& m = c.model;
+  auto& w = c.weights;
+  // Each variant adds one ingredient to the previous one (Sec. 5.1).
+  if (variant == "S") {
+    m.velocity_decoder = false;
+    w.position = w.adversarial = w.manifold = 0;
+  } else if (variant == "D") {
+    w.position = w.adversarial = w.manifold = 0;
+  } else if (variant == "DK") {
+    w.adversarial = w.manifold = 0;
+  } else if (variant == "DKG") {
+    w.manifold = 0;
+  } else if (variant == "DKGM") {
+  } else if (variant == "DKGMZ") {
+    m.feed_code = true;
+  } else if (variant == "Seq2seq") {
+    // [MBR17] with a 64-d bottleneck: one residual decoder, angle loss only.
+    m.rotation_decoder = false;
+    w.position = w.adversarial = w.manifold = w.wasserstein = 0;
+  } else {
+    std::string names;
+    for (const auto& n : variant_names()) names += (names.empty() ? "" : ", ") + n;
+    throw InputError("variant: unknown value \"" + variant + "\", expected one of " + names);
+  }
+  return c;
+}
+
+std::string to_json_text(const ModelConfig& config) { return model_to_json(config).dump(2); }
+
+ModelConfig model_config_from_json_text(const std::string& text, const std::string& source_name) {
+  ModelConfig m;
+  read_model(parse(text, source_name), m, "", source_name);
+  return m;
+}
+
+std::string to_json_text(const TrainConfig& c) {
+  json j = {{"variant", c.variant},
+            {"model", model_to_json(c.model)},
+            {"weights", weights_to_json(c.weights)},
+            {"batch", c.batch},
+            {"iterations", c.iterations},
+            {"learning_rate", c.learning_rate},
+            {"lr_decay", c.lr_decay},
+            {"decay_every", c.decay_every},
+            {"clip_norm", c.clip_norm},
+            {"seed", c.seed},
+            {"log_every", c.log_every},
+            {"checkpoint_every", c.checkpoint_every},
+            {"dataset", c.dataset},
+            {"output_dir", c.output_dir}};
+  return j.dump(2);
+}
+
+TrainConfig train_config_from_json_text(const std::string& text, const std::string& source_name) {
+  const json j = parse(text, source_name);
+  if (!j.is_object()) throw InputError(source_name + ": expected a JSON object");
+  std::string variant = "DKGM";
+  if (j.contains("variant")) {
+    if (!j["variant"].is_string()) throw InputError(source_name + ": variant: expected a string, found " + j["variant"].dump());
+    variant = j["variant"].get<std::string>();
+  }
+  TrainConfig c = variant_config(variant);
+  FieldReader r(j, "", source_name);
+  r.read("variant", c.variant);
+  if (const json* m = r.child("model")) read_model(*m, c.model, "model.", source_name);
+  if (const json* w = r.child("weights")) {
+    FieldReader wr(*w, "weights.", source_name);
+    wr.read("position", c.weights.position, 0, 1e6);
+    wr.read("manifold", c.weights.manifold, 0, 1e6);
+    wr.read("wasserstein", c.weights.wasserstein, 0, 1e6);
+    wr.read("adversarial", c.weights.adversarial, 0, 1e6);
+    wr.read("prior_variance", c.weights.prior_variance, 1e-6, 1e6);
+  }
+  r.read("batch", c.batch, 2, 100000);  // the MMD estimate needs two samples
+  r.read("iterations", c.iterations, 0, 1e12);
+  r.read("learning_rate", c.learning_rate, 0, 10);
+  r.read("lr_decay", c.lr_decay, 0, 1);
+  r.read("decay_every", c.decay_every, 1, 1e9);
+  r.read("clip_norm", c.clip_norm, 0, 1e9);
+  r.read("seed", c.seed);
+  r.read("log_every", c.log_every, 1, 1e9);
+  r.read("checkpoint_every", c.checkpoint_every, 0, 1e9);
+  r.read("dataset", c.dataset);
+  r.read("output_dir", c.output_dir);
+  return c;
+}
+
+TrainConfig read_train_config(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw InputError(path + ": cannot open training configuration");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  return train_config_from_json_text(buffer.str(), path);
+}
+
+}  // namespace mm

@@ -1,0 +1,70 @@
+// Configuration of the networks and of a training run, with the paper's
+// defaults (Sec. 3.3 and supplementary A.3) and the Table 1 variants.
+//
+// Plain data; safe to copy between threads.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace mm {
+
+// The shape of the networks. Defaults are the paper's model (DKGM).
+struct ModelConfig {
+  int pose_dims = 51;     // network input/output: the kept, normalised pose columns
+  int hidden = 1024;      // GRU hidden size of the encoder and both decoders
+  int latent = 64;        // size of the manifold code z
+  int frames = 150;       // clip length: 6 s at 25 Hz
+  bool rotation_decoder = true;
+  bool velocity_decoder = true;
+  bool feed_code = false;  // DKGMZ: each decoder step also sees z
+};
+
+// Weights of Eq. 8 and Eq. 15. A zero weight switches the term off, which is
+// how the ablation variants are expressed (no FK layer = zero position weight).
+struct LossWeights {
+  double position = 5.0;       // w_p, Eq. 8
+  double manifold = 0.001;     // lambda_M, Eq. 15
+  double wasserstein = 0.1;    // lambda_W
+  double adversarial = 0.001;  // lambda_G, Eq. 15 and 16
+  double prior_variance = 1.0;  // sigma_z^2 of the prior N(0, sigma_z^2 I)
+};
+
+struct TrainConfig {
+  std::string variant = "DKGM";
+  ModelConfig model;
+  LossWeights weights;
+  int batch = 30;
+  int64_t iterations = 60000;
+  double learning_rate = 1e-3;  // Adam, both networks
+  double lr_decay = 0.999;      // multiplied in every decay_every iterations
+  int decay_every = 20;
+  double clip_norm = 1.0;       // global gradient norm of the generator's parameters
+  uint64_t seed = 1;
+  int log_every = 10;           // iterations between progress reports
+  int checkpoint_every = 1000;  // iterations between checkpoints; 0 = only at the end
+  std::string dataset;          // prepared dataset file (see format/prepared_dataset.h)
+  std::string output_dir;       // checkpoints, training log and the exported model
+};
+
+// Names of the Table 1 variants: S, D, DK, DKG, DKGM, DKGMZ, Seq2seq.
+const std::vector<std::string>& variant_names();
+
+// Returns the paper's configuration for a variant. Throws InputError naming
+// the value and the accepted names for an unknown variant.
+TrainConfig variant_config(const std::string& variant);
+
+// JSON text of a configuration; every field is written.
+std::string to_json_text(const TrainConfig& config);
+
+// Reads a configuration: starts from the variant's defaults (field "variant",
+// default DKGM) and overrides the fields present. Unknown fields and values
+// of the wrong type or range are InputErrors naming the field.
+TrainConfig train_config_from_json_text(const std::string& text, const std::string& source_name);
+TrainConfig read_train_config(const std::string& path);
+
+std::string to_json_text(const ModelConfig& config);
+ModelConfig model_config_from_json_text(const std::string& text, const std::string& source_name);
+
+}  // namespace mm

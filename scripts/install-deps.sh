@@ -1,0 +1,23 @@
+#!/usr/bin/env bash
+# Installs the build and run-time dependencies from Debian packages.
+# libopenblas0-openmp matters: without an optimised BLAS, Debian's LibTorch
+# runs on the reference BLAS, many times slower. Never add
+# libopenblas0-pthread beside it.
+set -euo pipefail
+packages=(
+  build-essential cmake pkg-config git xz-utils
+  libtorch-dev libopenblas0-openmp
+  libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler
+  libcpp-httplib-dev nlohmann-json3-dev libcli11-dev zlib1g-dev
+  libgtest-dev libgmock-dev libbenchmark-dev
+)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  sudo_cmd=""
+  [ "$(id -u)" -eq 0 ] || sudo_cmd="sudo"
+  $sudo_cmd apt-get update -q
+  DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -q --no-install-recommends "${missing[@]}"
+fi

@@ -1,0 +1,190 @@
+#include "format/motion_text.h"
+
+#include <chrono>
+#include <sstream>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "format/input_error.h"
+#include "test_environment.h"
+
+namespace mm {
+namespace {
+
+using ::testing::AllOf;
+using ::testing::HasSubstr;
+
+std::string line_of(int values, const std::string& fill = "0.1000000") {
+  std::string line;
+  for (int i = 0; i < values; ++i) line += (i ? "," : "") + fill;
+  return line + "\n";
+}
+
+// Runs read_motion_text on a file with `content` and returns the error message.
+std::string read_error(const std::string& name, const std::string& content) {
+  test::ScratchDir dir;
+  const std::string path = dir.write(name, content);
+  try {
+    read_motion_text(path);
+  } catch (const InputError& error) {
+    return error.what();
+  }
+  ADD_FAILURE() << "no InputError for " << name;
+  return "";
+}
+
+TEST(MotionText, ParsesRealFileWithFrameCountFromManifest) {
+  MM_REQUIRE_H36M();
+  const auto start = std::chrono::steady_clock::now();
+  const MotionFrames motion = read_motion_text((test::h36m_dataset_dir() / "S5" / "walking_1.txt").string());
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_EQ(motion.columns, 99);
+  EXPECT_EQ(motion.frame_count(), 3000);  // h36m-MANIFEST.tsv
+  // The data set's first frame has zero root translation.
+  EXPECT_EQ(motion.frame(0)[0], 0.0f);
+  EXPECT_FLOAT_EQ(motion.frame(0)[6], 0.1123065f);
+  EXPECT_LT(seconds, 1.0) << "3000 lines should parse in well under a second";
+}
+
+TEST(MotionText, RejectsLineWithWrongColumnCount) {
+  const std::string message = read_error("walking_1.txt", line_of(99) + line_of(98));
+  EXPECT_THAT(message, AllOf(HasSubstr("walking_1.txt:2:"), HasSubstr("expected 99 values, found 98")));
+}
+
+TEST(MotionText, RejectsLineWithTooManyColumns) {
+  const std::string message = read_error("long.txt", line_of(100));
+  EXPECT_THAT(message, AllOf(HasSubstr("long.txt:1:"), HasSubstr("found 100")));
+}
+
+TEST(MotionText, RejectsFieldThatIsNotANumberAndQuotesIt) {
+  std::string bad = line_of(99);
+  bad.replace(bad.find("0.1000000,0.1000000"), 9, "abc");
+  const std::string message = read_error("eating_2.txt", line_of(99) + line_of(99) + bad);
+  EXPECT_THAT(message, AllOf(HasSubstr("eating_2.txt:3:"), HasSubstr("\"abc\""), HasSubstr("not a number")));
+}
+
+TEST(MotionText, RejectsNumberWithTrailingGarbage) {
+  std::string bad = line_of(99);
+  bad.replace(0, 9, "0.5x");
+  EXPECT_THAT(read_error("x.txt", bad), AllOf(HasSubstr("x.txt:1:"), HasSubstr("\"0.5x\"")));
+}
+
+TEST(MotionText, RejectsNaN) {
+  std::string bad = line_of(99);
+  bad.replace(0, 9, "nan");
+  EXPECT_THAT(read_error("nan.txt", line_of(99) + bad),
+              AllOf(HasSubstr("nan.txt:2:"), HasSubstr("\"nan\""), HasSubstr("finite")));
+}
+
+TEST(MotionText, RejectsInfinity) {
+  std::string bad = line_of(99);
+  bad.replace(0, 9, "-inf");
+  EXPECT_THAT(read_error("inf.txt", bad), AllOf(HasSubstr("inf.txt:1:"), HasSubstr("\"-inf\"")));
+}
+
+TEST(MotionText, RejectsValueOutOfFloatRange) {
+  std::string bad = line_of(99);
+  bad.replace(0, 9, "1e999");
+  EXPECT_THAT(read_error("huge.txt", bad), AllOf(HasSubstr("huge.txt:1:"), HasSubstr("\"1e999\"")));
+}
+
+TEST(MotionText, RejectsEmptyFile) {
+  EXPECT_THAT(read_error("empty.txt", ""), AllOf(HasSubstr("empty.txt:1:"), HasSubstr("no frames")));
+  EXPECT_THAT(read_error("blank.txt", "\n\n  \n"), HasSubstr("blank.txt:1:"));
+}
+
+TEST(MotionText, RejectsBlankLineBetweenFrames) {
+  EXPECT_THAT(read_error("hole.txt", line_of(99) + "\n" + line_of(99)), HasSubstr("hole.txt:2:"));
+}
+
+TEST(MotionText, RejectsMissingFileNamingIt) {
+  try {
+    read_motion_text("/nonexistent/dir/walking_9.txt");
+    FAIL() << "expected InputError";
+  } catch (const InputError& error) {
+    EXPECT_THAT(error.what(), HasSubstr("/nonexistent/dir/walking_9.txt"));
+  }
+}
+
+TEST(MotionText, AcceptsCrLfLineEndsAndTrailingBlankLines) {
+  std::string crlf = line_of(3, "1.5");
+  crlf.insert(crlf.size() - 1, "\r");
+  std::istringstream in(crlf + crlf + "\r\n\n");
+  const MotionFrames motion = parse_motion_text(in, "crlf.txt", 3);
+  EXPECT_EQ(motion.frame_count(), 2);
+  EXPECT_EQ(motion.frame(1)[2], 1.5f);
+}
+
+TEST(MotionText, WrittenTextUsesSevenDecimalsLikeTheData) {
+  MotionFrames motion;
+  motion.columns = 3;
+  motion.values = {0.0f, -0.0f, 1.25f, 3.0f, -0.1123065f, 100.0f};
+  std::ostringstream out;
+  write_motion_text(motion, out);
+  EXPECT_EQ(out.str(), "0.0000000,-0.0000000,1.2500000\n3.0000000,-0.1123065,100.0000000\n");
+}
+
+TEST(MotionText, FileRoundTripPreservesValues) {
+  MM_REQUIRE_H36M();
+  const MotionFrames original = read_motion_text((test::h36m_dataset_dir() / "S5" / "walking_1.txt").string());
+  test::ScratchDir dir;
+  const std::string path = dir.file("copy.txt");
+  write_motion_text_file(original, path);
+  const MotionFrames copy = read_motion_text(path);
+  ASSERT_EQ(copy.columns, original.columns);
+  ASSERT_EQ(copy.values.size(), original.values.size());
+  // 7 decimals are the data's own precision, so parsing its output again
+  // gives the same text and therefore the same floats.
+  EXPECT_EQ(copy.values, original.values);
+  // No temporary file is left beside the target.
+  EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir.path()), {}), 1);
+}
+
+TEST(MotionText, AtomicWriteReplacesExistingFile) {
+  test::ScratchDir dir;
+  const std::string path = dir.write("out.txt", "old content that is longer than the new one\n");
+  MotionFrames motion;
+  motion.columns = 1;
+  motion.values = {2.0f};
+  write_motion_text_file(motion, path);
+  EXPECT_EQ(read_motion_text(path, 1).values, std::vector<float>{2.0f});
+}
+
+TEST(MotionText, WriteToMissingDirectoryIsInputError) {
+  MotionFrames motion;
+  motion.values.assign(99, 0.0f);
+  EXPECT_THROW(write_motion_text_file(motion, "/nonexistent/dir/out.txt"), InputError);
+}
+
+TEST(SplitPhases, PhaseKHoldsEveryFactorthFrameStartingAtK) {
+  MotionFrames motion;
+  motion.columns = 2;
+  for (int i = 0; i < 7; ++i) motion.values.insert(motion.values.end(), {float(i), float(10 * i)});
+  const std::vector<MotionFrames> phases = split_phases(motion, 3);
+  ASSERT_EQ(phases.size(), 3u);
+  EXPECT_EQ(phases[0].values, (std::vector<float>{0, 0, 3, 30, 6, 60}));
+  EXPECT_EQ(phases[1].values, (std::vector<float>{1, 10, 4, 40}));
+  EXPECT_EQ(phases[2].values, (std::vector<float>{2, 20, 5, 50}));
+  for (const MotionFrames& phase : phases) EXPECT_EQ(phase.columns, 2);
+}
+
+TEST(SplitPhases, FactorOneIsACopyAndFactorZeroIsRejected) {
+  MotionFrames motion;
+  motion.columns = 1;
+  motion.values = {1, 2, 3};
+  EXPECT_EQ(split_phases(motion, 1).at(0).values, motion.values);
+  EXPECT_THROW(split_phases(motion, 0), InputError);
+}
+
+TEST(SplitPhases, ShortSequenceGivesEmptyLatePhases) {
+  MotionFrames motion;
+  motion.columns = 1;
+  motion.values = {1};
+  const auto phases = split_phases(motion, 2);
+  EXPECT_EQ(phases[0].frame_count(), 1);
+  EXPECT_EQ(phases[1].frame_count(), 0);
+}
+
+}  // namespace
+}  // namespace mm

@@ -1,0 +1,141 @@
+// Evaluation (Table 1) and the latent operations of Sec. 5 on a briefly
+// trained tiny model and real S5 clips.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include "evaluation.h"
+#include "format/input_error.h"
+#include "latent_operations.h"
+#include "model_test_data.h"
+
+namespace mm {
+namespace {
+
+using test::small_h36m;
+
+MotionManifold& trained_tiny_model() {
+  static std::unique_ptr<Trainer> trainer = [] {
+    auto t = std::make_unique<Trainer>(test::tiny_config(), small_h36m(), at::kCPU);
+    for (int i = 0; i < 30; ++i) t->step();
+    t->model().train(false);
+    return t;
+  }();
+  return trainer->model();
+}
+
+// A real S5 clip as raw frames of the model's length.
+MotionFrames s5_clip(int index, int frames) {
+  const auto test_sequences = small_h36m().subset(small_h36m().test_subjects);
+  const auto& s = *test_sequences.at(index);
+  MotionFrames normalized;
+  normalized.columns = s.normalized.columns;
+  normalized.values.assign(s.normalized.frame(0), s.normalized.frame(0) + frames * s.normalized.columns);
+  return small_h36m().normalization.denormalize(normalized);
+}
+
+TEST(Evaluation, ReportsEveryIntervalForBothDecoders) {
+  MM_REQUIRE_H36M();
+  auto& model = trained_tiny_model();
+  const auto test_sequences = small_h36m().subset(small_h36m().test_subjects);
+  const auto report = nlohmann::json::parse(evaluate_reconstruction(model, test_sequences, EvaluationOptions{}));
+  EXPECT_EQ(report["clips"], 30);
+  EXPECT_EQ(report["test_clips"].size(), 30u);
+  for (const char* decoder : {"rotation", "velocity"}) {
+    const auto& d = report["decoders"][decoder];
+    for (const char* metric : {"E_r", "E_p", "mpjpe_mm", "angle_error_rad"}) {
+      ASSERT_EQ(d[metric].size(), 5u) << decoder << " " << metric;
+      for (double v : d[metric]) EXPECT_TRUE(std::isfinite(v) && v > 0) << decoder << " " << metric;
+    }
+    EXPECT_GT(d["E_z"].get<double>(), 0.0);
+  }
+}
+
+TEST(Evaluation, SameSeedSelectsTheSameClips) {
+  MM_REQUIRE_H36M();
+  auto& model = trained_tiny_model();
+  const auto test_sequences = small_h36m().subset(small_h36m().test_subjects);
+  EXPECT_EQ(evaluate_reconstruction(model, test_sequences, EvaluationOptions{}),
+            evaluate_reconstruction(model, test_sequences, EvaluationOptions{}));
+  EvaluationOptions other;
+  other.seed = 1;
+  EXPECT_NE(evaluate_reconstruction(model, test_sequences, EvaluationOptions{}),
+            evaluate_reconstruction(model, test_sequences, other));
+}
+
+TEST(LatentOperations, DecodedMotionsComeBackInTheInputFormat) {
+  MM_REQUIRE_H36M();
+  auto& model = trained_tiny_model();
+  auto code = encode_motions(model, {s5_clip(0, 30)});
+  ASSERT_EQ(code.sizes(), (std::vector<int64_t>{1, 8}));
+  auto decoded = decode_codes(model, code, DecoderKind::kRotation);
+  ASSERT_EQ(decoded.size(), 1u);
+  EXPECT_EQ(decoded[0].columns, 99);
+  EXPECT_EQ(decoded[0].frame_count(), 30);
+}
+
+TEST(LatentOperations, WrongFrameCountNamesTheMotionAndTheExpectedLength) {
+  MM_REQUIRE_H36M();
+  try {
+    encode_motions(trained_tiny_model(), {s5_clip(0, 30), s5_clip(1, 20)});
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("motions[1]: expected 30 frames"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("found 20"), std::string::npos) << e.what();
+  }
+}
+
+TEST(LatentOperations, SamplingIsReproducibleBySeed) {
+  MM_REQUIRE_H36M();
+  auto& model = trained_tiny_model();
+  EXPECT_TRUE(at::equal(sample_codes(model, 4, 9), sample_codes(model, 4, 9)));
+  EXPECT_FALSE(at::equal(sample_codes(model, 4, 9), sample_codes(model, 4, 10)));
+  EXPECT_EQ(decode_codes(model, sample_codes(model, 3, 1), DecoderKind::kVelocity).size(), 3u);
+}
+
+TEST(LatentOperations, InterpolationRunsFromTheFirstCodeToTheSecond) {
+  auto a = at::randn({8}), b = at::randn({8});
+  for (bool spherical : {false, true}) {
+    auto path = interpolate_codes(a, b, 5, spherical);
+    ASSERT_EQ(path.sizes(), (std::vector<int64_t>{5, 8}));
+    EXPECT_TRUE(at::allclose(path[0], a, 1e-5, 1e-5));
+    EXPECT_TRUE(at::allclose(path[4], b, 1e-5, 1e-5));
+  }
+  EXPECT_TRUE(at::allclose(interpolate_codes(a, b, 3, false)[1], (a + b) / 2));
+  EXPECT_THROW(interpolate_codes(a, b, 1, false), InputError);
+  EXPECT_THROW(interpolate_codes(a, at::randn({7}), 3, false), InputError);
+}
+
+TEST(LatentOperations, AnalogyIsAMinusBPlusC) {
+  auto a = at::randn({8}), b = at::randn({8}), c = at::randn({8});
+  EXPECT_TRUE(at::allclose(analogy_code(a, b, c), a - b + c));
+}
+
+TEST(LatentOperations, CorruptionZeroesAboutHalfOfTheModelledAngles) {
+  MM_REQUIRE_H36M();
+  const auto& norm = small_h36m().normalization;
+  const MotionFrames clip = s5_clip(0, 30);
+  const MotionFrames corrupted = corrupt_motion(clip, norm, 0.5, 3);
+  int zeroed = 0, total = 0;
+  for (int64_t f = 0; f < clip.frame_count(); ++f) {
+    for (int c : norm.kept_columns) {
+      ++total;
+      if (corrupted.frame(f)[c] == 0.0f && clip.frame(f)[c] != 0.0f) ++zeroed;
+    }
+    EXPECT_EQ(corrupted.frame(f)[0], clip.frame(f)[0]);  // translation untouched
+  }
+  EXPECT_NEAR(static_cast<double>(zeroed) / total, 0.5, 0.05);
+  EXPECT_EQ(corrupt_motion(clip, norm, 0.5, 3).values, corrupted.values);
+}
+
+TEST(LatentOperations, DenoiseKeepsTheInputsRootTranslation) {
+  MM_REQUIRE_H36M();
+  MotionFrames clip = s5_clip(0, 30);
+  for (int64_t f = 0; f < clip.frame_count(); ++f) clip.frame(f)[0] = static_cast<float>(f);
+  auto denoised = denoise_motions(trained_tiny_model(), {clip}, DecoderKind::kRotation);
+  ASSERT_EQ(denoised.size(), 1u);
+  EXPECT_EQ(denoised[0].frame(7)[0], 7.0f);
+}
+
+}  // namespace
+}  // namespace mm

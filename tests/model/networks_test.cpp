@@ -1,0 +1,78 @@
+#include <c10/core/InferenceMode.h>
+#include <gtest/gtest.h>
+
+#include "decoder.h"
+#include "discriminator.h"
+#include "encoder.h"
+
+namespace mm {
+namespace {
+
+TEST(Networks, ShapesFollowTheConfiguration) {
+  Encoder encoder(51, 32, 8);
+  Decoder decoder(DecoderShape{51, 32, 8, 40, false, false});
+  Discriminator discriminator(51);
+  auto motion = at::randn({3, 40, 51});
+  auto z = encoder->forward(motion);
+  EXPECT_EQ(z.sizes(), (std::vector<int64_t>{3, 8}));
+  EXPECT_EQ(decoder->forward(z).sizes(), (std::vector<int64_t>{3, 40, 51}));
+  EXPECT_EQ(discriminator->forward(motion).sizes(), (std::vector<int64_t>{3}));
+}
+
+void copy_parameters(torch::nn::Module& from, torch::nn::Module& to) {
+  c10::InferenceMode guard(false);
+  at::NoGradGuard no_grad;
+  auto source = from.named_parameters();
+  for (auto& p : to.named_parameters()) p.value().copy_(source[p.key()]);
+}
+
+TEST(Networks, DecoderGeneratesTheLastFrameFirst) {
+  // A one-frame decoder with the same weights produces only the first
+  // generated pose; it must come out as the last frame of the long clip.
+  at::manual_seed(5);
+  for (bool residual : {false, true}) {
+    Decoder long_clip(DecoderShape{51, 16, 4, 10, residual, false});
+    Decoder one_frame(DecoderShape{51, 16, 4, 1, residual, false});
+    copy_parameters(*long_clip, *one_frame);
+    auto z = at::randn({2, 4});
+    auto full = long_clip->forward(z);
+    EXPECT_TRUE(at::allclose(full.select(1, 9), one_frame->forward(z).select(1, 0), 1e-6, 1e-6));
+    EXPECT_FALSE(at::allclose(full.select(1, 0), one_frame->forward(z).select(1, 0), 1e-3, 1e-3));
+  }
+}
+
+TEST(Networks, FastDecoderPathMatchesAutogradPath) {
+  at::manual_seed(6);
+  for (bool residual : {false, true}) {
+    for (bool feed_code : {false, true}) {
+      Decoder decoder(DecoderShape{51, 64, 8, 25, residual, feed_code});
+      for (int64_t batch : {1, 3}) {
+        auto z = at::randn({batch, 8});
+        auto reference = decoder->forward(z);
+        auto fast = decoder->generate(z);
+        EXPECT_TRUE(at::allclose(fast, reference, 1e-4, 1e-5))
+            << "residual " << residual << " feed_code " << feed_code << " batch " << batch << " max diff "
+            << (fast - reference).abs().max().item<float>();
+      }
+    }
+  }
+}
+
+TEST(Networks, FastEncoderPathMatchesAutogradPath) {
+  at::manual_seed(7);
+  Encoder encoder(51, 64, 8);
+  for (int64_t batch : {1, 4}) {
+    auto motion = at::randn({batch, 30, 51});
+    EXPECT_TRUE(at::allclose(encoder->encode(motion), encoder->forward(motion), 1e-4, 1e-5));
+  }
+}
+
+TEST(Networks, DiscriminatorScoresAreNonNegative) {
+  // Layer 4 ends in a ReLU (supplementary A.3).
+  at::manual_seed(8);
+  Discriminator discriminator(51);
+  EXPECT_GE(discriminator->forward(at::randn({5, 150, 51}) * 3).min().item<float>(), 0.0f);
+}
+
+}  // namespace
+}  // namespace mm

@@ -1,0 +1,170 @@
+#include "trainer.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "model_test_data.h"
+
+namespace mm {
+namespace {
+
+using test::small_h36m;
+using test::tiny_config;
+
+bool same_parameters(MotionManifold& a, MotionManifold& b) {
+  auto pa = a.generator_parameters(), pb = b.generator_parameters();
+  auto da = a.discriminator()->parameters(), db = b.discriminator()->parameters();
+  pa.insert(pa.end(), da.begin(), da.end());
+  pb.insert(pb.end(), db.begin(), db.end());
+  if (pa.size() != pb.size()) return false;
+  for (size_t i = 0; i < pa.size(); ++i) {
+    if (!at::equal(pa[i], pb[i])) return false;
+  }
+  return true;
+}
+
+TEST(Trainer, EveryParameterReceivesGradient) {
+  MM_REQUIRE_H36M();
+  Trainer trainer(tiny_config("DKGM"), small_h36m(), at::kCPU);
+  trainer.step();
+  auto& model = trainer.model();
+  for (auto* module : std::vector<torch::nn::Module*>{model.encoder().ptr().get(),
+                                                      model.decoder(DecoderKind::kRotation).ptr().get(),
+                                                      model.decoder(DecoderKind::kVelocity).ptr().get(),
+                                                      model.discriminator().ptr().get()}) {
+    for (const auto& p : module->named_parameters()) {
+      ASSERT_TRUE(p.value().grad().defined()) << p.key();
+      EXPECT_GT(p.value().grad().abs().sum().item<double>(), 0.0) << p.key();
+    }
+  }
+}
+
+TEST(Trainer, AllLossTermsOfTheFullModelAreReported) {
+  MM_REQUIRE_H36M();
+  Trainer trainer(tiny_config("DKGM"), small_h36m(), at::kCPU);
+  const LossValues losses = trainer.step();
+  for (const char* term : {"L_ang", "L_pos", "L_R", "L_M", "L_W", "L_G", "L_D", "total"}) {
+    ASSERT_TRUE(losses.count(term)) << term;
+    EXPECT_TRUE(std::isfinite(losses.at(term))) << term;
+    EXPECT_GT(losses.at(term), 0.0) << term;
+  }
+}
+
+TEST(Trainer, AblatedTermsStayZero) {
+  MM_REQUIRE_H36M();
+  Trainer trainer(tiny_config("S"), small_h36m(), at::kCPU);
+  const LossValues losses = trainer.step();
+  EXPECT_EQ(losses.at("L_pos"), 0.0);
+  EXPECT_EQ(losses.at("L_G"), 0.0);
+  EXPECT_EQ(losses.at("L_M"), 0.0);
+  EXPECT_GT(losses.at("L_W"), 0.0);
+  EXPECT_FALSE(trainer.model().has_decoder(DecoderKind::kVelocity));
+}
+
+TEST(Trainer, SameSeedGivesTheSameRun) {
+  MM_REQUIRE_H36M();
+  Trainer a(tiny_config(), small_h36m(), at::kCPU), b(tiny_config(), small_h36m(), at::kCPU);
+  for (int i = 0; i < 3; ++i) EXPECT_EQ(a.step(), b.step());
+  EXPECT_TRUE(same_parameters(a.model(), b.model()));
+}
+
+TEST(Trainer, ResumedRunMatchesUninterruptedRun) {
+  MM_REQUIRE_H36M();
+  test::ScratchDir dir;
+  TrainConfig config = tiny_config();
+  config.iterations = 6;
+  Trainer uninterrupted(config, small_h36m(), at::kCPU);
+  for (int i = 0; i < 6; ++i) uninterrupted.step();
+
+  Trainer first_half(config, small_h36m(), at::kCPU);
+  for (int i = 0; i < 3; ++i) first_half.step();
+  first_half.save_checkpoint(dir.file("checkpoint.pt"));
+  auto resumed = Trainer::resume(dir.file("checkpoint.pt"), small_h36m(), at::kCPU);
+  EXPECT_EQ(resumed->iteration(), 3);
+  for (int i = 0; i < 3; ++i) resumed->step();
+  EXPECT_TRUE(same_parameters(uninterrupted.model(), resumed->model()));
+}
+
+TEST(Trainer, RunReportsProgressWritesLogAndCheckpoint) {
+  MM_REQUIRE_H36M();
+  test::ScratchDir dir;
+  TrainConfig config = tiny_config();
+  config.iterations = 4;
+  config.log_every = 2;
+  config.output_dir = dir.file("run");
+  Trainer trainer(config, small_h36m(), at::kCPU);
+  std::vector<TrainProgress> reports;
+  EXPECT_EQ(trainer.run([&](const TrainProgress& p) { reports.push_back(p); }), TrainOutcome::kFinished);
+  ASSERT_EQ(reports.size(), 2u);
+  EXPECT_EQ(reports.back().iteration, 4);
+  EXPECT_EQ(reports.back().total, 4);
+  EXPECT_GT(reports.back().iterations_per_second, 0.0);
+  EXPECT_TRUE(std::filesystem::exists(dir.file("run/checkpoint.pt")));
+  std::ifstream log(dir.file("run/train_log.csv"));
+  std::string header, line;
+  std::getline(log, header);
+  EXPECT_EQ(header.rfind("iteration,learning_rate,L_ang", 0), 0u) << header;
+  int rows = 0;
+  while (std::getline(log, line)) ++rows;
+  EXPECT_EQ(rows, 2);
+}
+
+TEST(Trainer, CancelStopsTheRunAndKeepsACheckpoint) {
+  MM_REQUIRE_H36M();
+  test::ScratchDir dir;
+  TrainConfig config = tiny_config();
+  config.iterations = 1000;
+  config.output_dir = dir.file("run");
+  Trainer trainer(config, small_h36m(), at::kCPU);
+  std::atomic<bool> cancel{false};
+  auto outcome = trainer.run([&](const TrainProgress& p) { cancel = p.iteration >= 2; }, &cancel);
+  EXPECT_EQ(outcome, TrainOutcome::kCancelled);
+  EXPECT_EQ(trainer.iteration(), 2);
+  auto resumed = Trainer::resume(dir.file("run/checkpoint.pt"), small_h36m(), at::kCPU);
+  EXPECT_EQ(resumed->iteration(), 2);
+}
+
+TEST(Trainer, ResumeRejectsAFileThatIsNotACheckpoint) {
+  MM_REQUIRE_H36M();
+  test::ScratchDir dir;
+  const auto path = dir.write("checkpoint.pt", "not a checkpoint");
+  try {
+    Trainer::resume(path, small_h36m(), at::kCPU);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+  }
+}
+
+TEST(Trainer, ShortTrainingOnRealClipsHalvesReconstructionLoss) {
+  MM_REQUIRE_H36M();
+  // A handful of real clips: three S1 sequences.
+  PreparedDataset few = small_h36m();
+  few.sequences.resize(3);
+  TrainConfig config = tiny_config("DKGM");
+  config.model.hidden = 64;
+  config.batch = 8;
+  config.learning_rate = 2e-3;
+  Trainer trainer(config, few, at::kCPU);
+  auto mean_reconstruction = [&](int steps) {
+    double sum = 0;
+    for (int i = 0; i < steps; ++i) sum += trainer.step().at("L_R");
+    return sum / steps;
+  };
+  const double start = mean_reconstruction(5);
+  for (int i = 0; i < 250; ++i) trainer.step();
+  const double end = mean_reconstruction(5);
+  EXPECT_LT(end, 0.5 * start) << "L_R went from " << start << " to " << end;
+}
+
+TEST(PositionScale, IsAFewHundredMillimetresForH36m) {
+  MM_REQUIRE_H36M();
+  const double scale = small_h36m().normalization.position_scale_mm;
+  EXPECT_GT(scale, 100.0);
+  EXPECT_LT(scale, 1000.0);
+}
+
+}  // namespace
+}  // namespace mm

@@ -1,0 +1,71 @@
+#include "training_config.h"
+
+#include <gtest/gtest.h>
+
+#include "format/input_error.h"
+
+namespace mm {
+namespace {
+
+std::string error_of(const std::string& json) {
+  try {
+    train_config_from_json_text(json, "config.json");
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(TrainingConfig, DefaultsAreThePapersModel) {
+  const TrainConfig c = variant_config("DKGM");
+  EXPECT_EQ(c.model.hidden, 1024);
+  EXPECT_EQ(c.model.latent, 64);
+  EXPECT_EQ(c.model.frames, 150);
+  EXPECT_EQ(c.batch, 30);
+  EXPECT_DOUBLE_EQ(c.weights.position, 5.0);
+  EXPECT_DOUBLE_EQ(c.weights.manifold, 0.001);
+  EXPECT_DOUBLE_EQ(c.weights.wasserstein, 0.1);
+  EXPECT_DOUBLE_EQ(c.weights.adversarial, 0.001);
+  EXPECT_DOUBLE_EQ(c.learning_rate, 1e-3);
+  EXPECT_DOUBLE_EQ(c.clip_norm, 1.0);
+}
+
+TEST(TrainingConfig, VariantsAddOneIngredientEach) {
+  EXPECT_FALSE(variant_config("S").model.velocity_decoder);
+  EXPECT_TRUE(variant_config("D").model.velocity_decoder);
+  EXPECT_EQ(variant_config("D").weights.position, 0.0);
+  EXPECT_GT(variant_config("DK").weights.position, 0.0);
+  EXPECT_EQ(variant_config("DK").weights.adversarial, 0.0);
+  EXPECT_GT(variant_config("DKG").weights.adversarial, 0.0);
+  EXPECT_EQ(variant_config("DKG").weights.manifold, 0.0);
+  EXPECT_TRUE(variant_config("DKGMZ").model.feed_code);
+  EXPECT_FALSE(variant_config("Seq2seq").model.rotation_decoder);
+}
+
+TEST(TrainingConfig, JsonRoundTrips) {
+  TrainConfig c = variant_config("DKGMZ");
+  c.batch = 12;
+  c.model.hidden = 256;
+  c.dataset = "prepared.mmd";
+  const TrainConfig back = train_config_from_json_text(to_json_text(c), "x");
+  EXPECT_EQ(to_json_text(back), to_json_text(c));
+}
+
+TEST(TrainingConfig, FileOverridesTheVariantDefaults) {
+  const TrainConfig c = train_config_from_json_text(R"({"variant": "DK", "batch": 4, "model": {"hidden": 128}})", "c");
+  EXPECT_EQ(c.batch, 4);
+  EXPECT_EQ(c.model.hidden, 128);
+  EXPECT_EQ(c.weights.adversarial, 0.0);
+}
+
+TEST(TrainingConfig, ErrorsNameTheFieldAndValue) {
+  EXPECT_NE(error_of(R"({"variant": "XYZ"})").find("\"XYZ\""), std::string::npos);
+  EXPECT_NE(error_of(R"({"batch": "thirty"})").find("batch"), std::string::npos);
+  EXPECT_NE(error_of(R"({"batch": 1})").find("out of range"), std::string::npos);
+  EXPECT_NE(error_of(R"({"model": {"hiden": 3}})").find("model.hiden: unknown field"), std::string::npos);
+  EXPECT_NE(error_of(R"({"weights": {"position": -1}})").find("weights.position"), std::string::npos);
+  EXPECT_NE(error_of("{not json").find("config.json: not valid JSON"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace mm
