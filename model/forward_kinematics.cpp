@@ -9,11 +9,11 @@ namespace mm {
 
 ForwardKinematics::ForwardKinematics(const Skeleton& skeleton) {
   const int joints = skeleton.joint_count();
-  offsets_mm_ = at::empty({joints, 3}, at::kFloat);
-  auto offsets = offsets_mm_.accessor<float, 2>();
+  offsets_mm_ = at::empty({joints, 3}, at::kDouble);
+  auto offsets = offsets_mm_.accessor<double, 2>();
   for (int j = 0; j < joints; ++j) {
     parents_.push_back(skeleton.joints[j].parent);
-    for (int k = 0; k < 3; ++k) offsets[j][k] = static_cast<float>(skeleton.joints[j].offset_mm[k]);
+    for (int k = 0; k < 3; ++k) offsets[j][k] = skeleton.joints[j].offset_mm[k];
   }
 }
 
@@ -28,7 +28,7 @@ at::Tensor ForwardKinematics::positions(const at::Tensor& frames) const {
   batch_shape.pop_back();
   auto flat = frames.reshape({-1, columns});
   const int64_t n = flat.size(0);
-  auto local = expmap_to_rotation_matrix(flat.narrow(1, 3, 3 * joints).reshape({n, joints, 3, 3}));
+  auto local = expmap_to_rotation_matrix(flat.narrow(1, 3, 3 * joints).reshape({n, joints, 3}));
   auto offsets = offsets_mm_.to(frames.device(), frames.scalar_type());
 
   std::vector<at::Tensor> world_rotation(joints), position(joints);

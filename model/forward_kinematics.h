@@ -29,7 +29,7 @@ class ForwardKinematics {
 
  private:
   std::vector<int> parents_;
-  at::Tensor offsets_mm_;  // (J, 3), float32 on the CPU; moved to the frames' device on use
+  at::Tensor offsets_mm_;  // (J, 3), float64 on the CPU, cast to the frames' type and device on use
 };
 
 }  // namespace mm

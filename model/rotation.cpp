@@ -36,13 +36,10 @@ at::Tensor rotation_matrix_to_expmap(const at::Tensor& rotation) {
   auto trace = rotation.diagonal(0, -2, -1).sum(-1);
   auto cos_theta = ((trace - 1.0) * 0.5).clamp(-1.0, 1.0);
   auto theta = at::acos(cos_theta);
-  // The skew part of R is sin(t) * K_unit in the layout of skew() above.
-  auto r = rotation;
-  auto v = at::stack({r.select(-1, 1).select(-1, 2) - r.select(-1, 2).select(-1, 1),
-                      r.select(-1, 2).select(-1, 0) - r.select(-1, 0).select(-1, 2),
-                      r.select(-1, 0).select(-1, 1) - r.select(-1, 1).select(-1, 0)},
-                     -1) *
-           -0.5;
+  // The skew part of R is sin(t) * K_unit in the layout of skew() above:
+  // x = (R[2][1] - R[1][2]) / (2 sin t), and so on.
+  auto at_rc = [&](int row, int col) { return rotation.select(-2, row).select(-1, col); };
+  auto v = at::stack({at_rc(2, 1) - at_rc(1, 2), at_rc(0, 2) - at_rc(2, 0), at_rc(1, 0) - at_rc(0, 1)}, -1) * 0.5;
   auto sin_theta = at::sin(theta);
   auto small = sin_theta.abs() < 1e-6;
   auto scale = at::where(small, at::ones_like(theta), theta / at::where(small, at::ones_like(sin_theta), sin_theta));

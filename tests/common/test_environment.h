@@ -1,4 +1,4 @@
-// Where the format tests find the H3.6M copy, the shared folder and scratch
+// Where the tests find the H3.6M copy, the shared folder and scratch
 // space. The build passes MM_DATA_DIR / MM_SHARED_DIR by environment (ctest)
 // with the configured paths compiled in as a fallback for running the
 // executable by hand.
@@ -47,7 +47,7 @@ class ScratchDir {
     static std::atomic<int> counter{0};
     const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
     path_ = std::filesystem::temp_directory_path() /
-            ("mm_format_test_" + std::to_string(::getpid()) + "_" +
+            ("mm_test_" + std::to_string(::getpid()) + "_" +
              (info ? std::string(info->name()) : std::string("x")) + "_" + std::to_string(counter++));
     std::filesystem::create_directories(path_);
   }

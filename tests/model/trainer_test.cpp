@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "format/input_error.h"
 #include "model_test_data.h"
 
 namespace mm {
