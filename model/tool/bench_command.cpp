@@ -1,0 +1,198 @@
+// `bench`: the paper's model size (hidden 1024, 150 frames) on this machine:
+// one full training iteration (Trainer::step, DKGM) and inference (encode,
+// rotation decode), with random weights on synthetic or real data. The
+// numbers behind docs/PERFORMANCE.md.
+#include <ATen/Parallel.h>
+#include <c10/core/InferenceMode.h>
+#include <torch/cuda.h>
+
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <thread>
+
+#include "cli_validators.h"
+#include "commands.h"
+#include "device_option.h"
+#include "format/atomic_file.h"
+#include "format/input_error.h"
+#include "trainer.h"
+
+namespace mm::tool {
+namespace {
+
+struct BenchOptions {
+  int hidden = 1024;
+  int iterations = 5;
+  std::string dataset, out, device = "all";
+};
+
+struct Timing {
+  std::string operation;
+  int batch = 0;
+  std::string device;
+  std::vector<double> ms;  // one per repeat, after one warm-up
+  double median() const {
+    auto sorted = ms;
+    std::sort(sorted.begin(), sorted.end());
+    const size_t n = sorted.size();
+    return n % 2 ? sorted[n / 2] : (sorted[n / 2 - 1] + sorted[n / 2]) / 2;
+  }
+  double min() const { return *std::min_element(ms.begin(), ms.end()); }
+};
+
+// The 51 columns of the 99 H3.6M exponential-map values that vary in the
+// data (std >= 1e-4, root translation excluded): what prepare keeps.
+const std::vector<int> kH36mKeptColumns = {3,  4,  5,  6,  7,  8,  9,  12, 13, 14, 15, 21, 22, 23, 24, 27, 28,
+                                           29, 30, 36, 37, 38, 39, 40, 41, 42, 43, 44, 45, 46, 47, 51, 52, 53,
+                                           54, 55, 56, 57, 60, 61, 62, 75, 76, 77, 78, 79, 80, 81, 84, 85, 86};
+
+// Random standardised sequences with an identity normalisation: the cost of
+// an iteration does not depend on the values.
+PreparedDataset synthetic_dataset() {
+  PreparedDataset data;
+  auto& norm = data.normalization;
+  norm.mean.assign(kH36mColumns, 0.0f);
+  norm.stddev.assign(kH36mColumns, 1.0f);
+  norm.kept_columns = kH36mKeptColumns;
+  norm.position_scale_mm = 400;
+  data.train_subjects = {"S1"};
+  data.test_subjects = {"S5"};
+  std::mt19937 engine(7);
+  std::normal_distribution<float> normal;
+  for (int i = 0; i < 4; ++i) {
+    PreparedSequence s;
+    s.subject = "S1";
+    s.action = "synthetic";
+    s.take = 1;
+    s.phase = i;
+    s.normalized.columns = norm.dims();
+    s.normalized.values.resize(static_cast<size_t>(600) * norm.dims());
+    for (auto& v : s.normalized.values) v = normal(engine);
+    data.sequences.push_back(std::move(s));
+  }
+  return data;
+}
+
+void synchronize(c10::Device device) {
+  if (device.is_cuda()) torch::cuda::synchronize();
+}
+
+template <class Work>
+Timing measure(const std::string& operation, int batch, c10::Device device, int repeats, Work&& work) {
+  std::fprintf(stderr, "  %s, batch %d, %s ...", operation.c_str(), batch, device.str().c_str());
+  std::fflush(stderr);
+  Timing timing{operation, batch, device.str(), {}};
+  work();  // warm-up: allocator, thread pool, CUDA kernels
+  synchronize(device);
+  for (int i = 0; i < repeats; ++i) {
+    const auto started = std::chrono::steady_clock::now();
+    work();
+    synchronize(device);
+    timing.ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started).count());
+  }
+  std::fprintf(stderr, " median %.1f ms\n", timing.median());
+  return timing;
+}
+
+void bench_device(const BenchOptions& o, const PreparedDataset& data, c10::Device device, std::vector<Timing>& out) {
+  TrainConfig config = variant_config("DKGM");
+  config.model.hidden = o.hidden;
+  config.model.pose_dims = data.normalization.dims();
+  config.iterations = 1 << 30;
+  config.output_dir.clear();  // no checkpoints or logs
+  for (int batch : {4, 30}) {
+    config.batch = batch;
+    Trainer trainer(config, data, device);
+    out.push_back(measure("training iteration (DKGM)", batch, device, o.iterations, [&] { trainer.step(); }));
+  }
+
+  MotionManifold model(config.model, data.normalization, Skeleton::h36m());
+  model.to(device);
+  model.train(false);
+  // Inference is cheap: more repeats for a steadier median.
+  const int repeats = std::max(o.iterations, 10);
+  for (int batch : {1, 30}) {
+    c10::InferenceMode inference;
+    const auto clips = at::randn({batch, config.model.frames, config.model.pose_dims}).to(device);
+    const auto codes = at::randn({batch, config.model.latent}).to(device);
+    out.push_back(measure("encode", batch, device, repeats, [&] { model.encode(clips); }));
+    out.push_back(measure("decode (rotation)", batch, device, repeats,
+                          [&] { model.decode(codes, DecoderKind::kRotation); }));
+  }
+}
+
+std::string cpu_name() {
+  std::ifstream in("/proc/cpuinfo");
+  for (std::string line; std::getline(in, line);) {
+    if (line.rfind("model name", 0) == 0) return line.substr(line.find(':') + 2);
+  }
+  return "unknown CPU";
+}
+
+int run_bench(const BenchOptions& o) {
+  std::vector<c10::Device> devices;
+  if (o.device == "all") {
+    devices.push_back(c10::kCPU);
+    if (cuda_available()) devices.emplace_back(c10::kCUDA, 0);
+  } else if (o.device == "cpu" || o.device == "cuda") {
+    devices.push_back(parse_device(o.device));
+  } else {
+    throw InputError("--device: expected cpu, cuda or all, found \"" + o.device + "\"");
+  }
+  const PreparedDataset data = o.dataset.empty() ? synthetic_dataset() : load_prepared_dataset(o.dataset);
+  const std::string machine = cpu_name() + ", " + std::to_string(std::thread::hardware_concurrency()) +
+                              " hardware threads, " + std::to_string(at::get_num_threads()) + " torch threads";
+  std::fprintf(stderr, "bench: hidden %d, %s data, %s\n", o.hidden, o.dataset.empty() ? "synthetic" : "prepared",
+               machine.c_str());
+
+  std::vector<Timing> timings;
+  for (const auto& device : devices) bench_device(o, data, device, timings);
+
+  std::printf("| operation | batch | device | median (ms) | min (ms) | repeats |\n");
+  std::printf("|---|---:|---|---:|---:|---:|\n");
+  nlohmann::json results = nlohmann::json::array();
+  for (const auto& t : timings) {
+    std::printf("| %s | %d | %s | %.1f | %.1f | %zu |\n", t.operation.c_str(), t.batch, t.device.c_str(), t.median(),
+                t.min(), t.ms.size());
+    results.push_back({{"operation", t.operation},
+                       {"batch", t.batch},
+                       {"device", t.device},
+                       {"median_ms", t.median()},
+                       {"min_ms", t.min()},
+                       {"ms", t.ms}});
+  }
+  if (!o.out.empty()) {
+    const nlohmann::json report = {{"hidden", o.hidden},   {"frames", 150},
+                                   {"machine", machine},   {"data", o.dataset.empty() ? "synthetic" : o.dataset},
+                                   {"results", results}};
+    write_file_atomically(o.out, report.dump(2) + "\n");
+  }
+  return kExitSuccess;
+}
+
+}  // namespace
+
+void add_bench_command(CLI::App& app, Action& action) {
+  auto o = std::make_shared<BenchOptions>();
+  auto* command = app.add_subcommand(
+      "bench",
+      "Time a full training iteration (DKGM, batch 4 and 30) and inference (encode, rotation decode; batch 1 and "
+      "30) at the paper's model size with random weights. Prints a markdown table of median and minimum times.");
+  command->add_option("--hidden", o->hidden, "GRU hidden size")->check(at_least(1))->capture_default_str();
+  command->add_option("--iterations", o->iterations, "timed repeats after one warm-up (inference: at least 10)")
+      ->check(at_least(1))
+      ->capture_default_str();
+  command->add_option("--dataset", o->dataset, "prepared dataset to draw clips from (default: synthetic data)");
+  command->add_option("--device", o->device, "cpu, cuda, or all (the CPU, plus CUDA when available)")
+      ->capture_default_str();
+  command->add_option("--out", o->out, "also write the results as JSON");
+  command->callback([o, &action] { action = [o] { return run_bench(*o); }; });
+}
+
+}  // namespace mm::tool

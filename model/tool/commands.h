@@ -1,0 +1,36 @@
+// The subcommands of the motion-manifold tool, one group per file. Each
+// add_* function registers its subcommand(s) on the application; when one of
+// them is parsed, its callback stores in `action` the work to run, which
+// main() then calls and whose result is the process exit code.
+//
+// Errors: commands throw InputError for bad input (exit 2) and anything else
+// for internal failures (exit 1); main() maps them, so nothing escapes.
+#pragma once
+
+#include <functional>
+#include <string>
+
+namespace CLI {
+class App;
+}
+
+namespace mm::tool {
+
+// Exit codes of the tool.
+constexpr int kExitSuccess = 0;
+constexpr int kExitFailure = 1;
+constexpr int kExitUsage = 2;       // bad usage or InputError
+constexpr int kExitCancelled = 130; // SIGINT / SIGTERM during training
+
+using Action = std::function<int()>;
+
+void add_prepare_command(CLI::App& app, Action& action);
+// `command_line` is recorded in the exported model's provenance; it must
+// outlive the parsed action.
+void add_train_commands(CLI::App& app, Action& action, const std::string& command_line);
+void add_evaluate_command(CLI::App& app, Action& action);
+// sample, interpolate, analogy, denoise, encode, decode (Sec. 5).
+void add_manifold_commands(CLI::App& app, Action& action);
+void add_bench_command(CLI::App& app, Action& action);
+
+}  // namespace mm::tool

@@ -1,0 +1,87 @@
+// `evaluate`: Table 1 of the paper for one trained model on the test
+// subjects of a prepared dataset (JSON on stdout, a short table on stderr).
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <memory>
+#include <nlohmann/json.hpp>
+
+#include "cli_validators.h"
+#include "commands.h"
+#include "device_option.h"
+#include "evaluation.h"
+#include "format/atomic_file.h"
+#include "format/input_error.h"
+
+namespace mm::tool {
+namespace {
+
+struct EvaluateOptions {
+  std::string model_dir, dataset, out, device = "cpu";
+  EvaluationOptions evaluation;
+};
+
+bool same_normalization(const PoseNormalization& a, const PoseNormalization& b) {
+  return a.mean == b.mean && a.stddev == b.stddev && a.kept_columns == b.kept_columns &&
+         a.drop_root_translation == b.drop_root_translation;
+}
+
+void print_table(const nlohmann::json& result) {
+  const double interval = result.at("interval_seconds").get<double>();
+  for (const auto& [decoder, errors] : result.at("decoders").items()) {
+    const size_t intervals = errors.at("E_r").size();
+    std::fprintf(stderr, "%-9s", decoder.c_str());
+    for (size_t i = 0; i < intervals; ++i) std::fprintf(stderr, " %7.1fs", interval * static_cast<double>(i + 1));
+    std::fprintf(stderr, "\n");
+    for (const char* name : {"E_r", "E_p", "mpjpe_mm", "angle_error_rad"}) {
+      std::fprintf(stderr, "  %-7s", name == std::string("angle_error_rad") ? "angle" : name);
+      for (const auto& value : errors.at(name)) std::fprintf(stderr, " %8.3f", value.get<double>());
+      std::fprintf(stderr, "\n");
+    }
+    std::fprintf(stderr, "  E_z     %8.3f\n", errors.at("E_z").get<double>());
+  }
+  std::fprintf(stderr, "(E_r: normalised angles; E_p: positions in units of %.1f mm; mpjpe in mm; angle in rad)\n",
+               result.at("position_unit_mm").get<double>());
+}
+
+int run_evaluate(const EvaluateOptions& o) {
+  const MotionManifold model = MotionManifold::load(o.model_dir, parse_device(o.device));
+  PreparedDataset data = load_prepared_dataset(o.dataset);
+  if (data.test_subjects.empty()) throw InputError(o.dataset + ": the dataset has no test subjects");
+  if (!same_normalization(data.normalization, model.normalization())) {
+    // The dataset was normalised for another model: bring its test clips into
+    // this model's units. Columns the dataset dropped come back as its mean.
+    std::fprintf(stderr, "note: %s was normalised differently from the model; re-normalising its test sequences\n",
+                 o.dataset.c_str());
+    for (auto& s : data.sequences) {
+      s.normalized = model.normalization().normalize(data.normalization.denormalize(s.normalized));
+    }
+  }
+  const std::string text = evaluate_reconstruction(model, data.subset(data.test_subjects), o.evaluation);
+  const nlohmann::json result = nlohmann::json::parse(text);
+  const std::string pretty = result.dump(2) + "\n";
+  std::fputs(pretty.c_str(), stdout);
+  if (!o.out.empty()) write_file_atomically(o.out, pretty);
+  print_table(result);
+  return kExitSuccess;
+}
+
+}  // namespace
+
+void add_evaluate_command(CLI::App& app, Action& action) {
+  auto o = std::make_shared<EvaluateOptions>();
+  auto* command = app.add_subcommand(
+      "evaluate",
+      "Reconstruction errors (Table 1: E_r, E_p, E_z, plus mm and radians) of a model on random clips of the "
+      "dataset's test subjects. JSON on stdout, a summary table on stderr.");
+  command->add_option("--model", o->model_dir, "model folder (written by train)")->required();
+  command->add_option("--dataset", o->dataset, "prepared dataset file; its test subjects are used")->required();
+  command->add_option("--clips", o->evaluation.clips, "number of random test clips")
+      ->check(at_least(1))
+      ->capture_default_str();
+  command->add_option("--seed", o->evaluation.seed, "seed choosing the clips")->capture_default_str();
+  command->add_option("--out", o->out, "also write the JSON to this file");
+  command->add_option("--device", o->device, "cpu, cuda or auto")->capture_default_str();
+  command->callback([o, &action] { action = [o] { return run_evaluate(*o); }; });
+}
+
+}  // namespace mm::tool

@@ -1,0 +1,215 @@
+// `train` and `resume`: run Trainer (Sec. 3.3) with a progress line, stop
+// cleanly on SIGINT/SIGTERM (checkpoint, export, exit 130) and export the
+// trained model with its provenance.
+#include <signal.h>
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <memory>
+#include <nlohmann/json.hpp>
+
+#include "cli_validators.h"
+#include "commands.h"
+#include "device_option.h"
+#include "format/atomic_file.h"
+#include "format/input_error.h"
+#include "motion_files.h"
+#include "progress_line.h"
+#include "trainer.h"
+
+namespace mm::tool {
+namespace {
+
+// Set by the signal handler, read by Trainer::run between iterations.
+std::atomic<bool> g_cancel{false};
+static_assert(std::atomic<bool>::is_always_lock_free, "the cancel flag is set from a signal handler");
+
+extern "C" void request_cancel(int) {
+  g_cancel.store(true);
+  static const char kMessage[] =
+      "\ncancelling: finishing this iteration, then checkpointing and exporting (signal again to quit at once)\n";
+  ssize_t ignored = write(STDERR_FILENO, kMessage, sizeof kMessage - 1);
+  (void)ignored;
+}
+
+// Routes SIGINT and SIGTERM to the cancel flag while alive. SA_RESETHAND
+// makes a second signal act as usual, so a stuck run can still be killed.
+class CancelOnSignal {
+ public:
+  CancelOnSignal() {
+    g_cancel.store(false);
+    struct sigaction action {};
+    action.sa_handler = request_cancel;
+    sigemptyset(&action.sa_mask);
+    action.sa_flags = SA_RESETHAND;
+    sigaction(SIGINT, &action, &old_int_);
+    sigaction(SIGTERM, &action, &old_term_);
+  }
+  ~CancelOnSignal() {
+    sigaction(SIGINT, &old_int_, nullptr);
+    sigaction(SIGTERM, &old_term_, nullptr);
+  }
+  CancelOnSignal(const CancelOnSignal&) = delete;
+  CancelOnSignal& operator=(const CancelOnSignal&) = delete;
+  const std::atomic<bool>* flag() const { return &g_cancel; }
+
+ private:
+  struct sigaction old_int_ {}, old_term_ {};
+};
+
+struct TrainOptions {
+  std::string config_path, variant, dataset, out, resume, device = "auto";
+  int64_t iterations = 0;
+  int batch = 0, hidden = 0;
+  uint64_t seed = 0;
+  CLI::Option* seed_option = nullptr;
+};
+
+PreparedDataset load_dataset(const std::string& path) {
+  std::fprintf(stderr, "loading %s\n", path.c_str());
+  PreparedDataset data = load_prepared_dataset(path);
+  int64_t frames = 0;
+  const auto train = data.subset(data.train_subjects);
+  for (const auto* s : train) frames += s->normalized.frame_count();
+  std::fprintf(stderr, "  %zu training sequences, %lld frames at %d Hz\n", train.size(),
+               static_cast<long long>(frames), data.frame_rate);
+  return data;
+}
+
+// Runs the trainer to its end or to a signal, then exports the model to
+// <output_dir>/model. Returns the exit code.
+int train_and_export(Trainer& trainer, c10::Device device, const std::string& dataset_path,
+                     const std::string& command_line, const std::string& resumed_from) {
+  const TrainConfig& config = trainer.config();
+  ensure_directory(config.output_dir, "--out");
+  write_file_atomically(config.output_dir + "/config.json", to_json_text(config));
+  std::fprintf(stderr, "training %s (hidden %d, batch %d) on %s: iterations %lld to %lld, output in %s\n",
+               config.variant.c_str(), config.model.hidden, config.batch, device.str().c_str(),
+               static_cast<long long>(trainer.iteration()), static_cast<long long>(config.iterations),
+               config.output_dir.c_str());
+
+  const int64_t first = trainer.iteration();
+  const auto started = std::chrono::steady_clock::now();
+  ProgressLine line(stderr);
+  TrainOutcome outcome;
+  {
+    CancelOnSignal cancel;
+    outcome = trainer.run(
+        [&line](const TrainProgress& p) {
+          line.update(p.iteration, p.total, p.losses, p.iterations_per_second, p.eta_seconds);
+        },
+        cancel.flag());
+  }
+  line.finish();
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  const bool cancelled = outcome == TrainOutcome::kCancelled;
+
+  nlohmann::json provenance = {
+      {"command", command_line},
+      {"iterations", trainer.iteration()},
+      {"iterations_this_run", trainer.iteration() - first},
+      {"seconds", seconds},
+      {"device", device.str()},
+      {"dataset", dataset_path},
+      {"variant", config.variant},
+      {"outcome", cancelled ? "cancelled" : "finished"},
+  };
+  if (!resumed_from.empty()) provenance["resumed_from"] = resumed_from;
+  // A model is always exported from the CPU so that it loads on machines
+  // without a GPU.
+  trainer.model().to(c10::kCPU);
+  const std::string model_dir = config.output_dir + "/model";
+  trainer.model().save(model_dir, provenance.dump());
+
+  std::fprintf(stderr, "%s after %lld iterations (%s); checkpoint %s/checkpoint.pt, model %s\n",
+               cancelled ? "cancelled" : "finished", static_cast<long long>(trainer.iteration()),
+               format_duration(seconds).c_str(), config.output_dir.c_str(), model_dir.c_str());
+  if (cancelled) {
+    std::fprintf(stderr, "continue with: motion-manifold resume %s/checkpoint.pt --dataset %s\n",
+                 config.output_dir.c_str(), dataset_path.c_str());
+    return kExitCancelled;
+  }
+  return kExitSuccess;
+}
+
+int run_resume(const std::string& checkpoint, const std::string& dataset_path, int64_t iterations,
+               const std::string& device_name, const std::string& command_line) {
+  const c10::Device device = parse_device(device_name);
+  const PreparedDataset data = load_dataset(dataset_path);
+  auto trainer = Trainer::resume(checkpoint, data, device, iterations);
+  if (trainer->config().output_dir.empty()) throw InputError(checkpoint + ": the checkpoint's run has no output_dir");
+  return train_and_export(*trainer, device, dataset_path, command_line, checkpoint);
+}
+
+int run_train(const TrainOptions& o, const std::string& command_line) {
+  if (!o.resume.empty()) {
+    if (o.dataset.empty()) throw InputError("--resume needs --dataset (the prepared dataset the run was trained on)");
+    return run_resume(o.resume, o.dataset, o.iterations, o.device, command_line);
+  }
+  TrainConfig config = o.config_path.empty() ? variant_config(o.variant) : read_train_config(o.config_path);
+  if (!o.dataset.empty()) config.dataset = o.dataset;
+  if (!o.out.empty()) config.output_dir = o.out;
+  if (o.iterations > 0) config.iterations = o.iterations;
+  if (o.batch > 0) config.batch = o.batch;
+  if (o.hidden > 0) config.model.hidden = o.hidden;
+  if (o.seed_option->count() > 0) config.seed = o.seed;
+  if (config.dataset.empty()) throw InputError("train: no dataset: give --dataset or \"dataset\" in the configuration");
+  if (config.output_dir.empty()) {
+    throw InputError("train: no output folder: give --out or \"output_dir\" in the configuration");
+  }
+  const c10::Device device = parse_device(o.device);
+  const PreparedDataset data = load_dataset(config.dataset);
+  Trainer trainer(config, data, device);
+  return train_and_export(trainer, device, config.dataset, command_line, "");
+}
+
+}  // namespace
+
+void add_train_commands(CLI::App& app, Action& action, const std::string& command_line) {
+  auto o = std::make_shared<TrainOptions>();
+  o->variant = "DKGM";
+  auto* train = app.add_subcommand(
+      "train",
+      "Train a motion manifold (Sec. 3.3). Writes <out>/config.json, train_log.csv, checkpoint.pt (every "
+      "checkpoint_every iterations and at the end) and the exported model in <out>/model. SIGINT/SIGTERM stop "
+      "after the current iteration, checkpoint, export and exit with 130.");
+  auto* config = train->add_option("--config", o->config_path,
+                                   "training configuration JSON (fields of TrainConfig; missing ones take the "
+                                   "variant's defaults)");
+  auto* variant = train->add_option("--variant", o->variant, "Table 1 variant: S, D, DK, DKG, DKGM, DKGMZ, Seq2seq")
+                      ->capture_default_str();
+  config->excludes(variant);
+  train->add_option("--dataset", o->dataset, "prepared dataset file (overrides the configuration)");
+  auto* out = train->add_option("--out", o->out, "output folder (overrides the configuration)");
+  train->add_option("--iterations", o->iterations, "iterations in total (overrides)")->check(at_least(1));
+  auto* batch = train->add_option("--batch", o->batch, "clips per batch (overrides)")->check(at_least(1));
+  auto* hidden = train->add_option("--hidden", o->hidden, "GRU hidden size (overrides)")->check(at_least(1));
+  o->seed_option = train->add_option("--seed", o->seed, "random seed (overrides)");
+  train->add_option("--device", o->device, "cpu, cuda or auto (CUDA when available)")->capture_default_str();
+  auto* resume = train->add_option("--resume", o->resume,
+                                   "continue the run saved in this checkpoint (needs --dataset; the output folder "
+                                   "and configuration are the checkpoint's)");
+  for (auto* excluded : {config, variant, out, batch, hidden, o->seed_option}) resume->excludes(excluded);
+  train->callback([o, &action, &command_line] { action = [o, &command_line] { return run_train(*o, command_line); }; });
+
+  struct ResumeOptions {
+    std::string checkpoint, dataset, device = "auto";
+    int64_t iterations = 0;
+  };
+  auto r = std::make_shared<ResumeOptions>();
+  auto* resume_command = app.add_subcommand(
+      "resume", "Continue a training run from its checkpoint, exactly as if it had not stopped (same as train --resume).");
+  resume_command->add_option("checkpoint", r->checkpoint, "checkpoint.pt of the run")->required();
+  resume_command->add_option("--dataset", r->dataset, "the prepared dataset the run was trained on")->required();
+  resume_command->add_option("--iterations", r->iterations, "new total number of iterations")
+      ->check(at_least(1));
+  resume_command->add_option("--device", r->device, "cpu, cuda or auto (CUDA when available)")->capture_default_str();
+  resume_command->callback([r, &action, &command_line] {
+    action = [r, &command_line] { return run_resume(r->checkpoint, r->dataset, r->iterations, r->device, command_line); };
+  });
+}
+
+}  // namespace mm::tool
