@@ -3,6 +3,7 @@
 #include <c10/core/InferenceMode.h>
 
 #include "gru_inference.h"
+#include "gru_recurrence.h"
 
 namespace mm {
 
@@ -14,6 +15,14 @@ DecoderImpl::DecoderImpl(const DecoderShape& shape)
       to_pose_(register_module("to_pose", torch::nn::Linear(shape.hidden, shape.pose_dims))) {}
 
 at::Tensor DecoderImpl::forward(const at::Tensor& z) {
+  auto hidden = from_code_->forward(z);
+  const GruWeights gru{cell_->weight_ih, cell_->bias_ih, cell_->weight_hh, cell_->bias_hh};
+  auto generated = gru_autoregressive(hidden, z, gru, to_pose_->weight, to_pose_->bias, shape_.frames, shape_.residual,
+                                      shape_.feed_code);             // Eq. 2-3 / 5-6, (T, B, D)
+  return generated.flip(0).transpose(0, 1);                          // generated last frame first
+}
+
+at::Tensor DecoderImpl::forward_stepwise(const at::Tensor& z) {
   const int64_t batch = z.size(0);
   auto hidden = from_code_->forward(z);
   auto previous = at::zeros({batch, shape_.pose_dims}, z.options());  // no frame after the last one
@@ -33,7 +42,7 @@ at::Tensor DecoderImpl::forward(const at::Tensor& z) {
 at::Tensor DecoderImpl::generate(const at::Tensor& z) const {
   c10::InferenceMode inference;
   if (!z.device().is_cpu() || z.scalar_type() != at::kFloat) {
-    return const_cast<DecoderImpl*>(this)->forward(z);
+    return const_cast<DecoderImpl*>(this)->forward_stepwise(z);
   }
   const int64_t batch = z.size(0), hidden_size = shape_.hidden, dims = shape_.pose_dims;
   const auto& cell = *cell_;

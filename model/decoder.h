@@ -30,8 +30,13 @@ class DecoderImpl : public torch::nn::Module {
   explicit DecoderImpl(const DecoderShape& shape);
 
   // z: (B, latent). Returns (B, frames, pose_dims) normalised poses in time
-  // order (the reverse generation order is undone here).
+  // order (the reverse generation order is undone here). Training path: one
+  // fused recurrence with a whole-sequence backward pass (gru_recurrence.h).
   at::Tensor forward(const at::Tensor& z);
+
+  // The same function as a loop of torch::nn::GRUCell steps under autograd,
+  // kept as the reference that the fused paths are tested against.
+  at::Tensor forward_stepwise(const at::Tensor& z);
 
   // Same result as forward() for inference: no autograd graph, and on the CPU
   // a fused GRU step over raw buffers (matrix-vector products at batch 1),

@@ -10,7 +10,18 @@ EncoderImpl::EncoderImpl(int pose_dims, int hidden, int latent)
     : gru_(register_module("gru", torch::nn::GRU(torch::nn::GRUOptions(pose_dims, hidden).batch_first(true)))),
       to_code_(register_module("to_code", torch::nn::Linear(hidden, latent))) {}
 
+GruWeights EncoderImpl::weights() const {
+  auto p = gru_->named_parameters();
+  return GruWeights{p["weight_ih_l0"], p["bias_ih_l0"], p["weight_hh_l0"], p["bias_hh_l0"]};
+}
+
 at::Tensor EncoderImpl::forward(const at::Tensor& motion) {
+  const auto w = weights();
+  auto h0 = at::zeros({motion.size(0), w.weight_hh.size(1)}, motion.options());
+  return to_code_->forward(gru_last_hidden(motion, h0, w));  // Eq. 1, then W_c
+}
+
+at::Tensor EncoderImpl::forward_reference(const at::Tensor& motion) {
   auto last_hidden = std::get<1>(gru_->forward(motion));  // (1, B, hidden)
   return to_code_->forward(last_hidden.squeeze(0));
 }
@@ -18,11 +29,9 @@ at::Tensor EncoderImpl::forward(const at::Tensor& motion) {
 at::Tensor EncoderImpl::encode(const at::Tensor& motion) const {
   c10::InferenceMode inference;
   if (!motion.device().is_cpu() || motion.scalar_type() != at::kFloat) {
-    return const_cast<EncoderImpl*>(this)->forward(motion);
+    return const_cast<EncoderImpl*>(this)->forward_reference(motion);
   }
-  const auto& gru = *gru_;
-  const auto weight_ih = gru.named_parameters()["weight_ih_l0"], bias_ih = gru.named_parameters()["bias_ih_l0"];
-  const auto weight_hh = gru.named_parameters()["weight_hh_l0"], bias_hh = gru.named_parameters()["bias_hh_l0"];
+  const auto [weight_ih, bias_ih, weight_hh, bias_hh] = weights();
   const int64_t batch = motion.size(0), frames = motion.size(1), hidden_size = weight_hh.size(1);
   // Every frame's input gates in one matrix product: (T, B, 3H).
   auto input_gates = at::addmm(bias_ih, motion.transpose(0, 1).reshape({frames * batch, -1}), weight_ih.t())

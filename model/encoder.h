@@ -10,6 +10,8 @@
 #include <torch/nn/modules/rnn.h>
 #include <torch/nn/pimpl.h>
 
+#include "gru_recurrence.h"
+
 namespace mm {
 
 class EncoderImpl : public torch::nn::Module {
@@ -17,13 +19,21 @@ class EncoderImpl : public torch::nn::Module {
   EncoderImpl(int pose_dims, int hidden, int latent);
 
   // motion: (B, T, pose_dims) normalised poses in time order. Returns (B, latent).
+  // Training path: one fused recurrence with a whole-sequence backward pass
+  // (gru_recurrence.h).
   at::Tensor forward(const at::Tensor& motion);
+
+  // The same function through torch::nn::GRU, kept as the reference that
+  // the fused paths are tested against.
+  at::Tensor forward_reference(const at::Tensor& motion);
 
   // Same result as forward() for inference: no autograd graph and, on the
   // CPU, a fused GRU loop (see gru_inference.h). Safe to call concurrently.
   at::Tensor encode(const at::Tensor& motion) const;
 
  private:
+  GruWeights weights() const;
+
   torch::nn::GRU gru_{nullptr};
   torch::nn::Linear to_code_{nullptr};
 };

@@ -120,8 +120,17 @@ LossValues Trainer::step() {
   for (const auto& q_hat : decoded) {
     l_ang = l_ang + angle_loss(q_hat, motion);
     if (w.position > 0) l_pos = l_pos + position_loss(model_->positions_scaled(q_hat), target_positions);
-    if (w.manifold > 0) l_m = l_m + manifold_loss(model_->encoder()->forward(q_hat), code);
-    if (w.adversarial > 0) l_g = l_g + lsgan_generator_loss(model_->discriminator()->forward(q_hat));
+  }
+  // Both decoders' outputs go through the encoder and the discriminator as
+  // one batch: one recurrence instead of two, and the discriminator sees the
+  // same batch composition as in its own update.
+  const auto decoder_count = static_cast<double>(decoded.size());
+  if (w.manifold > 0) {
+    auto recoded = model_->encoder()->forward(at::cat(decoded, 0));
+    l_m = decoder_count * manifold_loss(recoded, code.repeat({static_cast<int64_t>(decoded.size()), 1}));
+  }
+  if (w.adversarial > 0) {
+    l_g = decoder_count * lsgan_generator_loss(model_->discriminator()->forward(at::cat(decoded, 0)));
   }
   if (w.wasserstein > 0) {
     auto prior = at::randn({config_.batch, config_.model.latent}, prior_generator_).to(device_) *

@@ -32,5 +32,7 @@ void add_evaluate_command(CLI::App& app, Action& action);
 // sample, interpolate, analogy, denoise, encode, decode (Sec. 5).
 void add_manifold_commands(CLI::App& app, Action& action);
 void add_bench_command(CLI::App& app, Action& action);
+// render (pose strips of motions) and plot-log (loss curves), as SVG.
+void add_render_commands(CLI::App& app, Action& action);
 
 }  // namespace mm::tool

@@ -48,7 +48,7 @@ TEST(Networks, FastDecoderPathMatchesAutogradPath) {
       Decoder decoder(DecoderShape{51, 64, 8, 25, residual, feed_code});
       for (int64_t batch : {1, 3}) {
         auto z = at::randn({batch, 8});
-        auto reference = decoder->forward(z);
+        auto reference = decoder->forward_stepwise(z);
         auto fast = decoder->generate(z);
         EXPECT_TRUE(at::allclose(fast, reference, 1e-4, 1e-5))
             << "residual " << residual << " feed_code " << feed_code << " batch " << batch << " max diff "
@@ -63,8 +63,50 @@ TEST(Networks, FastEncoderPathMatchesAutogradPath) {
   Encoder encoder(51, 64, 8);
   for (int64_t batch : {1, 4}) {
     auto motion = at::randn({batch, 30, 51});
-    EXPECT_TRUE(at::allclose(encoder->encode(motion), encoder->forward(motion), 1e-4, 1e-5));
+    EXPECT_TRUE(at::allclose(encoder->encode(motion), encoder->forward_reference(motion), 1e-4, 1e-5));
   }
+}
+
+// Runs loss(module output) backward through both paths of a module and
+// compares the outputs, the input gradient and every parameter gradient.
+template <typename Module, typename Path>
+void expect_same_values_and_gradients(Module& module, const at::Tensor& input, Path reference, const std::string& what) {
+  auto weights = at::randn_like(reference(input));  // a random linear loss probes every output
+  auto run = [&](bool fused) {
+    module->zero_grad();
+    auto x = input.detach().clone().requires_grad_(true);
+    auto out = fused ? module->forward(x) : reference(x);
+    (out * weights).sum().backward();
+    std::vector<at::Tensor> grads{out.detach(), x.grad().clone()};
+    for (auto& p : module->parameters()) grads.push_back(p.grad().clone());
+    return grads;
+  };
+  auto fused = run(true), stepwise = run(false);
+  ASSERT_EQ(fused.size(), stepwise.size());
+  for (size_t i = 0; i < fused.size(); ++i) {
+    const double scale = stepwise[i].abs().max().template item<double>() + 1e-6;
+    const double diff = (fused[i] - stepwise[i]).abs().max().template item<double>();
+    EXPECT_LT(diff / scale, 1e-4) << what << ": tensor " << i << " (0 = output, 1 = input gradient)";
+  }
+}
+
+TEST(Networks, FusedDecoderMatchesStepwiseAutogradInValuesAndGradients) {
+  at::manual_seed(9);
+  for (bool residual : {false, true}) {
+    for (bool feed_code : {false, true}) {
+      Decoder decoder(DecoderShape{51, 32, 8, 20, residual, feed_code});
+      expect_same_values_and_gradients(
+          decoder, at::randn({3, 8}), [&](const at::Tensor& z) { return decoder->forward_stepwise(z); },
+          "residual " + std::to_string(residual) + " feed_code " + std::to_string(feed_code));
+    }
+  }
+}
+
+TEST(Networks, FusedEncoderMatchesTorchGruInValuesAndGradients) {
+  at::manual_seed(10);
+  Encoder encoder(51, 32, 8);
+  expect_same_values_and_gradients(
+      encoder, at::randn({3, 20, 51}), [&](const at::Tensor& m) { return encoder->forward_reference(m); }, "encoder");
 }
 
 TEST(Networks, DiscriminatorScoresAreNonNegative) {

@@ -1,0 +1,197 @@
+// Pictures for reports and for checking a model by eye: `render` draws
+// motions as rows of stick figures (mm_render's pose strip over forward
+// kinematics), `plot-log` draws the loss curves of a training log.
+#include <ATen/ATen.h>
+#include <c10/core/InferenceMode.h>
+
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+
+#include "cli_validators.h"
+#include "commands.h"
+#include "format/atomic_file.h"
+#include "format/input_error.h"
+#include "format/motion_text.h"
+#include "forward_kinematics.h"
+#include "render/loss_curve_svg.h"
+#include "render/pose_strip_svg.h"
+
+namespace mm::tool {
+namespace {
+
+constexpr double kOutputRate = 25.0;  // Hz of every drawn row
+constexpr int kDefaultPoses = 6;
+
+// `values` holds either one value for every input or one per input.
+template <typename T>
+T per_input(const std::vector<T>& values, size_t input, T fallback, const char* option, size_t inputs) {
+  if (values.empty()) return fallback;
+  if (values.size() != 1 && values.size() != inputs) {
+    throw InputError(std::string(option) + ": expected one value or one per --input (" + std::to_string(inputs) +
+                     "), found " + std::to_string(values.size()));
+  }
+  return values.size() == 1 ? values[0] : values[input];
+}
+
+struct RenderOptions {
+  std::vector<std::string> inputs, labels;
+  std::vector<int64_t> frames;
+  std::vector<int> rates, starts, lengths;
+  std::string title, out;
+  bool center_poses = false;
+};
+
+// The 25 Hz window of input `i` that its row shows.
+MotionFrames read_row_motion(const RenderOptions& o, size_t i) {
+  const std::string& path = o.inputs[i];
+  const int rate = per_input(o.rates, i, 25, "--rate", o.inputs.size());
+  const int start = per_input(o.starts, i, 0, "--start", o.inputs.size());
+  const int length = per_input(o.lengths, i, -1, "--length", o.inputs.size());
+  const MotionFrames file = read_motion_text(path);
+  const MotionFrames motion = rate == 50 ? split_phases(file, 2)[0] : file;
+  const int64_t available = motion.frame_count();
+  if (start >= available) {
+    throw InputError(path + ": --start " + std::to_string(start) + " is past the end: the file has " +
+                     std::to_string(available) + " frames at 25 Hz");
+  }
+  const int64_t count = length < 0 ? available - start : length;
+  if (start + count > available) {
+    throw InputError(path + ": too short for --start " + std::to_string(start) + " --length " +
+                     std::to_string(length) + ": it has " + std::to_string(available) + " frames at 25 Hz");
+  }
+  MotionFrames window;
+  window.columns = motion.columns;
+  window.values.assign(motion.frame(start), motion.frame(start) + count * motion.columns);
+  return window;
+}
+
+std::vector<float> joint_positions_mm(const ForwardKinematics& fk, const MotionFrames& motion) {
+  c10::InferenceMode inference;
+  const at::Tensor frames =
+      at::from_blob(const_cast<float*>(motion.values.data()), {motion.frame_count(), motion.columns}, at::kFloat);
+  const at::Tensor positions = fk.positions(frames).to(at::kFloat).contiguous();
+  return std::vector<float>(positions.data_ptr<float>(), positions.data_ptr<float>() + positions.numel());
+}
+
+// kDefaultPoses frames spread over [0, frames): 0, n/5, 2n/5, ..., n-1.
+std::vector<int64_t> spread_frames(int64_t frames) {
+  std::vector<int64_t> indices;
+  for (int i = 0; i < kDefaultPoses; ++i) {
+    const int64_t f = std::min(frames - 1, i * frames / (kDefaultPoses - 1));
+    if (indices.empty() || indices.back() != f) indices.push_back(f);
+  }
+  return indices;
+}
+
+int run_render(const RenderOptions& o) {
+  if (!o.labels.empty() && o.labels.size() != o.inputs.size()) {
+    throw InputError("--label: expected one per --input (" + std::to_string(o.inputs.size()) + "), found " +
+                     std::to_string(o.labels.size()));
+  }
+  const Skeleton skeleton = Skeleton::h36m();
+  const ForwardKinematics fk(skeleton);
+  std::vector<render::PoseRow> rows;
+  int64_t shortest = INT64_MAX;
+  for (size_t i = 0; i < o.inputs.size(); ++i) {
+    const MotionFrames motion = read_row_motion(o, i);
+    render::PoseRow row;
+    row.label = o.labels.empty() ? std::filesystem::path(o.inputs[i]).stem().string() : o.labels[i];
+    row.frames = motion.frame_count();
+    row.positions_mm = joint_positions_mm(fk, motion);
+    shortest = std::min(shortest, row.frames);
+    rows.push_back(std::move(row));
+  }
+  render::StripOptions strip;
+  strip.frame_indices = o.frames.empty() ? spread_frames(shortest) : o.frames;
+  strip.frame_rate = kOutputRate;
+  strip.title = o.title;
+  strip.center_poses = o.center_poses;
+  write_file_atomically(o.out, render::render_pose_strip_svg(skeleton, rows, strip));
+  std::printf("wrote %s: %zu rows x %zu poses\n", o.out.c_str(), rows.size(), strip.frame_indices.size());
+  return kExitSuccess;
+}
+
+void add_render(CLI::App& app, Action& action) {
+  auto o = std::make_shared<RenderOptions>();
+  auto* command = app.add_subcommand(
+      "render",
+      "Draw motions as an SVG picture: one row of stick figures (side view, x right, y up) per --input, at the "
+      "chosen frames, with one scale for all rows. Inputs are H3.6M exponential-map text files; rows are drawn "
+      "at 25 Hz, so give --rate 50 for raw data set files (every second frame is kept) and 25 (the default) for "
+      "files the model wrote. --rate, --start and --length take one value for all inputs or one per input.");
+  command->add_option("--input", o->inputs, "motion file (repeat for more rows)")->required();
+  command->add_option("--label", o->labels, "row label, one per --input (default: the file names)");
+  command->add_option("--frames", o->frames,
+                      "25 Hz frames to draw, within the window, comma-separated (default: 6 spread over the "
+                      "shortest row, e.g. 0,30,60,90,120,149 for 150 frames)")
+      ->delimiter(',');
+  command->add_option("--rate", o->rates, "frame rate of the input file: 50 (raw data set) or 25 (model output)")
+      ->check(CLI::IsMember({25, 50}))
+      ->delimiter(',');
+  command->add_option("--start", o->starts, "first 25 Hz frame of the window (default 0)")
+      ->check(at_least(0))
+      ->delimiter(',');
+  command->add_option("--length", o->lengths, "frames in the window at 25 Hz (default: to the end)")
+      ->check(at_least(1))
+      ->delimiter(',');
+  command->add_option("--title", o->title, "title above the rows");
+  command->add_flag("--center-poses", o->center_poses,
+                    "centre each pose on its own horizontal extent instead of on its root joint");
+  command->add_option("--out", o->out, "SVG file to write")->required();
+  command->callback([o, &action] { action = [o] { return run_render(*o); }; });
+}
+
+void add_plot_log(CLI::App& app, Action& action) {
+  struct Options {
+    std::string log, out, title;
+    std::vector<std::string> columns;
+    int smooth = 1;
+    bool log_scale = false;
+  };
+  auto o = std::make_shared<Options>();
+  auto* command = app.add_subcommand(
+      "plot-log", "Plot the loss terms of a training log (train_log.csv, written by train) as an SVG chart, one "
+                  "panel per term over iterations.");
+  command->add_option("--log", o->log, "training log (CSV with an iteration column)")->required();
+  command->add_option("--columns", o->columns,
+                      "columns to plot, comma-separated, e.g. L_ang,L_pos,L_M,L_W,L_G,L_D (default: every column "
+                      "but iteration and learning_rate)")
+      ->delimiter(',');
+  command->add_option("--smooth", o->smooth, "moving-average window in logged points (1: raw values)")
+      ->check(at_least(1))
+      ->capture_default_str();
+  command->add_flag("--log-scale", o->log_scale, "logarithmic y axes (values <= 0 are left out)");
+  command->add_option("--title", o->title, "title above the panels (default: the log's path)");
+  command->add_option("--out", o->out, "SVG file to write")->required();
+  command->callback([o, &action] {
+    action = [o] {
+      const render::LossLog log = render::read_loss_log(o->log);
+      std::vector<std::string> columns = o->columns;
+      if (columns.empty()) {
+        for (const auto& c : log.columns) {
+          if (c != "iteration" && c != "learning_rate") columns.push_back(c);
+        }
+      }
+      render::CurveOptions curves;
+      curves.smooth_window = o->smooth;
+      curves.log_scale = o->log_scale;
+      curves.title = o->title.empty() ? o->log : o->title;
+      write_file_atomically(o->out, render::render_loss_curves_svg(log, columns, curves));
+      std::printf("wrote %s: %zu panels over %zu logged iterations\n", o->out.c_str(), columns.size(),
+                  log.rows.size());
+      return kExitSuccess;
+    };
+  });
+}
+
+}  // namespace
+
+void add_render_commands(CLI::App& app, Action& action) {
+  add_render(app, action);
+  add_plot_log(app, action);
+}
+
+}  // namespace mm::tool
