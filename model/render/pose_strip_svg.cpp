@@ -17,6 +17,7 @@ constexpr double kMarginPx = 10;      // around the picture
 constexpr double kPadPx = 8;          // inside a pose's cell, around the figure
 constexpr double kTimeTextPx = 22;    // below each pose, for its time
 constexpr double kTitlePx = 28;
+constexpr double kPi = 3.14159265358979323846;
 
 std::string row_name(const std::vector<PoseRow>& rows, size_t r) {
   return "row " + std::to_string(r) + " (\"" + rows[r].label + "\")";
@@ -74,14 +75,22 @@ bool is_drawn(const Joint& joint) {
   return std::sqrt(o[0] * o[0] + o[1] * o[1] + o[2] * o[2]) >= kMinDrawnBoneMm;
 }
 
-// Horizontal placement of one pose inside its cell: the model x that lands
-// on the cell's centre.
-double pose_anchor_x(const float* pose, int joints, bool center) {
-  if (!center) return pose[0];
+// The horizontal picture coordinate (mm) of the view at azimuth `a`.
+struct View {
+  double cos_a, sin_a;
+  explicit View(double degrees)
+      : cos_a(std::cos(degrees * kPi / 180)), sin_a(std::sin(degrees * kPi / 180)) {}
+  double horizontal(const float* pose, int j) const { return pose[3 * j] * cos_a + pose[3 * j + 2] * sin_a; }
+};
+
+// Horizontal placement of one pose inside its cell: the horizontal
+// coordinate that lands on the cell's centre.
+double pose_anchor(const View& view, const float* pose, int joints, bool center) {
+  if (!center) return view.horizontal(pose, 0);
   double lo = std::numeric_limits<double>::infinity(), hi = -lo;
   for (int j = 0; j < joints; ++j) {
-    lo = std::min(lo, static_cast<double>(pose[3 * j]));
-    hi = std::max(hi, static_cast<double>(pose[3 * j]));
+    lo = std::min(lo, view.horizontal(pose, j));
+    hi = std::max(hi, view.horizontal(pose, j));
   }
   return 0.5 * (lo + hi);
 }
@@ -96,6 +105,9 @@ std::string render_pose_strip_svg(const Skeleton& skeleton, const std::vector<Po
                                   const StripOptions& o) {
   validate(skeleton, rows, o);
   const int joints = skeleton.joint_count();
+  const View view(o.view_azimuth_deg);
+  // The viewer looks along (sin a, 0, -cos a); the skeleton's left is +x.
+  const char* const far_side = view.sin_a >= 0 ? "Left" : "Right";
   auto pose_of = [&](const PoseRow& row, int64_t f) { return row.positions_mm.data() + f * joints * 3; };
 
   // One scale for everything: the tallest vertical range and the widest
@@ -104,11 +116,11 @@ std::string render_pose_strip_svg(const Skeleton& skeleton, const std::vector<Po
   for (const PoseRow& row : rows) {
     for (int64_t f : o.frame_indices) {
       const float* pose = pose_of(row, f);
-      const double anchor = pose_anchor_x(pose, joints, o.center_poses);
+      const double anchor = pose_anchor(view, pose, joints, o.center_poses);
       for (int j = 0; j < joints; ++j) {
         y_low = std::min(y_low, static_cast<double>(pose[3 * j + 1]));
         y_high = std::max(y_high, static_cast<double>(pose[3 * j + 1]));
-        reach = std::max(reach, std::abs(pose[3 * j] - anchor));
+        reach = std::max(reach, std::abs(view.horizontal(pose, j) - anchor));
       }
     }
   }
@@ -139,14 +151,14 @@ std::string render_pose_strip_svg(const Skeleton& skeleton, const std::vector<Po
       const int64_t f = o.frame_indices[c];
       const float* pose = pose_of(row, f);
       const double centre_px = strip_left + (c + 0.5) * o.pose_width_px;
-      const double anchor = pose_anchor_x(pose, joints, o.center_poses);
-      auto sx = [&](int j) { return centre_px + (pose[3 * j] - anchor) * scale; };
+      const double anchor = pose_anchor(view, pose, joints, o.center_poses);
+      auto sx = [&](int j) { return centre_px + (view.horizontal(pose, j) - anchor) * scale; };
       auto sy = [&](int j) { return row_top + figure_top_px + (y_high - pose[3 * j + 1]) * scale; };
-      // Far (left) side first so the near side is drawn over it.
+      // Far side first, lighter, so the near side is drawn over it.
       for (int pass = 0; pass < 2; ++pass) {
         for (int j = 0; j < joints; ++j) {
           const Joint& joint = skeleton.joints[static_cast<size_t>(j)];
-          if (!is_drawn(joint) || starts_with(joint.name, "Left") != (pass == 0)) continue;
+          if (!is_drawn(joint) || starts_with(joint.name, far_side) != (pass == 0)) continue;
           svg.line(sx(joint.parent), sy(joint.parent), sx(j), sy(j), colour, o.line_width_px,
                    pass == 0 ? "class=\"bone\" stroke-opacity=\"0.45\"" : "class=\"bone\"");
         }

@@ -37,6 +37,13 @@ struct StripOptions {
   double pose_height_px = 150;   // height of the drawing area of one pose (without its time text)
   double label_width_px = 120;   // column of the row labels
   double line_width_px = 2.2;
+  // Direction of the view around the vertical axis. The picture's horizontal
+  // coordinate is x cos(a) + z sin(a): 90 (the default) is the side view, the
+  // body's forward z to the right (the H3.6M skeleton's rest pose faces +z
+  // with its left on +x), which shows sitting, bending and stepping; 0 is the
+  // front view (x to the right), where a sitting pose looks like a standing
+  // one. Angles between give an oblique view.
+  double view_azimuth_deg = 90;
   // false: the root joint sits at the centre of its cell, so a pose's lean
   // and stride show relative to the hips. true: each pose is shifted
   // horizontally so that its own x extent is centred in the cell, which keeps
@@ -55,12 +62,14 @@ constexpr double kMinDrawnBoneMm = 1.0;
 int drawn_bone_count(const Skeleton& skeleton);
 
 // Renders the rows as an SVG document (UTF-8 text starting with "<svg" and
-// ending with "</svg>\n"). The view is orthographic from the side: x to the
-// right, y up, z dropped. One scale is shared by all rows and poses, so
+// ending with "</svg>\n"). The view is orthographic, y up, from the azimuth
+// of StripOptions::view_azimuth_deg (by default from the side: z to the
+// right, x dropped). One scale is shared by all rows and poses, so
 // heights compare across rows; the vertical range is that of all drawn poses,
-// so rows line up. Each bone is one <line class="bone">; bones of joints
-// whose name starts with "Left" are drawn lighter so the two sides can be
-// told apart.
+// so rows line up. Each bone is one <line class="bone">; the bones of the
+// side away from the viewer (joints named "Left..." when the azimuth is in
+// [0, 180), "Right..." otherwise) are drawn lighter so the sides can be told
+// apart.
 //
 // Throws InputError when: the skeleton has no joints; there are no rows or no
 // frame indices; a row has frames < 1 or positions_mm.size() differs from

@@ -41,6 +41,7 @@ struct RenderOptions {
   std::vector<int64_t> frames;
   std::vector<int> rates, starts, lengths;
   std::string title, out;
+  double azimuth_deg = 90;
   bool center_poses = false;
 };
 
@@ -109,6 +110,7 @@ int run_render(const RenderOptions& o) {
   strip.frame_rate = kOutputRate;
   strip.title = o.title;
   strip.center_poses = o.center_poses;
+  strip.view_azimuth_deg = o.azimuth_deg;
   write_file_atomically(o.out, render::render_pose_strip_svg(skeleton, rows, strip));
   std::printf("wrote %s: %zu rows x %zu poses\n", o.out.c_str(), rows.size(), strip.frame_indices.size());
   return kExitSuccess;
@@ -118,7 +120,7 @@ void add_render(CLI::App& app, Action& action) {
   auto o = std::make_shared<RenderOptions>();
   auto* command = app.add_subcommand(
       "render",
-      "Draw motions as an SVG picture: one row of stick figures (side view, x right, y up) per --input, at the "
+      "Draw motions as an SVG picture: one row of stick figures (side view by default, y up) per --input, at the "
       "chosen frames, with one scale for all rows. Inputs are H3.6M exponential-map text files; rows are drawn "
       "at 25 Hz, so give --rate 50 for raw data set files (every second frame is kept) and 25 (the default) for "
       "files the model wrote. --rate, --start and --length take one value for all inputs or one per input.");
@@ -138,6 +140,10 @@ void add_render(CLI::App& app, Action& action) {
       ->check(at_least(1))
       ->delimiter(',');
   command->add_option("--title", o->title, "title above the rows");
+  command->add_option("--azimuth", o->azimuth_deg,
+                      "view direction in degrees around the vertical: 90 side view (forward to the right), 0 front "
+                      "view, between: oblique")
+      ->capture_default_str();
   command->add_flag("--center-poses", o->center_poses,
                     "centre each pose on its own horizontal extent instead of on its root joint");
   command->add_option("--out", o->out, "SVG file to write")->required();

@@ -75,9 +75,8 @@ TEST(PoseStripSvg, HeadIsDrawnAboveTheFeet) {
   StripOptions options;
   options.frame_indices = {0};
   const std::string svg = render_pose_strip_svg(skeleton, {rest_row(skeleton, "rest", 1)}, options);
-  // The bones are drawn in joint order per side: right leg first, the neck-to-
-  // head bones later. Compare the largest and smallest y of all bone ends with
-  // the root marker's y: the head must be far above it, the feet far below.
+  // The root marker is the first circle; the head must be well above it, the
+  // feet well below.
   const size_t root = svg.find("<circle");
   ASSERT_NE(root, std::string::npos);
   const double root_y = std::stod(svg.substr(svg.find("cy=\"", root) + 4));
