@@ -3,10 +3,12 @@
 #include <c10/core/InferenceMode.h>
 
 #include <nlohmann/json.hpp>
+#include <cstring>
 #include <set>
 
 #include "clip_sampler.h"
 #include "format/input_error.h"
+#include "latent_operations.h"
 #include "rotation.h"
 
 namespace mm {
@@ -20,6 +22,34 @@ std::vector<double> per_interval(const at::Tensor& per_frame, int intervals) {
 
 at::Tensor frame_norm(const at::Tensor& difference, int64_t trailing_dims) {
   return difference.flatten(difference.dim() - trailing_dims, -1).norm(2, -1);
+}
+
+// Mean per-joint position error in mm, over clips, frames and joints.
+double mean_joint_error_mm(const at::Tensor& positions, const at::Tensor& truth) {
+  return (positions - truth).norm(2, -1).mean().item<double>();
+}
+
+nlohmann::json evaluate_denoising(const MotionManifold& model, const at::Tensor& motion, const at::Tensor& truth_mm,
+                                  const EvaluationOptions& options) {
+  auto raw = model.to_raw(motion).cpu().contiguous();
+  const int64_t clips = raw.size(0), frames = raw.size(1), columns = raw.size(2);
+  auto corrupted = at::empty_like(raw);
+  for (int64_t i = 0; i < clips; ++i) {
+    MotionFrames clip;
+    clip.columns = static_cast<int>(columns);
+    clip.values.assign(raw[i].data_ptr<float>(), raw[i].data_ptr<float>() + frames * columns);
+    const auto noisy = corrupt_motion(clip, model.normalization(), options.corruption_probability,
+                                      options.corruption_seed + static_cast<uint64_t>(i));
+    std::memcpy(corrupted[i].data_ptr<float>(), noisy.values.data(), sizeof(float) * frames * columns);
+  }
+  auto corrupted_normalized = model.to_normalized(corrupted.to(model.device()));
+  const auto kind = model.default_decoder();
+  auto denoised = model.decode(model.encode(corrupted_normalized), kind);
+  return {{"probability", options.corruption_probability},
+          {"seed", options.corruption_seed},
+          {"decoder", decoder_name(kind)},
+          {"corrupted_mpjpe_mm", mean_joint_error_mm(model.positions_mm(corrupted_normalized), truth_mm)},
+          {"denoised_mpjpe_mm", mean_joint_error_mm(model.positions_mm(denoised), truth_mm)}};
 }
 
 }  // namespace
@@ -85,6 +115,7 @@ std::string evaluate_reconstruction(const MotionManifold& model, const std::vect
       {"decoders", decoders},
       {"test_clips", clip_list},
   };
+  if (options.corruption_probability > 0) result["denoising"] = evaluate_denoising(model, motion, truth_mm, options);
   return result.dump(2);
 }
 

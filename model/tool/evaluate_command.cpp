@@ -8,6 +8,7 @@
 #include "cli_validators.h"
 #include "commands.h"
 #include "device_option.h"
+#include "default_model.h"
 #include "evaluation.h"
 #include "format/atomic_file.h"
 #include "format/input_error.h"
@@ -41,6 +42,12 @@ void print_table(const nlohmann::json& result) {
   }
   std::fprintf(stderr, "(E_r: normalised angles; E_p: positions in units of %.1f mm; mpjpe in mm; angle in rad)\n",
                result.at("position_unit_mm").get<double>());
+  if (result.contains("denoising")) {
+    const auto& d = result.at("denoising");
+    std::fprintf(stderr, "denoising (p = %.2f, %s decoder): corrupted %.1f mm, denoised %.1f mm\n",
+                 d.at("probability").get<double>(), d.at("decoder").get<std::string>().c_str(),
+                 d.at("corrupted_mpjpe_mm").get<double>(), d.at("denoised_mpjpe_mm").get<double>());
+  }
 }
 
 int run_evaluate(const EvaluateOptions& o) {
@@ -73,12 +80,18 @@ void add_evaluate_command(CLI::App& app, Action& action) {
       "evaluate",
       "Reconstruction errors (Table 1: E_r, E_p, E_z, plus mm and radians) of a model on random clips of the "
       "dataset's test subjects. JSON on stdout, a summary table on stderr.");
-  command->add_option("--model", o->model_dir, "model folder (written by train)")->required();
+  o->model_dir = default_model_dir();
+    command->add_option("--model", o->model_dir, "model folder (written by train; default: $MM_MODEL_DIR or the shipped model)")
+        ->capture_default_str();
   command->add_option("--dataset", o->dataset, "prepared dataset file; its test subjects are used")->required();
   command->add_option("--clips", o->evaluation.clips, "number of random test clips")
       ->check(at_least(1))
       ->capture_default_str();
   command->add_option("--seed", o->evaluation.seed, "seed choosing the clips")->capture_default_str();
+  command->add_option("--corruption-probability", o->evaluation.corruption_probability,
+                      "denoising experiment (Sec. 5.4): probability of zeroing each joint angle; 0 skips it")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
   command->add_option("--out", o->out, "also write the JSON to this file");
   command->add_option("--device", o->device, "cpu, cuda or auto")->capture_default_str();
   command->callback([o, &action] { action = [o] { return run_evaluate(*o); }; });

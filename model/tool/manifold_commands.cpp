@@ -12,6 +12,7 @@
 #include "commands.h"
 #include "format/atomic_file.h"
 #include "format/input_error.h"
+#include "default_model.h"
 #include "latent_operations.h"
 #include "motion_files.h"
 
@@ -24,7 +25,9 @@ struct ModelOptions {
   std::string decoder;  // empty: the model's default (rotation if present)
 
   void add_to(CLI::App* command, bool decodes) {
-    command->add_option("--model", model_dir, "model folder (written by train)")->required();
+    model_dir = default_model_dir();
+    command->add_option("--model", model_dir, "model folder (written by train; default: $MM_MODEL_DIR or the shipped model)")
+        ->capture_default_str();
     if (decodes) {
       command->add_option("--decoder", decoder, "rotation or velocity (default: rotation if the model has it)")
           ->check(CLI::IsMember({"rotation", "velocity"}));
