@@ -41,9 +41,43 @@ at::Tensor gru_step_backward(const at::Tensor& grad_hidden, const at::Tensor& hi
   return grad_hidden * c.update + at::mm(grad_hidden_gates, weight_hh);
 }
 
-StepCache cache_at(const at::Tensor& r, const at::Tensor& z, const at::Tensor& n, const at::Tensor& hn, int64_t t) {
-  return StepCache{r[t], z[t], n[t], hn[t]};
-}
+// Everything a recurrence's backward pass reads: the step inputs, the hidden
+// states h_0 .. h_T and each step's activations.
+struct SequenceState {
+  at::Tensor inputs;                 // (T, B, I)
+  at::Tensor hiddens;                // (T + 1, B, H)
+  at::Tensor reset, update, candidate, hidden_n;  // (T, B, H) each
+
+  SequenceState(at::Tensor step_inputs, int64_t batch, int64_t size, const at::TensorOptions& options)
+      : inputs(std::move(step_inputs)) {
+    const int64_t frames = inputs.size(0);
+    hiddens = at::empty({frames + 1, batch, size}, options);
+    reset = at::empty({frames, batch, size}, options);
+    update = at::empty_like(reset);
+    candidate = at::empty_like(reset);
+    hidden_n = at::empty_like(reset);
+  }
+  explicit SequenceState(AutogradContext* ctx)
+      : inputs(ctx->saved_data["inputs"].toTensor()),
+        hiddens(ctx->saved_data["hiddens"].toTensor()),
+        reset(ctx->saved_data["reset"].toTensor()),
+        update(ctx->saved_data["update"].toTensor()),
+        candidate(ctx->saved_data["candidate"].toTensor()),
+        hidden_n(ctx->saved_data["hidden_n"].toTensor()) {}
+
+  void save(AutogradContext* ctx) const {
+    ctx->saved_data["inputs"] = inputs;
+    ctx->saved_data["hiddens"] = hiddens;
+    ctx->saved_data["reset"] = reset;
+    ctx->saved_data["update"] = update;
+    ctx->saved_data["candidate"] = candidate;
+    ctx->saved_data["hidden_n"] = hidden_n;
+  }
+  int64_t frames() const { return inputs.size(0); }
+  StepCache step(int64_t t) const { return StepCache{reset[t], update[t], candidate[t], hidden_n[t]}; }
+  // h_0 .. h_{T-1}: what each step's hidden gates were computed from.
+  at::Tensor previous_hiddens() const { return hiddens.narrow(0, 0, frames()); }
+};
 
 // Sum over the first two dimensions and the (3H x K) weight gradient
 // sum_t grad_gates[t]^T . inputs[t], each as one product.
@@ -59,41 +93,34 @@ struct LastHidden : public torch::autograd::Function<LastHidden> {
     const int64_t batch = inputs.size(0), frames = inputs.size(1), size = weight_hh.size(1);
     auto time_major = inputs.transpose(0, 1).contiguous();  // (T, B, I)
     auto input_gates = at::addmm(bias_ih, time_major.view({frames * batch, -1}), weight_ih.t()).view({frames, batch, -1});
-    auto opts = h0.options();
-    auto hiddens = at::empty({frames + 1, batch, size}, opts);
-    auto r = at::empty({frames, batch, size}, opts), z = at::empty_like(r), n = at::empty_like(r), hn = at::empty_like(r);
+    SequenceState state(time_major, batch, size, h0.options());
+    auto& hiddens = state.hiddens;
     hiddens[0].copy_(h0);
     for (int64_t t = 0; t < frames; ++t) {
       auto hidden_gates = at::addmm(bias_hh, hiddens[t], weight_hh.t());
-      hiddens[t + 1].copy_(gru_step(input_gates[t], hidden_gates, hiddens[t], cache_at(r, z, n, hn, t)));
+      hiddens[t + 1].copy_(gru_step(input_gates[t], hidden_gates, hiddens[t], state.step(t)));
     }
     ctx->save_for_backward({weight_ih, weight_hh});
-    ctx->saved_data["inputs"] = time_major;
-    ctx->saved_data["hiddens"] = hiddens;
-    ctx->saved_data["r"] = r;
-    ctx->saved_data["z"] = z;
-    ctx->saved_data["n"] = n;
-    ctx->saved_data["hn"] = hn;
+    state.save(ctx);
     return hiddens[frames].clone();
   }
 
   static variable_list backward(AutogradContext* ctx, variable_list grad_outputs) {
     auto saved = ctx->get_saved_variables();
     const auto &weight_ih = saved[0], &weight_hh = saved[1];
-    auto inputs = ctx->saved_data["inputs"].toTensor(), hiddens = ctx->saved_data["hiddens"].toTensor();
-    auto r = ctx->saved_data["r"].toTensor(), z = ctx->saved_data["z"].toTensor();
-    auto n = ctx->saved_data["n"].toTensor(), hn = ctx->saved_data["hn"].toTensor();
-    const int64_t frames = inputs.size(0), batch = inputs.size(1), size = weight_hh.size(1);
+    const SequenceState state(ctx);
+    const auto& hiddens = state.hiddens;
+    const int64_t frames = state.frames(), batch = state.inputs.size(1), size = weight_hh.size(1);
     auto grad_input_gates = at::empty({frames, batch, 3 * size}, hiddens.options());
     auto grad_hidden_gates = at::empty_like(grad_input_gates);
     auto grad_hidden = grad_outputs[0].defined() ? grad_outputs[0] : at::zeros({batch, size}, hiddens.options());
     for (int64_t t = frames - 1; t >= 0; --t) {
-      grad_hidden = gru_step_backward(grad_hidden, hiddens[t], cache_at(r, z, n, hn, t), weight_hh,
-                                      grad_input_gates[t], grad_hidden_gates[t]);
+      grad_hidden = gru_step_backward(grad_hidden, hiddens[t], state.step(t), weight_hh, grad_input_gates[t],
+                                      grad_hidden_gates[t]);
     }
     auto grad_inputs = at::matmul(grad_input_gates, weight_ih).transpose(0, 1);
-    auto [grad_weight_ih, grad_bias_ih] = weight_and_bias_grad(grad_input_gates, inputs);
-    auto [grad_weight_hh, grad_bias_hh] = weight_and_bias_grad(grad_hidden_gates, hiddens.narrow(0, 0, frames));
+    auto [grad_weight_ih, grad_bias_ih] = weight_and_bias_grad(grad_input_gates, state.inputs);
+    auto [grad_weight_hh, grad_bias_hh] = weight_and_bias_grad(grad_hidden_gates, state.previous_hiddens());
     return {grad_inputs, grad_hidden, grad_weight_ih, grad_bias_ih, grad_weight_hh, grad_bias_hh};
   }
 };
@@ -108,26 +135,21 @@ struct Autoregressive : public torch::autograd::Function<Autoregressive> {
     auto opts = h0.options();
     auto inputs = at::zeros({frames, batch, input_size}, opts);  // step t's input; step 0 sees a zero pose
     if (feed_code) inputs.narrow(2, dims, input_size - dims).copy_(code.unsqueeze(0).expand({frames, batch, -1}));
-    auto hiddens = at::empty({frames + 1, batch, size}, opts);
+    SequenceState state(inputs, batch, size, opts);
+    auto& hiddens = state.hiddens;
     auto outputs = at::empty({frames, batch, dims}, opts);
-    auto r = at::empty({frames, batch, size}, opts), z = at::empty_like(r), n = at::empty_like(r), hn = at::empty_like(r);
     hiddens[0].copy_(h0);
     for (int64_t t = 0; t < frames; ++t) {
       auto input_gates = at::addmm(bias_ih, inputs[t], weight_ih.t());
       auto hidden_gates = at::addmm(bias_hh, hiddens[t], weight_hh.t());
-      hiddens[t + 1].copy_(gru_step(input_gates, hidden_gates, hiddens[t], cache_at(r, z, n, hn, t)));
+      hiddens[t + 1].copy_(gru_step(input_gates, hidden_gates, hiddens[t], state.step(t)));
       auto pose = at::addmm(bias_out, hiddens[t + 1], weight_out.t());
       if (residual && t > 0) pose.add_(outputs[t - 1]);
       outputs[t].copy_(pose);
       if (t + 1 < frames) inputs[t + 1].narrow(1, 0, dims).copy_(pose);
     }
     ctx->save_for_backward({weight_ih, weight_hh, weight_out});
-    ctx->saved_data["inputs"] = inputs;
-    ctx->saved_data["hiddens"] = hiddens;
-    ctx->saved_data["r"] = r;
-    ctx->saved_data["z"] = z;
-    ctx->saved_data["n"] = n;
-    ctx->saved_data["hn"] = hn;
+    state.save(ctx);
     ctx->saved_data["residual"] = residual;
     ctx->saved_data["feed_code"] = feed_code;
     return outputs;
@@ -136,11 +158,10 @@ struct Autoregressive : public torch::autograd::Function<Autoregressive> {
   static variable_list backward(AutogradContext* ctx, variable_list grad_outputs) {
     auto saved = ctx->get_saved_variables();
     const auto &weight_ih = saved[0], &weight_hh = saved[1], &weight_out = saved[2];
-    auto inputs = ctx->saved_data["inputs"].toTensor(), hiddens = ctx->saved_data["hiddens"].toTensor();
-    auto r = ctx->saved_data["r"].toTensor(), z = ctx->saved_data["z"].toTensor();
-    auto n = ctx->saved_data["n"].toTensor(), hn = ctx->saved_data["hn"].toTensor();
+    const SequenceState state(ctx);
+    const auto& hiddens = state.hiddens;
     const bool residual = ctx->saved_data["residual"].toBool(), feed_code = ctx->saved_data["feed_code"].toBool();
-    const int64_t frames = inputs.size(0), batch = inputs.size(1), size = weight_hh.size(1);
+    const int64_t frames = state.frames(), batch = state.inputs.size(1), size = weight_hh.size(1);
     const int64_t dims = weight_out.size(0);
     auto opts = hiddens.options();
     auto grad_poses = grad_outputs[0].defined() ? grad_outputs[0] : at::zeros({frames, batch, dims}, opts);
@@ -153,8 +174,8 @@ struct Autoregressive : public torch::autograd::Function<Autoregressive> {
       auto grad_pose = grad_poses[t] + grad_from_future;
       grad_outputs_total[t].copy_(grad_pose);
       grad_hidden = grad_hidden + at::mm(grad_pose, weight_out);
-      grad_hidden = gru_step_backward(grad_hidden, hiddens[t], cache_at(r, z, n, hn, t), weight_hh,
-                                      grad_input_gates[t], grad_hidden_gates[t]);
+      grad_hidden = gru_step_backward(grad_hidden, hiddens[t], state.step(t), weight_hh, grad_input_gates[t],
+                                      grad_hidden_gates[t]);
       // Step t's input pose is y_{t-1}; its gradient flows on to step t-1.
       grad_from_future = at::mm(grad_input_gates[t], weight_ih.narrow(1, 0, dims));
       if (residual) grad_from_future = grad_from_future + grad_pose;
@@ -163,8 +184,8 @@ struct Autoregressive : public torch::autograd::Function<Autoregressive> {
     if (feed_code) {
       grad_code = at::mm(grad_input_gates.sum(0), weight_ih.narrow(1, dims, weight_ih.size(1) - dims));
     }
-    auto [grad_weight_ih, grad_bias_ih] = weight_and_bias_grad(grad_input_gates, inputs);
-    auto [grad_weight_hh, grad_bias_hh] = weight_and_bias_grad(grad_hidden_gates, hiddens.narrow(0, 0, frames));
+    auto [grad_weight_ih, grad_bias_ih] = weight_and_bias_grad(grad_input_gates, state.inputs);
+    auto [grad_weight_hh, grad_bias_hh] = weight_and_bias_grad(grad_hidden_gates, state.previous_hiddens());
     auto [grad_weight_out, grad_bias_out] = weight_and_bias_grad(grad_outputs_total, hiddens.narrow(0, 1, frames));
     return {grad_hidden,    grad_code,       grad_weight_ih,  grad_bias_ih, grad_weight_hh,
             grad_bias_hh,   grad_weight_out, grad_bias_out,   at::Tensor(), at::Tensor(),

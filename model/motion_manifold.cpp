@@ -33,7 +33,7 @@ void load_module(torch::nn::Module& module, const std::string& path) {
   if (!std::filesystem::exists(path)) throw InputError(path + ": missing network weights file");
   try {
     torch::serialize::InputArchive archive;
-    archive.load_from(path);
+    archive.load_from(path, at::kCPU);  // weights saved from a GPU load anywhere; load() moves them on
     module.load(archive);
   } catch (const c10::Error& e) {
     throw InputError(path + ": unreadable or mismatched network weights: " + e.what_without_backtrace());
