@@ -192,7 +192,10 @@ TrainOutcome Trainer::run(const ProgressCallback& progress, const std::atomic<bo
       save_checkpoint(checkpoint);
   }
   }
-  if (!losses.empty() && iteration_ % config_.log_every != 0) report();
+  if (!losses.empty() && iteration_ % config_.log_every != 0) {  // the last iteration is always logged
+    if (has_output) append_log(losses);
+    report();
+  }
   if (has_output) save_checkpoint(checkpoint);
   return outcome;
 }

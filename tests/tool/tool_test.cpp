@@ -1,0 +1,95 @@
+// The motion-manifold command-line tool end to end, as a user runs it: real
+// H3.6M files, a real prepared dataset, a short real training run, and the
+// exit codes and messages of bad input.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "test_environment.h"
+
+namespace mm {
+namespace {
+
+struct Result {
+  int exit_code;
+  std::string output;  // stdout and stderr together
+};
+
+Result run_tool(const std::string& arguments) {
+  const std::string command = std::string(MM_TOOL_PATH) + " " + arguments + " 2>&1";
+  FILE* pipe = popen(command.c_str(), "r");
+  if (pipe == nullptr) return {-1, "popen failed"};
+  std::string output;
+  std::array<char, 4096> buffer;
+  while (fgets(buffer.data(), buffer.size(), pipe) != nullptr) output += buffer.data();
+  const int status = pclose(pipe);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, output};
+}
+
+std::string s5(const std::string& name) { return (test::h36m_dataset_dir() / "S5" / name).string(); }
+
+TEST(Tool, UnknownVariantIsAUsageErrorNamingTheValue) {
+  const auto r = run_tool("train --variant XYZ --dataset nowhere.mmd --out /tmp/unused");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("XYZ"), std::string::npos) << r.output;
+}
+
+TEST(Tool, MissingSubcommandIsAUsageError) { EXPECT_EQ(run_tool("").exit_code, 2); }
+
+TEST(Tool, PrepareTrainEvaluateAndDecodeOnRealData) {
+  MM_REQUIRE_H36M();
+  test::ScratchDir dir;
+  const std::string dataset = dir.file("h36m.mmd");
+  auto r = run_tool("prepare --data " + test::data_dir() + " --train S1 --test S5 --out " + dataset);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  ASSERT_TRUE(std::filesystem::exists(dataset));
+
+  const std::string run = dir.file("run");
+  r = run_tool("train --variant DKGM --dataset " + dataset + " --out " + run +
+               " --iterations 3 --hidden 16 --batch 4 --device cpu");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  for (const char* file : {"config.json", "train_log.csv", "checkpoint.pt", "model/manifest.json"}) {
+    EXPECT_TRUE(std::filesystem::exists(run + "/" + file)) << file;
+  }
+
+  r = run_tool("evaluate --model " + run + "/model --dataset " + dataset + " --clips 3 --out " + dir.file("eval.json"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::ifstream evaluation(dir.file("eval.json"));
+  const auto json = nlohmann::json::parse(evaluation);
+  EXPECT_EQ(json["clips"], 3);
+  EXPECT_EQ(json["decoders"]["rotation"]["E_p"].size(), 5u);
+  EXPECT_GT(json["denoising"]["corrupted_mpjpe_mm"].get<double>(), 0.0);
+
+  r = run_tool("denoise --model " + run + "/model --input " + s5("walking_1.txt") + " --out " + dir.file("d.txt"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::ifstream denoised(dir.file("d.txt"));
+  int lines = 0;
+  for (std::string line; std::getline(denoised, line);) ++lines;
+  EXPECT_EQ(lines, 150);
+
+  // A motion shorter than a clip is bad input, named in the message.
+  {
+    std::ofstream short_file(dir.file("short.txt"));
+    for (int frame = 0; frame < 20; ++frame) {
+      for (int c = 0; c < 99; ++c) short_file << (c ? ",0.0" : "0.0");
+      short_file << '\n';
+    }
+  }
+  r = run_tool("encode --model " + run + "/model --input " + dir.file("short.txt"));
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("short.txt"), std::string::npos) << r.output;
+}
+
+TEST(Tool, ResumeWithoutADatasetIsAUsageError) {
+  const auto r = run_tool("train --resume /tmp/nothing/checkpoint.pt");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+}
+
+}  // namespace
+}  // namespace mm
