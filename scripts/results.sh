@@ -28,7 +28,7 @@ mkdir -p "$out" "$work"
 "$tool" interpolate --model "$model" --from "$s5/sitting_1.txt" --to "$s5/walking_1.txt" --steps 5 \
   --start-from 200 --out-dir "$work/interpolation"
 "$tool" render --input "$s5/sitting_1.txt" $(for i in 0 1 2 3 4; do echo --input "$work/interpolation/interpolation_00$i.txt"; done) \
-  --input "$s5/walking_1.txt" --rate 50,25,25,25,25,25,50 --start 400,0,0,0,0,0,0 --length 300,150,150,150,150,150,300 \
+  --input "$s5/walking_1.txt" --rate 50,25,25,25,25,25,50 --start 200,0,0,0,0,0,0 --length 150 \
   --label "S5 sitting" --label "t = 0" --label "t = 0.25" --label "t = 0.5" --label "t = 0.75" --label "t = 1" \
   --label "S5 walking" --title "Interpolation sitting to walking (linear in z)" --out "$out/interpolation.svg"
 
@@ -36,14 +36,14 @@ mkdir -p "$out" "$work"
 "$tool" denoise --model "$model" --input "$s5/walking_2.txt" --corrupt-probability 0.5 --seed 3 \
   --corrupted-out "$work/corrupted.txt" --out "$work/denoised.txt"
 "$tool" render --input "$s5/walking_2.txt" --input "$work/corrupted.txt" --input "$work/denoised.txt" \
-  --rate 50,25,25 --length 300,150,150 --label "ground truth" --label "corrupted" --label "denoised" \
+  --rate 50,25,25 --length 150 --label "ground truth" --label "corrupted" --label "denoised" \
   --title "Denoising: S5 walking, each joint angle zeroed with p = 0.5" --out "$out/denoising.svg"
 
 # Sec. 5.5: analogy a - b + c.
 "$tool" analogy --model "$model" --a "$s5/walkingdog_1.txt" --b "$s5/walking_1.txt" --c "$s5/sitting_1.txt" \
   --start-c 200 --out "$work/analogy.txt"
 "$tool" render --input "$s5/walkingdog_1.txt" --input "$s5/walking_1.txt" --input "$s5/sitting_1.txt" \
-  --input "$work/analogy.txt" --rate 50,50,50,25 --start 0,0,400,0 --length 300,300,300,150 \
+  --input "$work/analogy.txt" --rate 50,50,50,25 --start 0,0,200,0 --length 150 \
   --label "a: walking dog" --label "b: walking" --label "c: sitting" --label "a - b + c" \
   --title "Analogy: walking dog - walking + sitting (S5)" --out "$out/analogy.svg"
 
