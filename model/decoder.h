@@ -34,8 +34,8 @@ class DecoderImpl : public torch::nn::Module {
   // fused recurrence with a whole-sequence backward pass (gru_recurrence.h).
   at::Tensor forward(const at::Tensor& z);
 
-  // The same function as a loop of torch::nn::GRUCell steps under autograd,
-  // kept as the reference that the fused paths are tested against.
+  // The same function as a loop of torch::nn::GRUCell steps: the reference
+  // the fused paths are tested against, and generate()'s path off the CPU.
   at::Tensor forward_stepwise(const at::Tensor& z);
 
   // Same result as forward() for inference: no autograd graph, and on the CPU

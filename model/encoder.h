@@ -23,8 +23,8 @@ class EncoderImpl : public torch::nn::Module {
   // (gru_recurrence.h).
   at::Tensor forward(const at::Tensor& motion);
 
-  // The same function through torch::nn::GRU, kept as the reference that
-  // the fused paths are tested against.
+  // The same function through torch::nn::GRU: the reference the fused paths
+  // are tested against, and encode()'s path off the CPU.
   at::Tensor forward_reference(const at::Tensor& motion);
 
   // Same result as forward() for inference: no autograd graph and, on the

@@ -81,8 +81,8 @@ void add_evaluate_command(CLI::App& app, Action& action) {
       "Reconstruction errors (Table 1: E_r, E_p, E_z, plus mm and radians) of a model on random clips of the "
       "dataset's test subjects. JSON on stdout, a summary table on stderr.");
   o->model_dir = default_model_dir();
-    command->add_option("--model", o->model_dir, "model folder (written by train; default: $MM_MODEL_DIR or the shipped model)")
-        ->capture_default_str();
+  command->add_option("--model", o->model_dir, "model folder (default: $MM_MODEL_DIR or the shipped model)")
+      ->capture_default_str();
   command->add_option("--dataset", o->dataset, "prepared dataset file; its test subjects are used")->required();
   command->add_option("--clips", o->evaluation.clips, "number of random test clips")
       ->check(at_least(1))
