@@ -17,6 +17,8 @@ ForwardKinematics::ForwardKinematics(const Skeleton& skeleton) {
   }
 }
 
+void ForwardKinematics::to(at::Device device) { offsets_mm_ = offsets_mm_.to(device); }
+
 at::Tensor ForwardKinematics::positions(const at::Tensor& frames) const {
   const int joints = joint_count();
   const int64_t columns = frames.size(-1);

@@ -27,9 +27,14 @@ class ForwardKinematics {
 
   int joint_count() const { return static_cast<int>(parents_.size()); }
 
+  // Keeps the bone offsets on `device`, where positions() will run: copying
+  // them there on every call would make each call wait for the GPU. Not
+  // safe to call while positions() runs on another thread.
+  void to(at::Device device);
+
  private:
   std::vector<int> parents_;
-  at::Tensor offsets_mm_;  // (J, 3), float64 on the CPU, cast to the frames' type and device on use
+  at::Tensor offsets_mm_;  // (J, 3), float64 on the device of to(), cast to the frames' type and device on use
 };
 
 }  // namespace mm

@@ -112,6 +112,7 @@ void MotionManifold::to(at::Device device) {
   if (!rotation_decoder_.is_empty()) rotation_decoder_->to(device);
   if (!velocity_decoder_.is_empty()) velocity_decoder_->to(device);
   discriminator_->to(device);
+  fk_.to(device);
   build_tensors();
 }
 

@@ -1,7 +1,6 @@
 #include "trainer.h"
 
 #include <ATen/CPUGeneratorImpl.h>
-#include <torch/nn/utils/clip_grad.h>
 #include <torch/optim/adam.h>
 #include <torch/serialize/input-archive.h>
 #include <torch/serialize/output-archive.h>
@@ -38,6 +37,21 @@ std::string read_string(torch::serialize::InputArchive& archive, const std::stri
   c10::IValue value;
   if (!archive.try_read(key, value) || !value.isString()) throw InputError(path + ": checkpoint has no " + key);
   return value.toStringRef();
+}
+
+// Scales the gradients so that their global L2 norm is at most max_norm, as
+// torch::nn::utils::clip_grad_norm_ does, without reading the norm back to
+// the host: on a GPU that read would wait for the whole backward pass.
+void clip_gradient_norm(const std::vector<at::Tensor>& parameters, double max_norm) {
+  std::vector<at::Tensor> norms;
+  for (const auto& p : parameters) {
+    if (p.grad().defined()) norms.push_back(p.grad().norm());
+  }
+  if (norms.empty()) return;
+  const auto scale = (max_norm / (at::stack(norms).norm() + 1e-6)).clamp_max(1.0);
+  for (const auto& p : parameters) {
+    if (p.grad().defined()) p.grad().mul_(scale);
+  }
 }
 
 }  // namespace
@@ -100,7 +114,7 @@ LossValues Trainer::step() {
   for (auto kind : {DecoderKind::kRotation, DecoderKind::kVelocity}) {
     if (model_->has_decoder(kind)) decoded.push_back(model_->decoder(kind)->forward(code));
   }
-  LossValues losses;
+  at::Tensor loss_d_value = at::zeros({}, motion.options());
 
   // Discriminator first (Eq. 16), on the generator's current output.
   if (w.adversarial > 0) {
@@ -110,7 +124,7 @@ LossValues Trainer::step() {
     optimizers_->discriminator.zero_grad();
     (w.adversarial * loss_d).backward();
     optimizers_->discriminator.step();
-    losses["L_D"] = loss_d.item<double>();
+    loss_d_value = loss_d.detach();
   }
 
   // Generator (Eq. 15): every term summed over the decoders.
@@ -141,18 +155,19 @@ LossValues Trainer::step() {
   auto total = l_r + w.manifold * l_m + w.wasserstein * l_w + w.adversarial * l_g;
   optimizers_->generator.zero_grad();
   total.backward();
-  if (config_.clip_norm > 0) torch::nn::utils::clip_grad_norm_(model_->generator_parameters(), config_.clip_norm);
+  if (config_.clip_norm > 0) clip_gradient_norm(model_->generator_parameters(), config_.clip_norm);
   optimizers_->generator.step();
   ++iteration_;
 
-  losses["L_ang"] = l_ang.item<double>();
-  losses["L_pos"] = l_pos.item<double>();
-  losses["L_R"] = l_r.item<double>();
-  losses["L_M"] = l_m.item<double>();
-  losses["L_W"] = l_w.item<double>();
-  losses["L_G"] = l_g.item<double>();
-  losses["total"] = total.item<double>();
-  if (!losses.count("L_D")) losses["L_D"] = 0;
+  // One transfer for all values: on a GPU each read waits for the device.
+  const std::vector<std::pair<const char*, at::Tensor>> terms = {
+      {"L_ang", l_ang}, {"L_pos", l_pos}, {"L_R", l_r}, {"L_M", l_m}, {"L_W", l_w},
+      {"L_G", l_g},     {"L_D", loss_d_value}, {"total", total}};
+  std::vector<at::Tensor> values;
+  for (const auto& term : terms) values.push_back(term.second.detach().reshape({}).to(at::kDouble));
+  const auto host = at::stack(values).to(at::kCPU);
+  LossValues losses;
+  for (size_t i = 0; i < terms.size(); ++i) losses[terms[i].first] = host[static_cast<int64_t>(i)].item<double>();
   return losses;
 }
 

@@ -1,5 +1,6 @@
 #include <c10/core/InferenceMode.h>
 #include <gtest/gtest.h>
+#include <torch/cuda.h>
 
 #include "decoder.h"
 #include "discriminator.h"
@@ -90,23 +91,42 @@ void expect_same_values_and_gradients(Module& module, const at::Tensor& input, P
   }
 }
 
+// The fused recurrences take another code path on CUDA (LibTorch's fused
+// GRU cell), so both are checked against the stepwise autograd reference on
+// every device this build can reach.
+std::vector<at::Device> devices_to_check() {
+  std::vector<at::Device> devices{at::kCPU};
+  if (torch::cuda::is_available()) {
+    devices.emplace_back(at::kCUDA, 0);
+    at::globalContext().setAllowTF32CuDNN(false);  // the reference GRU runs in cuDNN: keep it in full float32
+  }
+  return devices;
+}
+
 TEST(Networks, FusedDecoderMatchesStepwiseAutogradInValuesAndGradients) {
-  at::manual_seed(9);
-  for (bool residual : {false, true}) {
-    for (bool feed_code : {false, true}) {
-      Decoder decoder(DecoderShape{51, 32, 8, 20, residual, feed_code});
-      expect_same_values_and_gradients(
-          decoder, at::randn({3, 8}), [&](const at::Tensor& z) { return decoder->forward_stepwise(z); },
-          "residual " + std::to_string(residual) + " feed_code " + std::to_string(feed_code));
+  for (const auto& device : devices_to_check()) {
+    at::manual_seed(9);
+    for (bool residual : {false, true}) {
+      for (bool feed_code : {false, true}) {
+        Decoder decoder(DecoderShape{51, 32, 8, 20, residual, feed_code});
+        decoder->to(device);
+        expect_same_values_and_gradients(
+            decoder, at::randn({3, 8}).to(device), [&](const at::Tensor& z) { return decoder->forward_stepwise(z); },
+            device.str() + " residual " + std::to_string(residual) + " feed_code " + std::to_string(feed_code));
+      }
     }
   }
 }
 
 TEST(Networks, FusedEncoderMatchesTorchGruInValuesAndGradients) {
-  at::manual_seed(10);
-  Encoder encoder(51, 32, 8);
-  expect_same_values_and_gradients(
-      encoder, at::randn({3, 20, 51}), [&](const at::Tensor& m) { return encoder->forward_reference(m); }, "encoder");
+  for (const auto& device : devices_to_check()) {
+    at::manual_seed(10);
+    Encoder encoder(51, 32, 8);
+    encoder->to(device);
+    expect_same_values_and_gradients(
+        encoder, at::randn({3, 20, 51}).to(device),
+        [&](const at::Tensor& m) { return encoder->forward_reference(m); }, device.str() + " encoder");
+  }
 }
 
 TEST(Networks, DiscriminatorScoresAreNonNegative) {
