@@ -9,7 +9,7 @@
 namespace mm {
 
 // $MM_MODEL_DIR when set and non-empty; otherwise the model shipped in the
-// source tree this binary was built from (models/h36m-dkgm-cpu).
+// source tree this binary was built from (models/h36m-dkgm-h100).
 std::string default_model_dir();
 
 }  // namespace mm

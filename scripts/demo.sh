@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The main job on a fresh machine: installs what it needs, builds the tool,
 # prepares H3.6M from ../shared and runs the shipped default model
-# (models/h36m-dkgm-cpu): Table 1 errors and the denoising experiment on the
+# (models/h36m-dkgm-h100): Table 1 errors and the denoising experiment on the
 # 30 fixed S5 test clips, random samples from the prior, and a picture of
 # them. Outputs land in runs/demo (git-ignored).
 # TRAIN_ITERATIONS=N also trains a small model from scratch for N iterations

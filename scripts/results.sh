@@ -6,7 +6,7 @@
 #   scripts/results.sh [MODEL_DIR] [TRAIN_LOG]
 set -euo pipefail
 cd "$(dirname "$0")/.."
-model=${1:-models/h36m-dkgm-cpu}
+model=${1:-models/h36m-dkgm-h100}
 log=${2:-$model/train_log.csv}
 tool=build/model/tool/motion-manifold
 s5=data/h3.6m/dataset/S5

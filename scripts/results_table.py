@@ -1,7 +1,9 @@
 #!/usr/bin/env python3
 """Prints Table 1 rows (markdown) from evaluation JSON files written by
 `motion-manifold evaluate`, beside the paper's rows for the same variants.
-Usage: scripts/results_table.py NAME=evaluation.json [NAME=evaluation.json ...]"""
+Usage: scripts/results_table.py NAME=evaluation.json [NAME=evaluation.json ...]
+NAME starts with the Table 1 variant (DKGM, DKGM hidden 256, ...); each
+paper row is printed once, above the first of our rows of its variant."""
 import json
 import sys
 
@@ -32,14 +34,17 @@ def main(args):
           "| E_r 6.0s | E_p 6.0s | E_z |")
     print("|---|---|" + "---:|" * 11)
     physical = []
+    printed = set()
     for arg in args:
         name, path = arg.split("=", 1)
         with open(path) as f:
             result = json.load(f)
         for decoder, errors in result["decoders"].items():
-            paper = PAPER.get((name, decoder))
-            if paper:
-                print(row(f"{name} (paper)", decoder, *paper))
+            variant = name.split()[0]
+            paper = PAPER.get((variant, decoder))
+            if paper and (variant, decoder) not in printed:
+                print(row(f"{variant} (paper)", decoder, *paper))
+                printed.add((variant, decoder))
             print(row(f"**{name} (ours)**", decoder, errors["E_r"], errors["E_p"], errors["E_z"]))
             physical.append((name, decoder, errors["mpjpe_mm"], errors["angle_error_rad"]))
     print()
