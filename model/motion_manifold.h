@@ -49,6 +49,7 @@ class MotionManifold {
   // The decoder the applications use: rotation if present (Sec. 5), else velocity.
   DecoderKind default_decoder() const;
   Discriminator& discriminator() { return discriminator_; }
+  const Discriminator& discriminator() const { return discriminator_; }
 
   // All generator parameters (encoder and decoders), for the optimiser.
   std::vector<at::Tensor> generator_parameters() const;

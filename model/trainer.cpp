@@ -255,6 +255,41 @@ void Trainer::save_checkpoint(const std::string& path) const {
   write_file_atomically(path, bytes.str());
 }
 
+void Trainer::start_from(const MotionManifold& model, int64_t iteration) {
+  const auto &want = config_.model, &have = model.config();
+  auto check = [](const char* field, int64_t expected, int64_t found) {
+    if (expected != found) {
+      throw InputError(std::string("model.") + field + ": the run is configured for " + std::to_string(expected) +
+                       ", the starting model has " + std::to_string(found));
+    }
+  };
+  check("pose_dims", want.pose_dims, have.pose_dims);
+  check("hidden", want.hidden, have.hidden);
+  check("latent", want.latent, have.latent);
+  check("frames", want.frames, have.frames);
+  check("rotation_decoder", want.rotation_decoder, have.rotation_decoder);
+  check("velocity_decoder", want.velocity_decoder, have.velocity_decoder);
+  check("feed_code", want.feed_code, have.feed_code);
+  if (model.normalization().to_json_text() != model_->normalization().to_json_text()) {
+    throw InputError("normalization: the starting model was trained on a differently prepared dataset");
+  }
+  if (iteration < 0 || iteration >= config_.iterations) {
+    throw InputError("iteration: expected 0 to " + std::to_string(config_.iterations - 1) + " (the run's iterations), found " +
+                     std::to_string(iteration));
+  }
+  auto copy = [](const torch::nn::Module& from, torch::nn::Module& to) {
+    torch::NoGradGuard no_grad;
+    const auto source = from.named_parameters();
+    for (auto& p : to.named_parameters()) p.value().copy_(source[p.key()]);
+  };
+  copy(*model.encoder(), *model_->encoder());
+  for (auto kind : {DecoderKind::kRotation, DecoderKind::kVelocity}) {
+    if (model_->has_decoder(kind)) copy(*model.decoder(kind), *model_->decoder(kind));
+  }
+  copy(*model.discriminator(), *model_->discriminator());
+  iteration_ = iteration;
+}
+
 std::unique_ptr<Trainer> Trainer::resume(const std::string& path, const PreparedDataset& data, at::Device device,
                                          int64_t iterations) {
   if (!std::filesystem::exists(path)) throw InputError(path + ": checkpoint not found");
@@ -279,15 +314,15 @@ std::unique_ptr<Trainer> Trainer::resume(const std::string& path, const Prepared
     loadable.load(sub);
   };
   try {
-  nested("encoder", *trainer->model_->encoder());
-  for (auto kind : {DecoderKind::kRotation, DecoderKind::kVelocity}) {
+    nested("encoder", *trainer->model_->encoder());
+    for (auto kind : {DecoderKind::kRotation, DecoderKind::kVelocity}) {
       if (trainer->model_->has_decoder(kind)) {
         nested((std::string(decoder_name(kind)) + "_decoder").c_str(), *trainer->model_->decoder(kind));
       }
-  }
-  nested("discriminator", *trainer->model_->discriminator());
-  nested("optimizer_generator", trainer->optimizers_->generator);
-  nested("optimizer_discriminator", trainer->optimizers_->discriminator);
+    }
+    nested("discriminator", *trainer->model_->discriminator());
+    nested("optimizer_generator", trainer->optimizers_->generator);
+    nested("optimizer_discriminator", trainer->optimizers_->discriminator);
     c10::IValue iteration;
     archive.read("iteration", iteration);
     trainer->iteration_ = iteration.toInt();

@@ -54,6 +54,14 @@ class Trainer {
   static std::unique_ptr<Trainer> resume(const std::string& checkpoint, const PreparedDataset& data, at::Device device,
                                          int64_t iterations = 0);
 
+  // Starts this fresh run from the weights of an exported model (same network
+  // shapes, same dataset normalisation) at `iteration` of the learning-rate
+  // schedule, so that a model can be trained on where its checkpoint cannot
+  // travel. Not an exact resume: the optimisers' moments are not exported, so
+  // Adam starts afresh, and the clip order follows this run's seed. Call
+  // before run(). InputError naming the mismatch otherwise.
+  void start_from(const MotionManifold& model, int64_t iteration);
+
   // One iteration on a freshly drawn batch; returns its losses.
   LossValues step();
 

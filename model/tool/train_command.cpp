@@ -61,7 +61,7 @@ class CancelOnSignal {
 };
 
 struct TrainOptions {
-  std::string config_path, variant, dataset, out, resume, device = "auto";
+  std::string config_path, variant, dataset, out, resume, init_from, device = "auto";
   int64_t iterations = 0;
   int batch = 0, hidden = 0;
   uint64_t seed = 0;
@@ -80,9 +80,10 @@ PreparedDataset load_dataset(const std::string& path) {
 }
 
 // Runs the trainer to its end or to a signal, then exports the model to
-// <output_dir>/model. Returns the exit code.
+// <output_dir>/model with its provenance, to which `origin` (where the run
+// started from, if not from scratch) is added. Returns the exit code.
 int train_and_export(Trainer& trainer, c10::Device device, const std::string& dataset_path,
-                     const std::string& command_line, const std::string& resumed_from) {
+                     const std::string& command_line, const nlohmann::json& origin) {
   const TrainConfig& config = trainer.config();
   ensure_directory(config.output_dir, "--out");
   write_file_atomically(config.output_dir + "/config.json", to_json_text(config));
@@ -117,7 +118,7 @@ int train_and_export(Trainer& trainer, c10::Device device, const std::string& da
       {"variant", config.variant},
       {"outcome", cancelled ? "cancelled" : "finished"},
   };
-  if (!resumed_from.empty()) provenance["resumed_from"] = resumed_from;
+  provenance.update(origin);
   // A model is always exported from the CPU so that it loads on machines
   // without a GPU.
   trainer.model().to(c10::kCPU);
@@ -135,13 +136,28 @@ int train_and_export(Trainer& trainer, c10::Device device, const std::string& da
   return kExitSuccess;
 }
 
+// The iterations an exported model was trained for, from its manifest's
+// provenance; 0 when the manifest does not say.
+int64_t exported_iterations(const std::string& model_dir) {
+  const std::string path = model_dir + "/manifest.json";
+  nlohmann::json manifest;
+  try {
+    manifest = nlohmann::json::parse(read_whole_file(path));
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(path + ": not valid JSON: " + e.what());
+  }
+  const auto provenance = manifest.value("provenance", nlohmann::json::object());
+  const auto iterations = provenance.value("iterations", nlohmann::json());
+  return iterations.is_number_integer() ? iterations.get<int64_t>() : 0;
+}
+
 int run_resume(const std::string& checkpoint, const std::string& dataset_path, int64_t iterations,
                const std::string& device_name, const std::string& command_line) {
   const c10::Device device = parse_device(device_name);
   const PreparedDataset data = load_dataset(dataset_path);
   auto trainer = Trainer::resume(checkpoint, data, device, iterations);
   if (trainer->config().output_dir.empty()) throw InputError(checkpoint + ": the checkpoint's run has no output_dir");
-  return train_and_export(*trainer, device, dataset_path, command_line, checkpoint);
+  return train_and_export(*trainer, device, dataset_path, command_line, {{"resumed_from", checkpoint}});
 }
 
 int run_train(const TrainOptions& o, const std::string& command_line) {
@@ -163,7 +179,16 @@ int run_train(const TrainOptions& o, const std::string& command_line) {
   const c10::Device device = parse_device(o.device);
   const PreparedDataset data = load_dataset(config.dataset);
   Trainer trainer(config, data, device);
-  return train_and_export(trainer, device, config.dataset, command_line, "");
+  nlohmann::json origin = nlohmann::json::object();
+  if (!o.init_from.empty()) {
+    const MotionManifold start = MotionManifold::load(o.init_from);
+    const int64_t iteration = exported_iterations(o.init_from);
+    trainer.start_from(start, iteration);
+    origin = {{"started_from", o.init_from}, {"started_at_iteration", iteration}};
+    std::fprintf(stderr, "starting from %s at iteration %lld (fresh optimiser moments)\n", o.init_from.c_str(),
+                 static_cast<long long>(iteration));
+  }
+  return train_and_export(trainer, device, config.dataset, command_line, origin);
 }
 
 }  // namespace
@@ -193,6 +218,11 @@ void add_train_commands(CLI::App& app, Action& action, const std::string& comman
                                    "continue the run saved in this checkpoint (needs --dataset; the output folder "
                                    "and configuration are the checkpoint's)");
   for (auto* excluded : {config, variant, out, batch, hidden, o->seed_option}) resume->excludes(excluded);
+  auto* init_from = train->add_option(
+      "--init-from", o->init_from,
+      "start from the weights of this exported model (same shape and dataset) at the iteration its manifest "
+      "records, with fresh optimiser moments: for continuing a model whose checkpoint is not at hand");
+  init_from->excludes(resume);
   train->callback([o, &action, &command_line] { action = [o, &command_line] { return run_train(*o, command_line); }; });
 
   struct ResumeOptions {

@@ -139,6 +139,44 @@ TEST(Trainer, ResumeRejectsAFileThatIsNotACheckpoint) {
   }
 }
 
+TEST(Trainer, StartFromAnExportedModelTakesItsWeightsAndSchedule) {
+  MM_REQUIRE_H36M();
+  test::ScratchDir dir;
+  TrainConfig config = tiny_config();
+  config.iterations = 60;
+  config.decay_every = 2;
+  Trainer first(config, small_h36m(), at::kCPU);
+  for (int i = 0; i < 5; ++i) first.step();
+  first.model().save(dir.file("model"));
+  const MotionManifold exported = MotionManifold::load(dir.file("model"));
+
+  config.seed = 2;  // a different initialisation, overwritten by start_from
+  Trainer second(config, small_h36m(), at::kCPU);
+  EXPECT_FALSE(same_parameters(first.model(), second.model()));
+  second.start_from(exported, first.iteration());
+  EXPECT_TRUE(same_parameters(first.model(), second.model()));
+  EXPECT_EQ(second.iteration(), 5);
+  EXPECT_DOUBLE_EQ(second.learning_rate(), first.learning_rate());
+  EXPECT_LT(second.learning_rate(), config.learning_rate);
+  second.step();
+  EXPECT_EQ(second.iteration(), 6);
+}
+
+TEST(Trainer, StartFromRejectsAModelOfAnotherShape) {
+  MM_REQUIRE_H36M();
+  TrainConfig config = tiny_config();
+  Trainer trainer(config, small_h36m(), at::kCPU);
+  TrainConfig other = config;
+  other.model.hidden = config.model.hidden * 2;
+  Trainer wider(other, small_h36m(), at::kCPU);
+  try {
+    trainer.start_from(wider.model(), 0);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("model.hidden"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Trainer, ShortTrainingOnRealClipsHalvesReconstructionLoss) {
   MM_REQUIRE_H36M();
   // A handful of real clips: three S1 sequences.
