@@ -58,6 +58,22 @@ TEST(Tool, PrepareTrainEvaluateAndDecodeOnRealData) {
     EXPECT_TRUE(std::filesystem::exists(run + "/" + file)) << file;
   }
 
+  // Going on from the exported weights starts at the iteration the manifest records.
+  const std::string more = dir.file("more");
+  r = run_tool("train --variant DKGM --dataset " + dataset + " --out " + more + " --init-from " + run +
+               "/model --iterations 5 --hidden 16 --batch 4 --device cpu");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  {
+    std::ifstream manifest(more + "/model/manifest.json");
+    const auto provenance = nlohmann::json::parse(manifest)["provenance"];
+    EXPECT_EQ(provenance["started_at_iteration"], 3);
+    EXPECT_EQ(provenance["iterations"], 5);
+  }
+  r = run_tool("train --variant DKGM --dataset " + dataset + " --out " + dir.file("wider") + " --init-from " + run +
+               "/model --iterations 5 --hidden 32 --batch 4 --device cpu");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("model.hidden"), std::string::npos) << r.output;
+
   r = run_tool("evaluate --model " + run + "/model --dataset " + dataset + " --clips 3 --out " + dir.file("eval.json"));
   ASSERT_EQ(r.exit_code, 0) << r.output;
   std::ifstream evaluation(dir.file("eval.json"));
