@@ -190,6 +190,7 @@ MotionManifold MotionManifold::load(const std::string& dir, at::Device device) {
   if (model.config_.rotation_decoder) load_module(*model.rotation_decoder_, dir + "/rotation_decoder.pt");
   if (model.config_.velocity_decoder) load_module(*model.velocity_decoder_, dir + "/velocity_decoder.pt");
   load_module(*model.discriminator_, dir + "/discriminator.pt");
+  if (manifest.contains("provenance")) model.provenance_json_ = manifest["provenance"].dump();
   model.to(device);
   model.train(false);
   return model;

@@ -79,6 +79,9 @@ class MotionManifold {
   // a temporary file and renamed, manifest last, so a reader never sees a
   // half-written model. `provenance` is free JSON text kept in the manifest.
   void save(const std::string& dir, const std::string& provenance_json = "{}") const;
+  // The provenance JSON text of the manifest this model was loaded from
+  // ("{}" for a model built in memory).
+  const std::string& provenance_json() const { return provenance_json_; }
   // Loads a folder written by save() onto `device`, in eval mode. InputError
   // naming the file for a missing or malformed part.
   static MotionManifold load(const std::string& dir, at::Device device = at::kCPU);
@@ -94,6 +97,7 @@ class MotionManifold {
   Encoder encoder_{nullptr};
   Decoder rotation_decoder_{nullptr}, velocity_decoder_{nullptr};
   Discriminator discriminator_{nullptr};
+  std::string provenance_json_ = "{}";
   // Denormalisation as one affine map: raw = base_ + (x * std + mean) . scatter_
   at::Tensor kept_mean_, kept_std_, base_, scatter_, kept_index_;
 };

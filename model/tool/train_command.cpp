@@ -136,17 +136,10 @@ int train_and_export(Trainer& trainer, c10::Device device, const std::string& da
   return kExitSuccess;
 }
 
-// The iterations an exported model was trained for, from its manifest's
-// provenance; 0 when the manifest does not say.
-int64_t exported_iterations(const std::string& model_dir) {
-  const std::string path = model_dir + "/manifest.json";
-  nlohmann::json manifest;
-  try {
-    manifest = nlohmann::json::parse(read_whole_file(path));
-  } catch (const nlohmann::json::exception& e) {
-    throw InputError(path + ": not valid JSON: " + e.what());
-  }
-  const auto provenance = manifest.value("provenance", nlohmann::json::object());
+// The iterations an exported model was trained for, as its manifest's
+// provenance records; 0 when it does not say.
+int64_t exported_iterations(const MotionManifold& model) {
+  const auto provenance = nlohmann::json::parse(model.provenance_json());
   const auto iterations = provenance.value("iterations", nlohmann::json());
   return iterations.is_number_integer() ? iterations.get<int64_t>() : 0;
 }
@@ -182,7 +175,7 @@ int run_train(const TrainOptions& o, const std::string& command_line) {
   nlohmann::json origin = nlohmann::json::object();
   if (!o.init_from.empty()) {
     const MotionManifold start = MotionManifold::load(o.init_from);
-    const int64_t iteration = exported_iterations(o.init_from);
+    const int64_t iteration = exported_iterations(start);
     trainer.start_from(start, iteration);
     origin = {{"started_from", o.init_from}, {"started_at_iteration", iteration}};
     std::fprintf(stderr, "starting from %s at iteration %lld (fresh optimiser moments)\n", o.init_from.c_str(),

@@ -34,6 +34,7 @@ TEST(MotionManifold, SavedAndLoadedModelGivesIdenticalOutputs) {
   }
   EXPECT_EQ(loaded.normalization().to_json_text(), model.normalization().to_json_text());
   EXPECT_EQ(loaded.config().hidden, 48);
+  EXPECT_EQ(loaded.provenance_json(), R"({"note":"test"})");
 }
 
 TEST(MotionManifold, NormalisationRoundTripsThroughRawFrames) {
