@@ -33,8 +33,11 @@ struct EvaluationOptions {
 //        rotations, over the joints the model animates;
 // and E_z, the mean absolute difference between z and Enc(Dec(z)). With a
 // corruption probability, also "denoising": the mean per-joint position
-// error in mm of the corrupted clips and of their projections onto the
-// manifold (decoded by the default decoder) against the clean clips.
+// error in mm against the clean clips of the corrupted clips, of their
+// projections onto the manifold (decoded by the default decoder) as in the
+// paper, of the projections that treat the zeroed values as missing
+// (DenoiseOptions::zeros_are_missing), and of a baseline without the
+// manifold that interpolates the zeroed values in time.
 // Returns JSON text (documented in docs/ and by the tool). InputError if the
 // test sequences hold no clip of the model's length.
 std::string evaluate_reconstruction(const MotionManifold& model, const std::vector<const PreparedSequence*>& test,

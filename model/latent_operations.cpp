@@ -31,10 +31,8 @@ void check_code(const at::Tensor& code, int64_t latent, const char* name) {
   }
 }
 
-}  // namespace
-
-at::Tensor encode_motions(const MotionManifold& model, const std::vector<MotionFrames>& motions) {
-  c10::InferenceMode inference;
+// Raw frames (n, frames, input columns) of checked motions, on the model's device.
+at::Tensor stack_motions(const MotionManifold& model, const std::vector<MotionFrames>& motions) {
   if (motions.empty()) throw InputError("motions: expected at least one motion");
   const int64_t frames = model.config().frames, columns = model.normalization().input_columns();
   auto raw = at::empty({static_cast<int64_t>(motions.size()), frames, columns});
@@ -42,19 +40,15 @@ at::Tensor encode_motions(const MotionManifold& model, const std::vector<MotionF
     check_motion(model, motions[i], i);
     std::memcpy(raw[static_cast<int64_t>(i)].data_ptr<float>(), motions[i].values.data(), sizeof(float) * frames * columns);
   }
-  return model.encode(model.to_normalized(raw.to(model.device()))).cpu();
+  return raw.to(model.device());
 }
 
-std::vector<MotionFrames> decode_codes(const MotionManifold& model, const at::Tensor& codes, DecoderKind kind,
-                                       const std::vector<MotionFrames>* translation_from) {
-  c10::InferenceMode inference;
-  const int64_t latent = model.config().latent;
-  if (codes.dim() != 2 || codes.size(1) != latent) {
-    throw InputError("codes: expected shape (n, " + std::to_string(latent) + "), found " + c10::str(codes.sizes()));
-  }
-  if (!at::isfinite(codes).all().item<bool>()) throw InputError("codes: values must be finite numbers");
-  auto raw = model.to_raw(model.decode(codes.to(at::kFloat), kind)).cpu().contiguous();
-  std::vector<MotionFrames> result(static_cast<size_t>(codes.size(0)));
+// Normalised clips (n, frames, D) to raw motions; the root translation of
+// `translation_from` (same count) when given.
+std::vector<MotionFrames> to_motions(const MotionManifold& model, const at::Tensor& normalized,
+                                     const std::vector<MotionFrames>* translation_from) {
+  auto raw = model.to_raw(normalized).cpu().contiguous();
+  std::vector<MotionFrames> result(static_cast<size_t>(raw.size(0)));
   const int64_t per_motion = raw.size(1) * raw.size(2);
   for (size_t i = 0; i < result.size(); ++i) {
     result[i].columns = static_cast<int>(raw.size(2));
@@ -66,6 +60,24 @@ std::vector<MotionFrames> decode_codes(const MotionManifold& model, const at::Te
     }
   }
   return result;
+}
+
+}  // namespace
+
+at::Tensor encode_motions(const MotionManifold& model, const std::vector<MotionFrames>& motions) {
+  c10::InferenceMode inference;
+  return model.encode(model.to_normalized(stack_motions(model, motions))).cpu();
+}
+
+std::vector<MotionFrames> decode_codes(const MotionManifold& model, const at::Tensor& codes, DecoderKind kind,
+                                       const std::vector<MotionFrames>* translation_from) {
+  c10::InferenceMode inference;
+  const int64_t latent = model.config().latent;
+  if (codes.dim() != 2 || codes.size(1) != latent) {
+    throw InputError("codes: expected shape (n, " + std::to_string(latent) + "), found " + c10::str(codes.sizes()));
+  }
+  if (!at::isfinite(codes).all().item<bool>()) throw InputError("codes: values must be finite numbers");
+  return to_motions(model, model.decode(codes.to(at::kFloat), kind), translation_from);
 }
 
 at::Tensor sample_codes(const MotionManifold& model, int n, uint64_t seed, double prior_variance) {
@@ -96,8 +108,36 @@ at::Tensor analogy_code(const at::Tensor& a, const at::Tensor& b, const at::Tens
 }
 
 std::vector<MotionFrames> denoise_motions(const MotionManifold& model, const std::vector<MotionFrames>& motions,
-                                          DecoderKind kind) {
-  return decode_codes(model, encode_motions(model, motions), kind, &motions);
+                                          DecoderKind kind, const DenoiseOptions& options) {
+  c10::InferenceMode inference;
+  if (options.iterations < 1) {
+    throw InputError("iterations: expected at least 1, found " + std::to_string(options.iterations));
+  }
+  const auto raw = stack_motions(model, motions);
+  const auto missing = options.zeros_are_missing ? zero_values_mask(model, raw) : at::Tensor();
+  return to_motions(model, project_onto_manifold(model, model.to_normalized(raw), missing, kind, options.iterations),
+                    &motions);
+}
+
+at::Tensor project_onto_manifold(const MotionManifold& model, const at::Tensor& normalized, const at::Tensor& missing,
+                                 DecoderKind kind, int iterations) {
+  c10::InferenceMode inference;
+  if (!missing.defined()) return model.decode(model.encode(normalized), kind);
+  // Fill the gaps with the manifold's own estimate and project again: each
+  // round's code sees only observed values and the previous round's fill.
+  auto filled = normalized.masked_fill(missing, 0.0);
+  at::Tensor decoded;
+  for (int round = 0; round < iterations; ++round) {
+    decoded = model.decode(model.encode(filled), kind);
+    filled = at::where(missing, decoded, normalized);
+  }
+  return decoded;
+}
+
+at::Tensor zero_values_mask(const MotionManifold& model, const at::Tensor& raw) {
+  const auto& kept = model.normalization().kept_columns;
+  auto index = at::tensor(std::vector<int64_t>(kept.begin(), kept.end()), at::kLong).to(raw.device());
+  return raw.index_select(-1, index) == 0;
 }
 
 MotionFrames corrupt_motion(const MotionFrames& motion, const PoseNormalization& normalization, double probability,

@@ -40,10 +40,34 @@ at::Tensor interpolate_codes(const at::Tensor& a, const at::Tensor& b, int steps
 // a - b + c (Sec. 5.5).
 at::Tensor analogy_code(const at::Tensor& a, const at::Tensor& b, const at::Tensor& c);
 
+// How denoise_motions reads its input.
+struct DenoiseOptions {
+  // Treat a modelled joint-angle value that is exactly zero as missing. The
+  // corruption of Sec. 5.4 drops values by zeroing them, while captured
+  // rotations almost never hold an exact zero, so the zeros say which values
+  // carry no information. Off: every value is taken as observed (the paper).
+  bool zeros_are_missing = false;
+  // With missing values: rounds of projecting onto the manifold and refilling
+  // the missing values from the decoded motion (they start at the training
+  // mean). The fill settles after about four rounds on H3.6M.
+  int iterations = 4;
+};
+
 // Projects each motion onto the manifold and decodes it (Sec. 5.4); root
 // translation is carried over from the input.
 std::vector<MotionFrames> denoise_motions(const MotionManifold& model, const std::vector<MotionFrames>& motions,
-                                          DecoderKind kind);
+                                          DecoderKind kind, const DenoiseOptions& options = {});
+
+// The same on normalised clips (B, frames, D) on the model's device.
+// `missing` is an undefined tensor (nothing missing) or a bool mask of the
+// clips' shape; missing values start at the training mean (zero, normalised)
+// and are refilled from the decoded motion `iterations` times.
+at::Tensor project_onto_manifold(const MotionManifold& model, const at::Tensor& normalized, const at::Tensor& missing,
+                                 DecoderKind kind, int iterations);
+
+// Bool mask (..., D) of the modelled values that are exactly zero in raw
+// frames (..., input columns): the missing values of DenoiseOptions.
+at::Tensor zero_values_mask(const MotionManifold& model, const at::Tensor& raw);
 
 // The corruption of Sec. 5.4: every modelled joint-angle value of every
 // frame is set to zero with the given probability, reproducibly by seed.

@@ -32,11 +32,15 @@ mkdir -p "$out" "$work"
   --label "S5 sitting" --label "t = 0" --label "t = 0.25" --label "t = 0.5" --label "t = 0.75" --label "t = 1" \
   --label "S5 walking" --title "Interpolation sitting to walking (linear in z)" --out "$out/interpolation.svg"
 
-# Sec. 5.4: denoising with the paper's corruption (half the joint angles zeroed).
+# Sec. 5.4: denoising with the paper's corruption (half the joint angles
+# zeroed), projected as it is and with the zeros treated as missing.
 "$tool" denoise --model "$model" --input "$s5/walking_2.txt" --corrupt-probability 0.5 --seed 3 \
   --corrupted-out "$work/corrupted.txt" --out "$work/denoised.txt"
+"$tool" denoise --model "$model" --input "$s5/walking_2.txt" --corrupt-probability 0.5 --seed 3 \
+  --zeros-are-missing --out "$work/denoised-zeros-missing.txt"
 "$tool" render --input "$s5/walking_2.txt" --input "$work/corrupted.txt" --input "$work/denoised.txt" \
-  --rate 50,25,25 --length 150 --label "ground truth" --label "corrupted" --label "denoised" \
+  --input "$work/denoised-zeros-missing.txt" --rate 50,25,25,25 --length 150 --label "ground truth" \
+  --label "corrupted" --label "projected" --label "zeros as missing" \
   --title "Denoising: S5 walking, each joint angle zeroed with p = 0.5" --out "$out/denoising.svg"
 
 # Sec. 5.5: analogy a - b + c.

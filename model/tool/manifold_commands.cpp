@@ -180,6 +180,7 @@ void add_denoise(CLI::App& app, Action& action) {
     int start = 0;
     double probability = 0;
     uint64_t seed = 0;
+    DenoiseOptions denoise;
   };
   auto o = std::make_shared<Options>();
   auto* command = app.add_subcommand(
@@ -195,6 +196,12 @@ void add_denoise(CLI::App& app, Action& action) {
       ->check(CLI::Range(0.0, 1.0));
   command->add_option("--seed", o->seed, "seed of the corruption")->capture_default_str();
   command->add_option("--corrupted-out", o->corrupted_out, "also write the corrupted motion (25 Hz)");
+  command->add_flag("--zeros-are-missing", o->denoise.zeros_are_missing,
+                    "treat joint-angle values that are exactly zero as missing and fill them from the manifold");
+  command->add_option("--iterations", o->denoise.iterations,
+                      "with --zeros-are-missing: rounds of projecting and refilling the missing values")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   command->callback([o, &action] {
     action = [o] {
       const MotionManifold model = load_model(o->model);
@@ -202,13 +209,14 @@ void add_denoise(CLI::App& app, Action& action) {
       const MotionFrames noisy =
           o->probability > 0 ? corrupt_motion(clean, model.normalization(), o->probability, o->seed) : clean;
       if (!o->corrupted_out.empty()) write_motion_text_file(noisy, o->corrupted_out);
-      const MotionFrames denoised = denoise_motions(model, {noisy}, o->model.kind(model))[0];
+      const MotionFrames denoised = denoise_motions(model, {noisy}, o->model.kind(model), o->denoise)[0];
       write_motion_text_file(denoised, o->out);
       const nlohmann::json report = {
           {"input", o->input},
           {"start", o->start},
           {"frames", model.config().frames},
           {"corrupt_probability", o->probability},
+          {"zeros_are_missing", o->denoise.zeros_are_missing},
           {"corrupted_mpjpe_mm", mean_joint_error_mm(model, noisy, clean)},
           {"denoised_mpjpe_mm", mean_joint_error_mm(model, denoised, clean)},
           {"out", o->out},

@@ -137,5 +137,59 @@ TEST(LatentOperations, DenoiseKeepsTheInputsRootTranslation) {
   EXPECT_EQ(denoised[0].frame(7)[0], 7.0f);
 }
 
+// One round with zeros as missing is the plain projection of the motion whose
+// zeroed values hold the training mean: the zeros themselves never reach the
+// encoder.
+TEST(LatentOperations, DenoiseWithZerosAsMissingStartsFromTheTrainingMean) {
+  MM_REQUIRE_H36M();
+  auto& model = trained_tiny_model();
+  const auto& norm = model.normalization();
+  const MotionFrames corrupted = corrupt_motion(s5_clip(0, 30), norm, 0.5, 5);
+  MotionFrames mean_filled = corrupted;
+  for (int64_t f = 0; f < mean_filled.frame_count(); ++f) {
+    for (int c : norm.kept_columns) {
+      if (mean_filled.frame(f)[c] == 0.0f) mean_filled.frame(f)[c] = norm.mean[c];
+    }
+  }
+  DenoiseOptions one_round;
+  one_round.zeros_are_missing = true;
+  one_round.iterations = 1;
+  const auto expected = denoise_motions(model, {mean_filled}, DecoderKind::kRotation);
+  const auto actual = denoise_motions(model, {corrupted}, DecoderKind::kRotation, one_round);
+  ASSERT_EQ(actual[0].values.size(), expected[0].values.size());
+  for (size_t i = 0; i < actual[0].values.size(); ++i) {
+    ASSERT_NEAR(actual[0].values[i], expected[0].values[i], 1e-4) << "value " << i;
+  }
+  // Further rounds refill the gaps from the decoded motion and change the result.
+  one_round.iterations = 3;
+  EXPECT_NE(denoise_motions(model, {corrupted}, DecoderKind::kRotation, one_round)[0].values, actual[0].values);
+}
+
+TEST(LatentOperations, ZeroValuesMaskMarksExactZerosOfModelledColumns) {
+  MM_REQUIRE_H36M();
+  auto& model = trained_tiny_model();
+  const auto& kept = model.normalization().kept_columns;
+  auto raw = at::ones({2, 3, model.normalization().input_columns()});
+  raw[1][2][kept[4]] = 0.0;
+  raw[0][0][0] = 0.0;  // root translation is not modelled
+  auto mask = zero_values_mask(model, raw);
+  ASSERT_EQ(mask.sizes(), (std::vector<int64_t>{2, 3, static_cast<int64_t>(kept.size())}));
+  EXPECT_EQ(mask.sum().item<int64_t>(), 1);
+  EXPECT_TRUE(mask[1][2][4].item<bool>());
+}
+
+TEST(LatentOperations, DenoiseRejectsFewerThanOneIteration) {
+  MM_REQUIRE_H36M();
+  DenoiseOptions options;
+  options.zeros_are_missing = true;
+  options.iterations = 0;
+  try {
+    denoise_motions(trained_tiny_model(), {s5_clip(0, 30)}, DecoderKind::kRotation, options);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("iterations"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace mm
