@@ -2,6 +2,7 @@
 
 #include <c10/core/InferenceMode.h>
 
+#include "format/input_error.h"
 #include "gru_inference.h"
 #include "gru_recurrence.h"
 
@@ -14,12 +15,42 @@ DecoderImpl::DecoderImpl(const DecoderShape& shape)
                                                         shape.hidden))),
       to_pose_(register_module("to_pose", torch::nn::Linear(shape.hidden, shape.pose_dims))) {}
 
-at::Tensor DecoderImpl::forward(const at::Tensor& z) {
-  auto hidden = from_code_->forward(z);
-  const GruWeights gru{cell_->weight_ih, cell_->bias_ih, cell_->weight_hh, cell_->bias_hh};
-  auto generated = gru_autoregressive(hidden, z, gru, to_pose_->weight, to_pose_->bias, shape_.frames, shape_.residual,
-                                      shape_.feed_code);             // Eq. 2-3 / 5-6, (T, B, D)
-  return generated.flip(0).transpose(0, 1);                          // generated last frame first
+at::Tensor DecoderImpl::forward(const at::Tensor& z) { return forward_together({this}, z)[0]; }
+
+std::vector<at::Tensor> forward_together(const std::vector<DecoderImpl*>& decoders, const at::Tensor& z) {
+  if (decoders.empty()) throw InputError("decoders: expected at least one decoder");
+  const DecoderShape& shape = decoders[0]->shape();
+  for (const auto* d : decoders) {
+    const DecoderShape& s = d->shape();
+    if (s.pose_dims != shape.pose_dims || s.hidden != shape.hidden || s.latent != shape.latent ||
+        s.frames != shape.frames || s.feed_code != shape.feed_code) {
+      throw InputError("decoders: expected decoders of one shape to run together");
+    }
+  }
+  // One weight set per decoder along a new first dimension (a view for one).
+  auto stacked = [&](auto member) {
+    std::vector<at::Tensor> parts;
+    for (auto* d : decoders) parts.push_back(member(*d));
+    return parts.size() == 1 ? parts[0].unsqueeze(0) : at::stack(parts);
+  };
+  const int64_t count = static_cast<int64_t>(decoders.size());
+  // Made on the device, not copied there: a host-to-device copy would make
+  // the host wait for the GPU in the middle of a training step.
+  const auto residual = stacked([&](DecoderImpl& d) { return at::full({}, d.shape().residual ? 1.0 : 0.0, z.options()); });
+  const AutoregressiveWeights weights{
+      GruWeights{stacked([](DecoderImpl& d) { return d.cell_->weight_ih; }),
+                 stacked([](DecoderImpl& d) { return d.cell_->bias_ih; }),
+                 stacked([](DecoderImpl& d) { return d.cell_->weight_hh; }),
+                 stacked([](DecoderImpl& d) { return d.cell_->bias_hh; })},
+      stacked([](DecoderImpl& d) { return d.to_pose_->weight; }),
+      stacked([](DecoderImpl& d) { return d.to_pose_->bias; }), residual};
+  auto h0 = at::baddbmm(stacked([](DecoderImpl& d) { return d.from_code_->bias; }).unsqueeze(1),
+                        z.expand({count, z.size(0), z.size(1)}),
+                        stacked([](DecoderImpl& d) { return d.from_code_->weight; }).transpose(1, 2));
+  auto generated = gru_autoregressive(h0, z, weights, shape.frames, shape.feed_code);  // Eq. 2-3 / 5-6, (K, T, B, D)
+  std::vector<at::Tensor> poses;
+  for (int64_t k = 0; k < count; ++k) poses.push_back(generated[k].flip(0).transpose(0, 1));  // last frame first
+  return poses;
 }
 
 at::Tensor DecoderImpl::forward_stepwise(const at::Tensor& z) {

@@ -14,6 +14,8 @@
 #include <torch/nn/modules/rnn.h>
 #include <torch/nn/pimpl.h>
 
+#include <vector>
+
 namespace mm {
 
 struct DecoderShape {
@@ -46,11 +48,19 @@ class DecoderImpl : public torch::nn::Module {
   const DecoderShape& shape() const { return shape_; }
 
  private:
+  friend std::vector<at::Tensor> forward_together(const std::vector<DecoderImpl*>& decoders, const at::Tensor& z);
+
   DecoderShape shape_;
   torch::nn::Linear from_code_{nullptr};
   torch::nn::GRUCell cell_{nullptr};
   torch::nn::Linear to_pose_{nullptr};
 };
 TORCH_MODULE(Decoder);
+
+// forward() of several decoders of one shape (they may differ in `residual`)
+// on the same codes, as one recurrence: the training step runs the rotation
+// and velocity decoders this way. One output per decoder, in order.
+// InputError if the shapes differ.
+std::vector<at::Tensor> forward_together(const std::vector<DecoderImpl*>& decoders, const at::Tensor& z);
 
 }  // namespace mm

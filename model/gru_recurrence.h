@@ -25,13 +25,22 @@ struct GruWeights {
 // state (B, H). Differentiable in inputs, h0 and the weights.
 at::Tensor gru_last_hidden(const at::Tensor& inputs, const at::Tensor& h0, const GruWeights& gru);
 
-// The autoregressive decoder recurrence of Eq. 2-3 and 5-6: from h0 (B, H),
-// each step's input is the previous output pose (zero at first), followed by
-// `code` (B, L) when feed_code; the output pose is
-// y = W_o h + b_o (+ previous y when residual). Returns (T, B, D) in
-// generation order. Differentiable in h0, code and all weights.
-at::Tensor gru_autoregressive(const at::Tensor& h0, const at::Tensor& code, const GruWeights& gru,
-                              const at::Tensor& weight_out, const at::Tensor& bias_out, int64_t frames, bool residual,
-                              bool feed_code);
+// The weights of K decoders of one shape, stacked: every tensor of
+// GruWeights and the output layer gets a leading dimension K.
+struct AutoregressiveWeights {
+  GruWeights gru;                    // (K, 3H, I), (K, 3H), (K, 3H, H), (K, 3H)
+  at::Tensor weight_out, bias_out;   // (K, D, H), (K, D)
+  at::Tensor residual;               // (K): 1 where the decoder adds its previous output, else 0
+};
+
+// The autoregressive decoder recurrence of Eq. 2-3 and 5-6 for K decoders at
+// once: from h0 (K, B, H), each step's input is the decoder's previous output
+// pose (zero at first), followed by `code` (B, L) when feed_code; the output
+// pose is y = W_o h + b_o (+ previous y where residual). Returns
+// (K, T, B, D) in generation order. Differentiable in h0, code and all
+// weights. Running the rotation and velocity decoders together halves the
+// kernels per step, which sets the time of a training step on a GPU.
+at::Tensor gru_autoregressive(const at::Tensor& h0, const at::Tensor& code, const AutoregressiveWeights& weights,
+                              int64_t frames, bool feed_code);
 
 }  // namespace mm

@@ -21,6 +21,7 @@
 #include "device_option.h"
 #include "format/atomic_file.h"
 #include "format/input_error.h"
+#include "operator_count.h"
 #include "trainer.h"
 
 namespace mm::tool {
@@ -37,6 +38,7 @@ struct Timing {
   int batch = 0;
   std::string device;
   std::vector<double> ms;  // one per repeat, after one warm-up
+  int64_t operators = 0;   // kernel-launching operators of one run (count_operators)
   double median() const {
     auto sorted = ms;
     std::sort(sorted.begin(), sorted.end());
@@ -96,7 +98,9 @@ Timing measure(const std::string& operation, int batch, c10::Device device, int 
     synchronize(device);
     timing.ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started).count());
   }
-  std::fprintf(stderr, " median %.1f ms\n", timing.median());
+  timing.operators = count_operators(work);
+  synchronize(device);
+  std::fprintf(stderr, " median %.1f ms, %lld operators\n", timing.median(), static_cast<long long>(timing.operators));
   return timing;
 }
 
@@ -154,17 +158,18 @@ int run_bench(const BenchOptions& o) {
   std::vector<Timing> timings;
   for (const auto& device : devices) bench_device(o, data, device, timings);
 
-  std::printf("| operation | batch | device | median (ms) | min (ms) | repeats |\n");
-  std::printf("|---|---:|---|---:|---:|---:|\n");
+  std::printf("| operation | batch | device | median (ms) | min (ms) | repeats | operators |\n");
+  std::printf("|---|---:|---|---:|---:|---:|---:|\n");
   nlohmann::json results = nlohmann::json::array();
   for (const auto& t : timings) {
-    std::printf("| %s | %d | %s | %.1f | %.1f | %zu |\n", t.operation.c_str(), t.batch, t.device.c_str(), t.median(),
-                t.min(), t.ms.size());
+    std::printf("| %s | %d | %s | %.1f | %.1f | %zu | %lld |\n", t.operation.c_str(), t.batch, t.device.c_str(),
+                t.median(), t.min(), t.ms.size(), static_cast<long long>(t.operators));
     results.push_back({{"operation", t.operation},
                        {"batch", t.batch},
                        {"device", t.device},
                        {"median_ms", t.median()},
                        {"min_ms", t.min()},
+                       {"operators", t.operators},
                        {"ms", t.ms}});
   }
   if (!o.out.empty()) {
@@ -183,7 +188,8 @@ void add_bench_command(CLI::App& app, Action& action) {
   auto* command = app.add_subcommand(
       "bench",
       "Time a full training iteration (DKGM, batch 4 and 30) and inference (encode, rotation decode; batch 1 and "
-      "30) at the paper's model size with random weights. Prints a markdown table of median and minimum times.");
+      "30) at the paper's model size with random weights. Prints a markdown table of median and minimum times and "
+      "of the operators one run dispatches (about one kernel launch each on a GPU).");
   command->add_option("--hidden", o->hidden, "GRU hidden size")->check(at_least(1))->capture_default_str();
   command->add_option("--iterations", o->iterations, "timed repeats after one warm-up (inference: at least 10)")
       ->check(at_least(1))

@@ -5,6 +5,7 @@
 #include "decoder.h"
 #include "discriminator.h"
 #include "encoder.h"
+#include "format/input_error.h"
 
 namespace mm {
 namespace {
@@ -116,6 +117,49 @@ TEST(Networks, FusedDecoderMatchesStepwiseAutogradInValuesAndGradients) {
       }
     }
   }
+}
+
+// The training step runs the rotation and velocity decoders as one batched
+// recurrence; each must still compute what it computes alone.
+TEST(Networks, DecodersRunTogetherMatchEachStepwiseInValuesAndGradients) {
+  for (const auto& device : devices_to_check()) {
+    at::manual_seed(11);
+    for (bool feed_code : {false, true}) {
+      Decoder rotation(DecoderShape{51, 32, 8, 20, false, feed_code});
+      Decoder velocity(DecoderShape{51, 32, 8, 20, true, feed_code});
+      rotation->to(device);
+      velocity->to(device);
+      const auto z = at::randn({3, 8}).to(device);
+      const auto weights = at::randn({2, 3, 20, 51}).to(device);
+      auto run = [&](bool together) {
+        rotation->zero_grad();
+        velocity->zero_grad();
+        auto code = z.clone().requires_grad_(true);
+        auto outputs = together ? forward_together({rotation.get(), velocity.get()}, code)
+                                : std::vector<at::Tensor>{rotation->forward_stepwise(code), velocity->forward_stepwise(code)};
+        ((outputs[0] * weights[0]).sum() + (outputs[1] * weights[1]).sum()).backward();
+        std::vector<at::Tensor> values{outputs[0].detach(), outputs[1].detach(), code.grad().clone()};
+        for (auto* decoder : {rotation.get(), velocity.get()}) {
+          for (auto& p : decoder->parameters()) values.push_back(p.grad().clone());
+        }
+        return values;
+      };
+      const auto together = run(true), stepwise = run(false);
+      ASSERT_EQ(together.size(), stepwise.size());
+      for (size_t i = 0; i < together.size(); ++i) {
+        const double scale = stepwise[i].abs().max().item<double>() + 1e-6;
+        EXPECT_LT((together[i] - stepwise[i]).abs().max().item<double>() / scale, 1e-4)
+            << device.str() << " feed_code " << feed_code << ": tensor " << i
+            << " (0, 1 = outputs, 2 = code gradient, then each decoder's parameter gradients)";
+      }
+    }
+  }
+}
+
+TEST(Networks, DecodersOfDifferentShapesCannotRunTogether) {
+  Decoder small(DecoderShape{51, 16, 8, 20, false, false});
+  Decoder large(DecoderShape{51, 32, 8, 20, true, false});
+  EXPECT_THROW(forward_together({small.get(), large.get()}, at::randn({2, 8})), InputError);
 }
 
 TEST(Networks, FusedEncoderMatchesTorchGruInValuesAndGradients) {
