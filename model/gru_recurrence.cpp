@@ -145,10 +145,9 @@ struct Autoregressive : public torch::autograd::Function<Autoregressive> {
     // Step t's input is (y_{t-1}, code): the code's share of the input gates
     // is the same at every step, and y_{-1} is zero.
     const auto bias_ih_rows = bias_ih.unsqueeze(1);
-    const auto steady_gates =
-        feed_code ? affine(bias_ih_rows, code.expand({decoders, batch, code.size(1)}),
-                                weight_ih.narrow(2, dims, weight_ih.size(2) - dims).transpose(1, 2))
-                  : bias_ih_rows.expand({decoders, batch, bias_ih.size(1)}).contiguous();
+    const auto steady_gates = feed_code ? affine(bias_ih_rows, code.expand({decoders, batch, code.size(1)}),
+                                                 weight_ih.narrow(2, dims, weight_ih.size(2) - dims).transpose(1, 2))
+                                        : bias_ih_rows.expand({decoders, batch, bias_ih.size(1)}).contiguous();
     const auto weight_pose_t = weight_ih.narrow(2, 0, dims).transpose(1, 2), weight_hh_t = weight_hh.transpose(1, 2);
     const auto weight_out_t = weight_out.transpose(1, 2), bias_hh_rows = bias_hh.unsqueeze(1);
     const auto bias_out_rows = bias_out.unsqueeze(1), residual_rows = residual.view({decoders, 1, 1});
@@ -196,8 +195,7 @@ struct Autoregressive : public torch::autograd::Function<Autoregressive> {
       if (grad_from_later.defined()) grad_pose = grad_pose + grad_from_later;
       grad_pose_total[t] = grad_pose;
       auto grad_next = affine(grad_hidden, grad_pose, weight_out);
-      auto grad = cell_backward(grad_next.view({decoders * batch, size}),
-                                workspaces[t].view({decoders * batch, -1}));
+      auto grad = cell_backward(grad_next.view({decoders * batch, size}), workspaces[t].view({decoders * batch, -1}));
       auto input_gates = grad.input_gates.view({decoders, batch, -1});
       auto hidden_gates = grad.hidden_gates.view({decoders, batch, -1});
       grad_input_gates[t] = input_gates;
@@ -227,8 +225,8 @@ struct Autoregressive : public torch::autograd::Function<Autoregressive> {
     auto [grad_weight_hh, grad_bias_hh] =
         weight_and_bias_grad(hidden_gates, previous_hiddens(workspaces).transpose(0, 1));
     auto [grad_weight_out, grad_bias_out] = weight_and_bias_grad(pose_grads, hiddens);
-    return {grad_hidden,    grad_code,       grad_weight_ih, grad_bias_ih, grad_weight_hh, grad_bias_hh,
-            grad_weight_out, grad_bias_out,  at::Tensor(),   at::Tensor(), at::Tensor()};
+    return {grad_hidden,     grad_code,     grad_weight_ih, grad_bias_ih, grad_weight_hh, grad_bias_hh,
+            grad_weight_out, grad_bias_out, at::Tensor(),   at::Tensor(), at::Tensor()};
   }
 };
 
