@@ -4,6 +4,8 @@
 
 #include <nlohmann/json.hpp>
 #include <cstring>
+#include <map>
+#include <random>
 #include <set>
 
 #include "clip_sampler.h"
@@ -59,6 +61,48 @@ at::Tensor interpolate_missing_in_time(const at::Tensor& normalized, const at::T
   return filled.to(normalized.device());
 }
 
+// The errors in mm against the truth of raw corrupted clips (N, T, C) whose
+// dropped values are zero: as they are, projected as they are (the paper),
+// projected with the zeros as missing, the same keeping the observed values,
+// and interpolated in time.
+nlohmann::json missing_value_errors(const MotionManifold& model, const at::Tensor& corrupted, const at::Tensor& truth_mm) {
+  const auto kind = model.default_decoder();
+  const auto on_device = corrupted.to(model.device());
+  const auto normalized = model.to_normalized(on_device);
+  const auto missing = zero_values_mask(model, on_device);
+  const int rounds = DenoiseOptions{}.iterations;
+  const auto filled = project_onto_manifold(model, normalized, missing, kind, rounds);
+  auto error_mm = [&](const at::Tensor& n) { return mean_joint_error_mm(model.positions_mm(n), truth_mm); };
+  return {{"decoder", decoder_name(kind)},
+          {"missing_fraction", missing.to(at::kFloat).mean().item<double>()},
+          {"corrupted_mpjpe_mm", error_mm(normalized)},
+          {"denoised_mpjpe_mm", error_mm(project_onto_manifold(model, normalized, {}, kind, 1))},
+          {"zeros_missing_iterations", rounds},
+          {"denoised_zeros_missing_mpjpe_mm", error_mm(filled)},
+          {"filled_zeros_missing_mpjpe_mm", error_mm(at::where(missing, filled, normalized))},
+          {"time_interpolation_mpjpe_mm", error_mm(interpolate_missing_in_time(normalized, missing))}};
+}
+
+// Missing markers rather than noise: each joint's values zeroed together over
+// one window of `window` frames (uniform start) with the given probability.
+at::Tensor zero_joint_windows(const at::Tensor& raw, const PoseNormalization& normalization, int64_t window,
+                              double probability, uint64_t seed) {
+  auto corrupted = raw.clone();
+  std::mt19937_64 engine(seed);
+  std::bernoulli_distribution dropped(probability);
+  std::uniform_int_distribution<int64_t> start(0, raw.size(1) - window);
+  std::map<int, std::vector<int64_t>> columns_of_joint;
+  for (int c : normalization.kept_columns) columns_of_joint[(c - 3) / 3].push_back(c);
+  for (int64_t i = 0; i < raw.size(0); ++i) {
+    for (const auto& [joint, columns] : columns_of_joint) {
+      if (!dropped(engine)) continue;
+      const int64_t first = start(engine);
+      for (int64_t c : columns) corrupted[i].select(1, c).narrow(0, first, window).zero_();
+    }
+  }
+  return corrupted;
+}
+
 nlohmann::json evaluate_denoising(const MotionManifold& model, const at::Tensor& motion, const at::Tensor& truth_mm,
                                   const EvaluationOptions& options) {
   auto raw = model.to_raw(motion).cpu().contiguous();
@@ -72,22 +116,19 @@ nlohmann::json evaluate_denoising(const MotionManifold& model, const at::Tensor&
                                       options.corruption_seed + static_cast<uint64_t>(i));
     std::memcpy(corrupted[i].data_ptr<float>(), noisy.values.data(), sizeof(float) * frames * columns);
   }
-  auto corrupted_normalized = model.to_normalized(corrupted.to(model.device()));
-  const auto kind = model.default_decoder();
-  const auto missing = zero_values_mask(model, corrupted.to(model.device()));
-  const int rounds = DenoiseOptions{}.iterations;
-  auto error_mm = [&](const at::Tensor& normalized) {
-    return mean_joint_error_mm(model.positions_mm(normalized), truth_mm);
-  };
-  return {{"probability", options.corruption_probability},
-          {"seed", options.corruption_seed},
-          {"decoder", decoder_name(kind)},
-          {"corrupted_mpjpe_mm", error_mm(corrupted_normalized)},
-          {"denoised_mpjpe_mm", error_mm(project_onto_manifold(model, corrupted_normalized, {}, kind, 1))},
-          {"zeros_missing_iterations", rounds},
-          {"denoised_zeros_missing_mpjpe_mm",
-           error_mm(project_onto_manifold(model, corrupted_normalized, missing, kind, rounds))},
-          {"time_interpolation_mpjpe_mm", error_mm(interpolate_missing_in_time(corrupted_normalized, missing))}};
+  auto result = missing_value_errors(model, corrupted, truth_mm);
+  result["probability"] = options.corruption_probability;
+  result["seed"] = options.corruption_seed;
+  // The same with whole joints missing over 1.2 s and over the whole clip.
+  result["joint_windows"] = nlohmann::json::array();
+  for (int64_t window : {frames / 5, frames}) {
+    auto errors = missing_value_errors(
+        model, zero_joint_windows(raw, model.normalization(), window, options.corruption_probability, options.corruption_seed),
+        truth_mm);
+    errors["window_frames"] = window;
+    result["joint_windows"].push_back(errors);
+  }
+  return result;
 }
 
 }  // namespace

@@ -36,8 +36,12 @@ struct EvaluationOptions {
 // error in mm against the clean clips of the corrupted clips, of their
 // projections onto the manifold (decoded by the default decoder) as in the
 // paper, of the projections that treat the zeroed values as missing
-// (DenoiseOptions::zeros_are_missing), and of a baseline without the
-// manifold that interpolates the zeroed values in time.
+// (DenoiseOptions::zeros_are_missing), of the same keeping the observed
+// values (keep_observed), and of a baseline without the manifold that
+// interpolates the zeroed values in time; and the same errors, under
+// "joint_windows", when instead each joint is missing (all its values zero)
+// with the same probability over one window of a fifth of the clip (1.2 s)
+// or over the whole clip, as when a marker is lost.
 // Returns JSON text (documented in docs/ and by the tool). InputError if the
 // test sequences hold no clip of the model's length.
 std::string evaluate_reconstruction(const MotionManifold& model, const std::vector<const PreparedSequence*>& test,

@@ -115,8 +115,10 @@ std::vector<MotionFrames> denoise_motions(const MotionManifold& model, const std
   }
   const auto raw = stack_motions(model, motions);
   const auto missing = options.zeros_are_missing ? zero_values_mask(model, raw) : at::Tensor();
-  return to_motions(model, project_onto_manifold(model, model.to_normalized(raw), missing, kind, options.iterations),
-                    &motions);
+  const auto normalized = model.to_normalized(raw);
+  auto projected = project_onto_manifold(model, normalized, missing, kind, options.iterations);
+  if (missing.defined() && options.keep_observed) projected = at::where(missing, projected, normalized);
+  return to_motions(model, projected, &motions);
 }
 
 at::Tensor project_onto_manifold(const MotionManifold& model, const at::Tensor& normalized, const at::Tensor& missing,

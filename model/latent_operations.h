@@ -51,6 +51,10 @@ struct DenoiseOptions {
   // the missing values from the decoded motion (they start at the training
   // mean). The fill settles after about four rounds on H3.6M.
   int iterations = 4;
+  // With missing values: return the observed values as they are and the
+  // manifold's values only where values are missing (gap filling), instead
+  // of the decoded motion throughout.
+  bool keep_observed = false;
 };
 
 // Projects each motion onto the manifold and decodes it (Sec. 5.4); root

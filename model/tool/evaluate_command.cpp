@@ -46,10 +46,12 @@ void print_table(const nlohmann::json& result) {
     const auto& d = result.at("denoising");
     std::fprintf(stderr,
                  "denoising (p = %.2f, %s decoder): corrupted %.1f mm, denoised %.1f mm, denoised with zeros as "
-                 "missing %.1f mm (interpolated in time without the manifold: %.1f mm)\n",
+                 "missing %.1f mm, keeping the observed values %.1f mm (interpolated in time without the manifold: "
+                 "%.1f mm)\n",
                  d.at("probability").get<double>(), d.at("decoder").get<std::string>().c_str(),
                  d.at("corrupted_mpjpe_mm").get<double>(), d.at("denoised_mpjpe_mm").get<double>(),
-                 d.at("denoised_zeros_missing_mpjpe_mm").get<double>(), d.at("time_interpolation_mpjpe_mm").get<double>());
+                 d.at("denoised_zeros_missing_mpjpe_mm").get<double>(),
+                 d.at("filled_zeros_missing_mpjpe_mm").get<double>(), d.at("time_interpolation_mpjpe_mm").get<double>());
   }
 }
 

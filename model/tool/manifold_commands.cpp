@@ -202,6 +202,8 @@ void add_denoise(CLI::App& app, Action& action) {
                       "with --zeros-are-missing: rounds of projecting and refilling the missing values")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
+  command->add_flag("--keep-observed", o->denoise.keep_observed,
+                    "with --zeros-are-missing: keep the observed values and take the manifold's only for the missing");
   command->callback([o, &action] {
     action = [o] {
       const MotionManifold model = load_model(o->model);
@@ -217,6 +219,7 @@ void add_denoise(CLI::App& app, Action& action) {
           {"frames", model.config().frames},
           {"corrupt_probability", o->probability},
           {"zeros_are_missing", o->denoise.zeros_are_missing},
+          {"keep_observed", o->denoise.keep_observed},
           {"corrupted_mpjpe_mm", mean_joint_error_mm(model, noisy, clean)},
           {"denoised_mpjpe_mm", mean_joint_error_mm(model, denoised, clean)},
           {"out", o->out},

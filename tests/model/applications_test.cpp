@@ -165,6 +165,31 @@ TEST(LatentOperations, DenoiseWithZerosAsMissingStartsFromTheTrainingMean) {
   EXPECT_NE(denoise_motions(model, {corrupted}, DecoderKind::kRotation, one_round)[0].values, actual[0].values);
 }
 
+TEST(LatentOperations, DenoiseKeepingObservedValuesFillsOnlyTheZeros) {
+  MM_REQUIRE_H36M();
+  auto& model = trained_tiny_model();
+  const auto& norm = model.normalization();
+  const MotionFrames corrupted = corrupt_motion(s5_clip(0, 30), norm, 0.5, 6);
+  DenoiseOptions fill;
+  fill.zeros_are_missing = true;
+  fill.keep_observed = true;
+  const auto filled = denoise_motions(model, {corrupted}, DecoderKind::kRotation, fill)[0];
+  const auto projected = denoise_motions(model, {corrupted}, DecoderKind::kRotation, {true, 4, false})[0];
+  int missing = 0;
+  for (int64_t f = 0; f < corrupted.frame_count(); ++f) {
+    for (int c : norm.kept_columns) {
+      const float input = corrupted.frame(f)[c];
+      if (input == 0.0f) {
+        ++missing;
+        EXPECT_FLOAT_EQ(filled.frame(f)[c], projected.frame(f)[c]) << "frame " << f << " column " << c;
+      } else {
+        EXPECT_NEAR(filled.frame(f)[c], input, 1e-5) << "frame " << f << " column " << c;
+      }
+    }
+  }
+  EXPECT_GT(missing, 0);
+}
+
 TEST(LatentOperations, ZeroValuesMaskMarksExactZerosOfModelledColumns) {
   MM_REQUIRE_H36M();
   auto& model = trained_tiny_model();

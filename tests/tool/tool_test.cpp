@@ -103,6 +103,7 @@ TEST(Tool, PrepareTrainEvaluateAndDecodeOnRealData) {
   EXPECT_EQ(json["decoders"]["rotation"]["E_p"].size(), 5u);
   EXPECT_GT(json["denoising"]["corrupted_mpjpe_mm"].get<double>(), 0.0);
   EXPECT_GT(json["denoising"]["denoised_zeros_missing_mpjpe_mm"].get<double>(), 0.0);
+  EXPECT_GT(json["denoising"]["filled_zeros_missing_mpjpe_mm"].get<double>(), 0.0);
   EXPECT_LT(json["denoising"]["time_interpolation_mpjpe_mm"].get<double>(),
             json["denoising"]["corrupted_mpjpe_mm"].get<double>());
 
@@ -113,9 +114,11 @@ TEST(Tool, PrepareTrainEvaluateAndDecodeOnRealData) {
   for (std::string line; std::getline(denoised, line);) ++lines;
   EXPECT_EQ(lines, 150);
   r = run_tool("denoise --model " + run + "/model --input " + s5("walking_1.txt") +
-               " --corrupt-probability 0.5 --zeros-are-missing --iterations 2 --out " + dir.file("d2.txt"));
+               " --corrupt-probability 0.5 --zeros-are-missing --iterations 2 --keep-observed --out " +
+               dir.file("d2.txt"));
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("\"zeros_are_missing\": true"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("\"keep_observed\": true"), std::string::npos) << r.output;
   r = run_tool("denoise --model " + run + "/model --input " + s5("walking_1.txt") +
                " --zeros-are-missing --iterations 0 --out " + dir.file("d3.txt"));
   EXPECT_EQ(r.exit_code, 2) << r.output;
