@@ -6,9 +6,9 @@
 #   bash scripts/build-cuda.sh [BUILD_DIR]      (default build-cuda)
 #
 # Header packages that the machine lacks (nlohmann-json3-dev, libcli11-dev,
-# zlib1g-dev, libgtest-dev, libgmock-dev) can be unpacked with
-# `dpkg -x PKG.deb DIR` and named with DEPS=DIR: DIR/usr joins the search
-# path, and zlib is taken from there statically.
+# zlib1g-dev, libgtest-dev, libgmock-dev) can be unpacked elsewhere by
+# scripts/unpack-build-deps.sh and named with DEPS=DIR: DIR/usr joins the
+# search path, and zlib is taken from there statically.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build_dir=${1:-build-cuda}
