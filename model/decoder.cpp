@@ -34,10 +34,8 @@ std::vector<at::Tensor> forward_together(const std::vector<DecoderImpl*>& decode
     return parts.size() == 1 ? parts[0].unsqueeze(0) : at::stack(parts);
   };
   const int64_t count = static_cast<int64_t>(decoders.size());
-  // Made on the device, not copied there: a host-to-device copy would make
-  // the host wait for the GPU in the middle of a training step.
-  const auto residual =
-      stacked([&](DecoderImpl& d) { return at::full({}, d.shape().residual ? 1.0 : 0.0, z.options()); });
+  std::vector<bool> residual;
+  for (const auto* d : decoders) residual.push_back(d->shape().residual);
   const AutoregressiveWeights weights{
       GruWeights{stacked([](DecoderImpl& d) { return d.cell_->weight_ih; }),
                  stacked([](DecoderImpl& d) { return d.cell_->bias_ih; }),

@@ -85,6 +85,7 @@ nlohmann::json missing_value_errors(const MotionManifold& model, const at::Tenso
 
 // Missing markers rather than noise: each joint's values zeroed together over
 // one window of `window` frames (uniform start) with the given probability.
+// One seed for every window length, so the lengths lose the same joints.
 at::Tensor zero_joint_windows(const at::Tensor& raw, const PoseNormalization& normalization, int64_t window,
                               double probability, uint64_t seed) {
   auto corrupted = raw.clone();
@@ -92,7 +93,9 @@ at::Tensor zero_joint_windows(const at::Tensor& raw, const PoseNormalization& no
   std::bernoulli_distribution dropped(probability);
   std::uniform_int_distribution<int64_t> start(0, raw.size(1) - window);
   std::map<int, std::vector<int64_t>> columns_of_joint;
-  for (int c : normalization.kept_columns) columns_of_joint[(c - 3) / 3].push_back(c);
+  for (int c : normalization.kept_columns) {
+    if (c >= 3) columns_of_joint[(c - 3) / 3].push_back(c);  // not root translation
+  }
   for (int64_t i = 0; i < raw.size(0); ++i) {
     for (const auto& [joint, columns] : columns_of_joint) {
       if (!dropped(engine)) continue;

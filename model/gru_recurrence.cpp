@@ -2,6 +2,9 @@
 
 #include <torch/csrc/autograd/custom_function.h>
 
+#include <algorithm>
+#include <vector>
+
 namespace mm {
 namespace {
 
@@ -124,13 +127,50 @@ struct LastHidden : public torch::autograd::Function<LastHidden> {
 };
 
 // bias + x . weight per decoder: (K, B, O) from x (K, B, I) and weight
-// (K, I, O); bias broadcasts to (K, B, O). One decoder takes the plain matrix
-// product: on the CPU the batched one is slower for a single matrix (a
-// training step at batch 4 took 9% longer).
+// (K, I, O); bias broadcasts to (K, B, O), or is undefined for none. One
+// decoder takes the plain matrix product: on the CPU the batched one is
+// slower for a single matrix (a training step at batch 4 took 9% longer).
 at::Tensor affine(const at::Tensor& bias, const at::Tensor& x, const at::Tensor& weight) {
-  if (x.size(0) == 1) return at::addmm(bias[0], x[0], weight[0]).unsqueeze(0);
-  return at::baddbmm(bias, x, weight);
+  if (x.size(0) == 1) {
+    if (!bias.defined()) return at::mm(x[0], weight[0]).unsqueeze(0);
+    auto row = bias[0];
+    if (row.dim() == 2 && row.size(0) == 1) row = row.squeeze(0);  // a bias vector, as the plain product takes it
+    return at::addmm(row, x[0], weight[0]).unsqueeze(0);
+  }
+  return bias.defined() ? at::baddbmm(bias, x, weight) : at::bmm(x, weight);
 }
+
+// Which decoders add their previous output, as the step needs it: nothing
+// to do when none does, a plain addition when all do, and a (K, 1, 1) scale
+// of zeros and ones made on the device (no host-to-device copy, which would
+// make the host wait for the GPU) when they differ.
+struct ResidualPlan {
+  bool any = false;
+  at::Tensor scale;  // defined only for a mix
+
+  ResidualPlan(const std::vector<bool>& residual, const at::TensorOptions& options) {
+    const bool all = std::all_of(residual.begin(), residual.end(), [](bool r) { return r; });
+    any = std::any_of(residual.begin(), residual.end(), [](bool r) { return r; });
+    if (any && !all) {
+      std::vector<at::Tensor> flags;
+      for (bool r : residual) flags.push_back(at::full({1, 1}, r ? 1.0 : 0.0, options));
+      scale = at::stack(flags);
+    }
+  }
+  // previous + next where residual, in place on next.
+  void add_previous(at::Tensor& next, const at::Tensor& previous) const {
+    if (scale.defined()) {
+      next.addcmul_(scale, previous);
+    } else if (any) {
+      next.add_(previous);
+    }
+  }
+  // The share of dL/dy_t that flows into y_{t-1} through the addition.
+  at::Tensor previous_share(const at::Tensor& grad) const {
+    if (!any) return at::Tensor();
+    return scale.defined() ? grad * scale : grad;
+  }
+};
 
 // K decoders of one shape run as one recurrence: every per-step product is
 // a batched product over the K weight sets, so a step costs the same number
@@ -140,7 +180,7 @@ struct Autoregressive : public torch::autograd::Function<Autoregressive> {
   static at::Tensor forward(AutogradContext* ctx, const at::Tensor& h0, const at::Tensor& code,
                             const at::Tensor& weight_ih, const at::Tensor& bias_ih, const at::Tensor& weight_hh,
                             const at::Tensor& bias_hh, const at::Tensor& weight_out, const at::Tensor& bias_out,
-                            const at::Tensor& residual, int64_t frames, bool feed_code) {
+                            int64_t frames, bool feed_code, std::vector<bool> residual) {
     const int64_t decoders = h0.size(0), batch = h0.size(1), size = h0.size(2), dims = weight_out.size(1);
     // Step t's input is (y_{t-1}, code): the code's share of the input gates
     // is the same at every step, and y_{-1} is zero.
@@ -150,7 +190,8 @@ struct Autoregressive : public torch::autograd::Function<Autoregressive> {
                                         : bias_ih_rows.expand({decoders, batch, bias_ih.size(1)}).contiguous();
     const auto weight_pose_t = weight_ih.narrow(2, 0, dims).transpose(1, 2), weight_hh_t = weight_hh.transpose(1, 2);
     const auto weight_out_t = weight_out.transpose(1, 2), bias_hh_rows = bias_hh.unsqueeze(1);
-    const auto bias_out_rows = bias_out.unsqueeze(1), residual_rows = residual.view({decoders, 1, 1});
+    const auto bias_out_rows = bias_out.unsqueeze(1);
+    const ResidualPlan plan(residual, h0.options());
     std::vector<at::Tensor> workspaces(frames), hiddens(frames), poses(frames);
     at::Tensor hidden = h0.contiguous(), pose;
     for (int64_t t = 0; t < frames; ++t) {
@@ -160,14 +201,15 @@ struct Autoregressive : public torch::autograd::Function<Autoregressive> {
                                hidden.view({decoders * batch, size}));
       hidden = step.hidden.view({decoders, batch, size});
       auto next = affine(bias_out_rows, hidden, weight_out_t);
-      if (t > 0) next.addcmul_(residual_rows, pose);  // the velocity decoder adds its previous output
+      if (t > 0) plan.add_previous(next, pose);  // the velocity decoder adds its previous output
       pose = next;
       workspaces[t] = step.workspace.view({decoders, batch, -1});
       hiddens[t] = hidden;
       poses[t] = pose;
     }
     auto outputs = at::stack(poses, 1);  // (K, T, B, D)
-    ctx->save_for_backward({weight_ih, weight_hh, weight_out, residual});
+    ctx->save_for_backward({weight_ih, weight_hh, weight_out});
+    ctx->saved_data["residual"] = std::vector<int64_t>(residual.begin(), residual.end());
     ctx->saved_data["workspaces"] = at::stack(workspaces);  // (T, K, B, 5H): each step's contiguous
     ctx->saved_data["hiddens"] = at::stack(hiddens, 1);  // h_1 .. h_T, what the poses were computed from
     ctx->saved_data["poses"] = outputs.clone();          // the inputs of steps 1 .. T, kept apart from the output
@@ -177,7 +219,9 @@ struct Autoregressive : public torch::autograd::Function<Autoregressive> {
 
   static variable_list backward(AutogradContext* ctx, variable_list grad_outputs) {
     auto saved = ctx->get_saved_variables();
-    const auto &weight_ih = saved[0], &weight_hh = saved[1], &weight_out = saved[2], &residual = saved[3];
+    const auto &weight_ih = saved[0], &weight_hh = saved[1], &weight_out = saved[2];
+    const auto flags = ctx->saved_data["residual"].toIntVector();
+    const std::vector<bool> residual(flags.begin(), flags.end());
     const auto workspaces = ctx->saved_data["workspaces"].toTensor();
     const auto hiddens = ctx->saved_data["hiddens"].toTensor(), poses = ctx->saved_data["poses"].toTensor();
     const auto code = ctx->saved_data["code"].toTensor();
@@ -186,7 +230,8 @@ struct Autoregressive : public torch::autograd::Function<Autoregressive> {
     const int64_t size = weight_hh.size(2);
     auto opts = poses.options();
     auto grad_poses = grad_outputs[0].defined() ? grad_outputs[0] : at::zeros_like(poses);
-    const auto weight_pose = weight_ih.narrow(2, 0, dims), residual_rows = residual.view({decoders, 1, 1});
+    const auto weight_pose = weight_ih.narrow(2, 0, dims);
+    const ResidualPlan plan(residual, opts);
     std::vector<at::Tensor> grad_input_gates(frames), grad_hidden_gates(frames), grad_pose_total(frames);
     auto grad_hidden = at::zeros({decoders, batch, size}, opts);
     at::Tensor grad_from_later;  // into y_t from step t+1's input and residual
@@ -202,7 +247,7 @@ struct Autoregressive : public torch::autograd::Function<Autoregressive> {
       grad_hidden_gates[t] = hidden_gates;
       grad_hidden = affine(grad.hidden_direct.view({decoders, batch, size}), hidden_gates, weight_hh);
       if (t > 0) {  // step t's input pose is y_{t-1}, and with the residual so is y_t itself
-        grad_from_later = affine(grad_pose * residual_rows, input_gates, weight_pose);
+        grad_from_later = affine(plan.previous_share(grad_pose), input_gates, weight_pose);
       }
     }
     auto input_gates = at::stack(grad_input_gates, 1), hidden_gates = at::stack(grad_hidden_gates, 1);  // (K, T, B, 3H)
@@ -226,7 +271,7 @@ struct Autoregressive : public torch::autograd::Function<Autoregressive> {
         weight_and_bias_grad(hidden_gates, previous_hiddens(workspaces).transpose(0, 1));
     auto [grad_weight_out, grad_bias_out] = weight_and_bias_grad(pose_grads, hiddens);
     return {grad_hidden,     grad_code,     grad_weight_ih, grad_bias_ih, grad_weight_hh, grad_bias_hh,
-            grad_weight_out, grad_bias_out, at::Tensor(),   at::Tensor(), at::Tensor()};
+            grad_weight_out, grad_bias_out, at::Tensor(),   at::Tensor(), at::Tensor()};  // frames, feed_code, residual
   }
 };
 
@@ -239,7 +284,7 @@ at::Tensor gru_last_hidden(const at::Tensor& inputs, const at::Tensor& h0, const
 at::Tensor gru_autoregressive(const at::Tensor& h0, const at::Tensor& code, const AutoregressiveWeights& w,
                               int64_t frames, bool feed_code) {
   return Autoregressive::apply(h0, code, w.gru.weight_ih, w.gru.bias_ih, w.gru.weight_hh, w.gru.bias_hh, w.weight_out,
-                               w.bias_out, w.residual, frames, feed_code);
+                               w.bias_out, frames, feed_code, w.residual);
 }
 
 }  // namespace mm

@@ -13,6 +13,8 @@
 
 #include <ATen/ATen.h>
 
+#include <vector>
+
 namespace mm {
 
 // The weights of one GRU layer as in torch::nn::GRU / GRUCell.
@@ -30,7 +32,7 @@ at::Tensor gru_last_hidden(const at::Tensor& inputs, const at::Tensor& h0, const
 struct AutoregressiveWeights {
   GruWeights gru;                    // (K, 3H, I), (K, 3H), (K, 3H, H), (K, 3H)
   at::Tensor weight_out, bias_out;   // (K, D, H), (K, D)
-  at::Tensor residual;               // (K): 1 where the decoder adds its previous output, else 0
+  std::vector<bool> residual;        // K flags: whether the decoder adds its previous output
 };
 
 // The autoregressive decoder recurrence of Eq. 2-3 and 5-6 for K decoders at

@@ -21,7 +21,7 @@
 #include "device_option.h"
 #include "format/atomic_file.h"
 #include "format/input_error.h"
-#include "operator_count.h"
+#include "operation_count.h"
 #include "trainer.h"
 
 namespace mm::tool {
@@ -38,7 +38,7 @@ struct Timing {
   int batch = 0;
   std::string device;
   std::vector<double> ms;  // one per repeat, after one warm-up
-  int64_t operators = 0;   // kernel-launching operators of one run (count_operators)
+  int64_t operations = 0;  // tensor operations of one run (count_operations)
   double median() const {
     auto sorted = ms;
     std::sort(sorted.begin(), sorted.end());
@@ -98,9 +98,9 @@ Timing measure(const std::string& operation, int batch, c10::Device device, int 
     synchronize(device);
     timing.ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started).count());
   }
-  timing.operators = count_operators(work);
+  timing.operations = count_operations(work);
   synchronize(device);
-  std::fprintf(stderr, " median %.1f ms, %lld operators\n", timing.median(), static_cast<long long>(timing.operators));
+  std::fprintf(stderr, " median %.1f ms, %lld operations\n", timing.median(), static_cast<long long>(timing.operations));
   return timing;
 }
 
@@ -158,18 +158,18 @@ int run_bench(const BenchOptions& o) {
   std::vector<Timing> timings;
   for (const auto& device : devices) bench_device(o, data, device, timings);
 
-  std::printf("| operation | batch | device | median (ms) | min (ms) | repeats | operators |\n");
+  std::printf("| operation | batch | device | median (ms) | min (ms) | repeats | operations |\n");
   std::printf("|---|---:|---|---:|---:|---:|---:|\n");
   nlohmann::json results = nlohmann::json::array();
   for (const auto& t : timings) {
     std::printf("| %s | %d | %s | %.1f | %.1f | %zu | %lld |\n", t.operation.c_str(), t.batch, t.device.c_str(),
-                t.median(), t.min(), t.ms.size(), static_cast<long long>(t.operators));
+                t.median(), t.min(), t.ms.size(), static_cast<long long>(t.operations));
     results.push_back({{"operation", t.operation},
                        {"batch", t.batch},
                        {"device", t.device},
                        {"median_ms", t.median()},
                        {"min_ms", t.min()},
-                       {"operators", t.operators},
+                       {"operations", t.operations},
                        {"ms", t.ms}});
   }
   if (!o.out.empty()) {
@@ -189,7 +189,7 @@ void add_bench_command(CLI::App& app, Action& action) {
       "bench",
       "Time a full training iteration (DKGM, batch 4 and 30) and inference (encode, rotation decode; batch 1 and "
       "30) at the paper's model size with random weights. Prints a markdown table of median and minimum times and "
-      "of the operators one run dispatches (about one kernel launch each on a GPU).");
+      "of the tensor operations one run issues (one kernel launch or a few each on a GPU).");
   command->add_option("--hidden", o->hidden, "GRU hidden size")->check(at_least(1))->capture_default_str();
   command->add_option("--iterations", o->iterations, "timed repeats after one warm-up (inference: at least 10)")
       ->check(at_least(1))

@@ -43,24 +43,24 @@ TEST(Tool, UnknownVariantIsAUsageErrorNamingTheValue) {
 
 TEST(Tool, MissingSubcommandIsAUsageError) { EXPECT_EQ(run_tool("").exit_code, 2); }
 
-// A tiny bench run: every operation is timed and its kernel-launching
-// operators counted; views and allocations are not counted, so inference at
-// batch 1 on the CPU's fused path dispatches far fewer than a training step.
-TEST(Tool, BenchTimesAndCountsOperatorsOfEveryOperation) {
+// A tiny bench run: every operation is timed and its tensor operations
+// counted; inference at batch 1 on the CPU's fused path issues far fewer
+// than a training step.
+TEST(Tool, BenchTimesAndCountsTheTensorOperationsOfEveryOperation) {
   test::ScratchDir dir;
   const auto r = run_tool("bench --hidden 8 --iterations 1 --device cpu --out " + dir.file("bench.json"));
   ASSERT_EQ(r.exit_code, 0) << r.output;
   std::ifstream in(dir.file("bench.json"));
   const auto results = nlohmann::json::parse(in)["results"];
   ASSERT_EQ(results.size(), 6u);
-  std::map<std::string, int64_t> operators;
+  std::map<std::string, int64_t> operations;
   for (const auto& result : results) {
     EXPECT_GT(result["median_ms"].get<double>(), 0.0) << result.dump();
-    EXPECT_GT(result["operators"].get<int64_t>(), 0) << result.dump();
-    operators[result["operation"].get<std::string>() + " " + std::to_string(result["batch"].get<int>())] =
-        result["operators"].get<int64_t>();
+    EXPECT_GT(result["operations"].get<int64_t>(), 0) << result.dump();
+    operations[result["operation"].get<std::string>() + " " + std::to_string(result["batch"].get<int>())] =
+        result["operations"].get<int64_t>();
   }
-  EXPECT_GT(operators.at("training iteration (DKGM) 4"), 10 * operators.at("decode (rotation) 1"));
+  EXPECT_GT(operations.at("training iteration (DKGM) 4"), 2 * operations.at("decode (rotation) 1"));
 }
 
 TEST(Tool, PrepareTrainEvaluateAndDecodeOnRealData) {
