@@ -113,6 +113,10 @@ std::vector<MotionFrames> denoise_motions(const MotionManifold& model, const std
   if (options.iterations < 1) {
     throw InputError("iterations: expected at least 1, found " + std::to_string(options.iterations));
   }
+  if (options.keep_observed && !options.zeros_are_missing) {
+    throw InputError("keep_observed: expected together with zeros_are_missing (without missing values every value "
+                     "is observed, and nothing would be denoised)");
+  }
   const auto raw = stack_motions(model, motions);
   const auto missing = options.zeros_are_missing ? zero_values_mask(model, raw) : at::Tensor();
   const auto normalized = model.to_normalized(raw);

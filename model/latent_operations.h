@@ -53,7 +53,7 @@ struct DenoiseOptions {
   int iterations = 4;
   // With missing values: return the observed values as they are and the
   // manifold's values only where values are missing (gap filling), instead
-  // of the decoded motion throughout.
+  // of the decoded motion throughout. Only with zeros_are_missing.
   bool keep_observed = false;
 };
 

@@ -196,14 +196,17 @@ void add_denoise(CLI::App& app, Action& action) {
       ->check(CLI::Range(0.0, 1.0));
   command->add_option("--seed", o->seed, "seed of the corruption")->capture_default_str();
   command->add_option("--corrupted-out", o->corrupted_out, "also write the corrupted motion (25 Hz)");
-  command->add_flag("--zeros-are-missing", o->denoise.zeros_are_missing,
-                    "treat joint-angle values that are exactly zero as missing and fill them from the manifold");
+  auto* zeros_are_missing = command->add_flag(
+      "--zeros-are-missing", o->denoise.zeros_are_missing,
+      "treat joint-angle values that are exactly zero as missing and fill them from the manifold");
   command->add_option("--iterations", o->denoise.iterations,
                       "with --zeros-are-missing: rounds of projecting and refilling the missing values")
       ->check(CLI::PositiveNumber)
+      ->needs(zeros_are_missing)
       ->capture_default_str();
   command->add_flag("--keep-observed", o->denoise.keep_observed,
-                    "with --zeros-are-missing: keep the observed values and take the manifold's only for the missing");
+                    "with --zeros-are-missing: keep the observed values and take the manifold's only for the missing")
+      ->needs(zeros_are_missing);
   command->callback([o, &action] {
     action = [o] {
       const MotionManifold model = load_model(o->model);

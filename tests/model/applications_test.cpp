@@ -203,6 +203,18 @@ TEST(LatentOperations, ZeroValuesMaskMarksExactZerosOfModelledColumns) {
   EXPECT_TRUE(mask[1][2][4].item<bool>());
 }
 
+TEST(LatentOperations, DenoiseRejectsKeepingObservedValuesWithoutMissingOnes) {
+  MM_REQUIRE_H36M();
+  DenoiseOptions options;
+  options.keep_observed = true;
+  try {
+    denoise_motions(trained_tiny_model(), {s5_clip(0, 30)}, DecoderKind::kRotation, options);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("keep_observed"), std::string::npos) << e.what();
+  }
+}
+
 TEST(LatentOperations, DenoiseRejectsFewerThanOneIteration) {
   MM_REQUIRE_H36M();
   DenoiseOptions options;

@@ -123,6 +123,10 @@ TEST(Tool, PrepareTrainEvaluateAndDecodeOnRealData) {
                " --zeros-are-missing --iterations 0 --out " + dir.file("d3.txt"));
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("--iterations"), std::string::npos) << r.output;
+  r = run_tool("denoise --model " + run + "/model --input " + s5("walking_1.txt") + " --keep-observed --out " +
+               dir.file("d3.txt"));
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--zeros-are-missing"), std::string::npos) << r.output;
 
   // A motion shorter than a clip is bad input, named in the message.
   {
