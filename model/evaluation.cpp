@@ -85,7 +85,7 @@ nlohmann::json missing_value_errors(const MotionManifold& model, const at::Tenso
 
 // Missing markers rather than noise: each joint's values zeroed together over
 // one window of `window` frames (uniform start) with the given probability.
-// One seed for every window length, so the lengths lose the same joints.
+// The same seed serves every window length.
 at::Tensor zero_joint_windows(const at::Tensor& raw, const PoseNormalization& normalization, int64_t window,
                               double probability, uint64_t seed) {
   auto corrupted = raw.clone();
