@@ -3,7 +3,9 @@
 #include <c10/core/InferenceMode.h>
 
 #include <nlohmann/json.hpp>
+#include <cmath>
 #include <cstring>
+#include <utility>
 #include <map>
 #include <random>
 #include <set>
@@ -62,24 +64,24 @@ at::Tensor interpolate_missing_in_time(const at::Tensor& normalized, const at::T
 }
 
 // The errors in mm against the truth of raw corrupted clips (N, T, C) whose
-// dropped values are zero: as they are, projected as they are (the paper),
-// projected with the zeros as missing, the same keeping the observed values,
-// and interpolated in time.
-nlohmann::json missing_value_errors(const MotionManifold& model, const at::Tensor& corrupted, const at::Tensor& truth_mm) {
+// dropped values `missing` says how to find: as they are, projected as they
+// are (the paper), projected with the dropped values as missing, the same
+// keeping the observed values, and interpolated in time.
+nlohmann::json missing_value_errors(const MotionManifold& model, const at::Tensor& corrupted, const at::Tensor& truth_mm,
+                                    const DenoiseOptions& missing_options) {
   const auto kind = model.default_decoder();
   const auto on_device = corrupted.to(model.device());
   const auto normalized = model.to_normalized(on_device);
-  const auto missing = zero_values_mask(model, on_device);
-  const int rounds = DenoiseOptions{}.iterations;
+  const auto missing = missing_values_mask(model, on_device, missing_options);
+  const int rounds = missing_options.iterations;
   const auto filled = project_onto_manifold(model, normalized, missing, kind, rounds);
   auto error_mm = [&](const at::Tensor& n) { return mean_joint_error_mm(model.positions_mm(n), truth_mm); };
-  return {{"decoder", decoder_name(kind)},
+  return {{"missing_values", missing_options.means_are_missing ? "training mean" : "zero"},
           {"missing_fraction", missing.to(at::kFloat).mean().item<double>()},
           {"corrupted_mpjpe_mm", error_mm(normalized)},
           {"denoised_mpjpe_mm", error_mm(project_onto_manifold(model, normalized, {}, kind, 1))},
-          {"zeros_missing_iterations", rounds},
-          {"denoised_zeros_missing_mpjpe_mm", error_mm(filled)},
-          {"filled_zeros_missing_mpjpe_mm", error_mm(at::where(missing, filled, normalized))},
+          {"denoised_missing_mpjpe_mm", error_mm(filled)},
+          {"filled_missing_mpjpe_mm", error_mm(at::where(missing, filled, normalized))},
           {"time_interpolation_mpjpe_mm", error_mm(interpolate_missing_in_time(normalized, missing))}};
 }
 
@@ -106,57 +108,61 @@ at::Tensor zero_joint_windows(const at::Tensor& raw, const PoseNormalization& no
   return corrupted;
 }
 
-nlohmann::json evaluate_denoising(const MotionManifold& model, const at::Tensor& motion, const at::Tensor& truth_mm,
-                                  const EvaluationOptions& options) {
-  auto raw = model.to_raw(motion).cpu().contiguous();
+// Each clip of raw frames (N, T, C) corrupted by corrupt_motion, clip i with
+// seed + i.
+at::Tensor corrupt_clips(const at::Tensor& raw, const PoseNormalization& normalization, double probability,
+                         uint64_t seed, Corruption corruption) {
   const int64_t clips = raw.size(0), frames = raw.size(1), columns = raw.size(2);
   auto corrupted = at::empty_like(raw);
   for (int64_t i = 0; i < clips; ++i) {
     MotionFrames clip;
     clip.columns = static_cast<int>(columns);
     clip.values.assign(raw[i].data_ptr<float>(), raw[i].data_ptr<float>() + frames * columns);
-    const auto noisy = corrupt_motion(clip, model.normalization(), options.corruption_probability,
-                                      options.corruption_seed + static_cast<uint64_t>(i));
+    const auto noisy = corrupt_motion(clip, normalization, probability, seed + static_cast<uint64_t>(i), corruption);
     std::memcpy(corrupted[i].data_ptr<float>(), noisy.values.data(), sizeof(float) * frames * columns);
   }
-  auto result = missing_value_errors(model, corrupted, truth_mm);
-  result["probability"] = options.corruption_probability;
-  result["seed"] = options.corruption_seed;
-  // The same with whole joints missing over 1.2 s and over the whole clip.
-  result["joint_windows"] = nlohmann::json::array();
-  for (int64_t window : {frames / 5, frames}) {
-    auto errors = missing_value_errors(
-        model, zero_joint_windows(raw, model.normalization(), window, options.corruption_probability, options.corruption_seed),
-        truth_mm);
-    errors["window_frames"] = window;
-    result["joint_windows"].push_back(errors);
-  }
-  return result;
+  return corrupted;
 }
 
-}  // namespace
+nlohmann::json evaluate_denoising(const MotionManifold& model, const at::Tensor& motion, const at::Tensor& truth_mm,
+                                  const EvaluationOptions& options) {
+  const auto raw = model.to_raw(motion).cpu().contiguous();
+  const auto& normalization = model.normalization();
+  DenoiseOptions zeros, means;
+  zeros.zeros_are_missing = true;
+  means.means_are_missing = true;
+  nlohmann::json corruptions = nlohmann::json::array();
+  // The reference's corruption first (dropped values at the training mean),
+  // then the paper's text (dropped values zeroed), on the same dropped values.
+  for (auto corruption : {Corruption::kReference, Corruption::kZeroed}) {
+    auto errors = missing_value_errors(
+        model, corrupt_clips(raw, normalization, options.corruption_probability, options.corruption_seed, corruption),
+        truth_mm, corruption == Corruption::kReference ? means : zeros);
+    errors["corruption"] = corruption_name(corruption);
+    corruptions.push_back(errors);
+  }
+  // Whole joints missing (all their values zero) over 1.2 s and over the
+  // whole clip.
+  const int64_t frames = raw.size(1);
+  for (int64_t window : {frames / 5, frames}) {
+    auto errors = missing_value_errors(
+        model, zero_joint_windows(raw, normalization, window, options.corruption_probability, options.corruption_seed),
+        truth_mm, zeros);
+    errors["corruption"] = "joint_window";
+    errors["window_frames"] = window;
+    corruptions.push_back(errors);
+  }
+  return {{"probability", options.corruption_probability},
+          {"seed", options.corruption_seed},
+          {"decoder", decoder_name(model.default_decoder())},
+          {"missing_iterations", DenoiseOptions{}.iterations},
+          {"corruptions", corruptions}};
+}
 
-std::string evaluate_reconstruction(const MotionManifold& model, const std::vector<const PreparedSequence*>& test,
-                                    const EvaluationOptions& options) {
-  c10::InferenceMode inference;
-  const auto& config = model.config();
-  if (config.frames % options.intervals != 0) {
-    throw InputError("intervals: " + std::to_string(options.intervals) + " does not divide the clip's " +
-                     std::to_string(config.frames) + " frames");
-  }
-  ClipSampler sampler(test, config.frames, options.seed);
-  std::vector<ClipSampler::Clip> clips;
-  nlohmann::json clip_list = nlohmann::json::array();
-  for (int i = 0; i < options.clips; ++i) {
-    clips.push_back(sampler.draw());
-    const auto& c = clips.back();
-    clip_list.push_back({{"subject", c.sequence->subject},
-                         {"action", c.sequence->action},
-                         {"take", c.sequence->take},
-                         {"phase", c.sequence->phase},
-                         {"start", c.start}});
-  }
-  auto motion = sampler.gather(clips).to(model.device());
+// Table 1 for one set of clips (B, frames, D): per decoder, the errors in
+// the evaluation's units, the physical ones and those of the reference.
+nlohmann::json table1(const MotionManifold& model, const at::Tensor& motion, const CoordinateStandardization* positions,
+                      int intervals) {
   auto code = model.encode(motion);
   auto truth_scaled = model.positions_scaled(motion);
   auto truth_mm = model.positions_mm(motion);
@@ -176,17 +182,97 @@ std::string evaluate_reconstruction(const MotionManifold& model, const std::vect
   for (auto kind : {DecoderKind::kRotation, DecoderKind::kVelocity}) {
     if (!model.has_decoder(kind)) continue;
     auto decoded = model.decode(code, kind);
-    auto recoded = model.encode(decoded);
+    auto decoded_mm = model.positions_mm(decoded);
+    const double e_z = (model.encode(decoded) - code).abs().mean().item<double>();
+    nlohmann::json paper = {{"E_r", per_interval(paper_angle_error(decoded, motion), intervals)}};
+    if (positions) paper["E_p"] = per_interval(paper_position_error(*positions, decoded_mm, truth_mm), intervals);
+    paper["E_z"] = e_z;
     decoders[decoder_name(kind)] = {
-        {"E_r", per_interval(frame_norm(decoded - motion, 1), options.intervals)},
-        {"E_p", per_interval(frame_norm(model.positions_scaled(decoded) - truth_scaled, 2), options.intervals)},
-        {"E_z", (recoded - code).abs().mean().item<double>()},
-        {"mpjpe_mm", per_interval((model.positions_mm(decoded) - truth_mm).norm(2, -1).mean(-1), options.intervals)},
-        {"angle_error_rad",
-         per_interval(rotation_angle_between(rotations(decoded), truth_rotations).mean(-1), options.intervals)},
+        {"E_r", per_interval(frame_norm(decoded - motion, 1), intervals)},
+        {"E_p", per_interval(frame_norm(decoded_mm / model.normalization().position_scale_mm - truth_scaled, 2), intervals)},
+        {"E_z", e_z},
+        {"mpjpe_mm", per_interval((decoded_mm - truth_mm).norm(2, -1).mean(-1), intervals)},
+        {"angle_error_rad", per_interval(rotation_angle_between(rotations(decoded), truth_rotations).mean(-1), intervals)},
+        {"paper_units", paper},
     };
   }
+  return decoders;
+}
+
+// The mean and sample standard deviation over documents of one shape, leaf
+// by leaf: a number becomes {"mean", "std"}, an array of numbers two arrays.
+nlohmann::json mean_and_std(const std::vector<nlohmann::json>& documents) {
+  const auto& first = documents.front();
+  if (first.is_object()) {
+    nlohmann::json result = nlohmann::json::object();
+    for (const auto& [key, unused] : first.items()) {
+      std::vector<nlohmann::json> children;
+      for (const auto& d : documents) children.push_back(d.at(key));
+      result[key] = mean_and_std(children);
+    }
+    return result;
+  }
+  auto values = [&](const nlohmann::json& d) { return d.is_array() ? d.get<std::vector<double>>() : std::vector<double>{d.get<double>()}; };
+  const size_t width = values(first).size();
+  std::vector<double> mean(width, 0.0), spread(width, 0.0);
+  for (const auto& d : documents) {
+    const auto v = values(d);
+    for (size_t i = 0; i < width; ++i) mean[i] += v.at(i) / static_cast<double>(documents.size());
+  }
+  for (const auto& d : documents) {
+    const auto v = values(d);
+    for (size_t i = 0; i < width; ++i) spread[i] += (v.at(i) - mean[i]) * (v.at(i) - mean[i]);
+  }
+  for (auto& s : spread) s = documents.size() > 1 ? std::sqrt(s / static_cast<double>(documents.size() - 1)) : 0.0;
+  if (first.is_array()) return {{"mean", mean}, {"std", spread}};
+  return {{"mean", mean[0]}, {"std", spread[0]}};
+}
+
+}  // namespace
+
+std::string evaluate_reconstruction(const MotionManifold& model, const std::vector<const PreparedSequence*>& test,
+                                    const EvaluationOptions& options, const CoordinateStandardization* positions) {
+  c10::InferenceMode inference;
+  const auto& config = model.config();
+  if (config.frames % options.intervals != 0) {
+    throw InputError("intervals: " + std::to_string(options.intervals) + " does not divide the clip's " +
+                     std::to_string(config.frames) + " frames");
+  }
+  if (options.spread_seeds < 1) {
+    throw InputError("spread_seeds: expected at least 1, found " + std::to_string(options.spread_seeds));
+  }
+  auto draw_clips = [&](uint64_t seed) {
+    ClipSampler sampler(test, config.frames, seed);
+    std::vector<ClipSampler::Clip> clips;
+    for (int i = 0; i < options.clips; ++i) clips.push_back(sampler.draw());
+    return std::make_pair(clips, sampler.gather(clips).to(model.device()));
+  };
+  const auto [clips, motion] = draw_clips(options.seed);
+  nlohmann::json clip_list = nlohmann::json::array();
+  for (const auto& c : clips) {
+    clip_list.push_back({{"subject", c.sequence->subject},
+                         {"action", c.sequence->action},
+                         {"take", c.sequence->take},
+                         {"phase", c.sequence->phase},
+                         {"start", c.start}});
+  }
+  const auto decoders = table1(model, motion, positions, options.intervals);
   const double interval_seconds = static_cast<double>(config.frames) / options.intervals / 25.0;
+  nlohmann::json paper_units = {
+      {"angles", "mean over the consecutive triplets of the normalised pose values of each triplet's norm"},
+      {"positions", positions ? "FK coordinates (mm, root at the origin) standardised per coordinate by the training "
+                                "frames' mean and std, coordinates with std < 1e-4 mm dropped, mean over the joints' "
+                                "triplets of each norm"
+                              : "not computed: no training frames given for the per-coordinate statistics"},
+  };
+  if (positions) {
+    paper_units["position_statistics_frames"] = positions->frames;
+    paper_units["position_coordinates_kept"] = positions->kept_count();
+    paper_units["position_coordinates"] = positions->stddev.numel();
+    const auto dropped = positions->kept.logical_not().nonzero().flatten().contiguous();
+    paper_units["position_coordinates_dropped"] =
+        std::vector<int64_t>(dropped.data_ptr<int64_t>(), dropped.data_ptr<int64_t>() + dropped.numel());
+  }
   nlohmann::json result = {
       {"clips", options.clips},
       {"seed", options.seed},
@@ -194,10 +280,26 @@ std::string evaluate_reconstruction(const MotionManifold& model, const std::vect
       {"frame_rate", 25},
       {"interval_seconds", interval_seconds},
       {"position_unit_mm", model.normalization().position_scale_mm},
+      {"paper_units", paper_units},
       {"decoders", decoders},
       {"test_clips", clip_list},
   };
-  if (options.corruption_probability > 0) result["denoising"] = evaluate_denoising(model, motion, truth_mm, options);
+  if (options.spread_seeds > 1) {
+    std::vector<nlohmann::json> tables{decoders};
+    nlohmann::json seeds = {options.seed};
+    for (int k = 1; k < options.spread_seeds; ++k) {
+      const uint64_t seed = options.seed + static_cast<uint64_t>(k);
+      tables.push_back(table1(model, draw_clips(seed).second, positions, options.intervals));
+      seeds.push_back(seed);
+    }
+    result["seed_spread"] = {{"seeds", seeds},
+                             {"clips_per_seed", options.clips},
+                             {"statistics", "mean and sample standard deviation over the seeds' clip sets"},
+                             {"decoders", mean_and_std(tables)}};
+  }
+  if (options.corruption_probability > 0) {
+    result["denoising"] = evaluate_denoising(model, motion, model.positions_mm(motion), options);
+  }
   return result.dump(2);
 }
 

@@ -11,6 +11,7 @@
 
 #include "format/prepared_dataset.h"
 #include "motion_manifold.h"
+#include "paper_units.h"
 
 namespace mm {
 
@@ -18,8 +19,12 @@ struct EvaluationOptions {
   int clips = 30;       // the paper averages 30 random test motions
   uint64_t seed = 0;    // fixes which clips
   int intervals = 5;    // 150 frames in 5 intervals of 1.2 s
+  // Sampling noise: with n > 1, the Table 1 numbers are also computed on the
+  // clip sets of seeds seed .. seed + n - 1 and reported as mean and sample
+  // standard deviation over them ("seed_spread").
+  int spread_seeds = 1;
   // Denoising experiment (Sec. 5.4) on the same clips: each modelled joint
-  // angle zeroed with this probability; 0 leaves it out.
+  // angle dropped with this probability; 0 leaves it out.
   double corruption_probability = 0.5;
   uint64_t corruption_seed = 0;
 };
@@ -31,20 +36,24 @@ struct EvaluationOptions {
 //   mpjpe_mm  mean per-joint position error in millimetres;
 //   angle_error_rad  mean geodesic angle between predicted and true joint
 //        rotations, over the joints the model animates;
-// and E_z, the mean absolute difference between z and Enc(Dec(z)). With a
-// corruption probability, also "denoising": the mean per-joint position
-// error in mm against the clean clips of the corrupted clips, of their
-// projections onto the manifold (decoded by the default decoder) as in the
-// paper, of the projections that treat the zeroed values as missing
-// (DenoiseOptions::zeros_are_missing), of the same keeping the observed
-// values (keep_observed), and of a baseline without the manifold that
-// interpolates the zeroed values in time; and the same errors, under
-// "joint_windows", when instead each joint is missing (all its values zero)
-// with the same probability over one window of a fifth of the clip (1.2 s)
-// or over the whole clip, as when a marker is lost.
+// and E_z, the mean absolute difference between z and Enc(Dec(z)). Beside
+// them "paper_units": E_r, E_p and E_z in the units of the public reference
+// implementation (paper_units.h); E_p there needs the per-coordinate
+// position statistics of the training frames (`positions`; without them
+// paper_units has no E_p).
+// With a corruption probability, also "denoising": for each corruption (the
+// reference's, then the paper's zeroing, then whole joints missing over 1.2 s
+// and over the whole clip, as when a marker is lost) the mean per-joint
+// position error in mm against the clean clips of the corrupted clips, of
+// their projections onto the manifold (default decoder) as the paper
+// projects them, of the projections that treat the dropped values as missing
+// (DenoiseOptions), of the same keeping the observed values, and of a
+// baseline without the manifold that interpolates the dropped values in
+// time.
 // Returns JSON text (documented in docs/ and by the tool). InputError if the
 // test sequences hold no clip of the model's length.
 std::string evaluate_reconstruction(const MotionManifold& model, const std::vector<const PreparedSequence*>& test,
-                                    const EvaluationOptions& options);
+                                    const EvaluationOptions& options,
+                                    const CoordinateStandardization* positions = nullptr);
 
 }  // namespace mm

@@ -113,12 +113,12 @@ std::vector<MotionFrames> denoise_motions(const MotionManifold& model, const std
   if (options.iterations < 1) {
     throw InputError("iterations: expected at least 1, found " + std::to_string(options.iterations));
   }
-  if (options.keep_observed && !options.zeros_are_missing) {
-    throw InputError("keep_observed: expected together with zeros_are_missing (without missing values every value "
-                     "is observed, and nothing would be denoised)");
+  if (options.keep_observed && !options.zeros_are_missing && !options.means_are_missing) {
+    throw InputError("keep_observed: expected together with zeros_are_missing or means_are_missing (without "
+                     "missing values every value is observed, and nothing would be denoised)");
   }
   const auto raw = stack_motions(model, motions);
-  const auto missing = options.zeros_are_missing ? zero_values_mask(model, raw) : at::Tensor();
+  const auto missing = missing_values_mask(model, raw, options);
   const auto normalized = model.to_normalized(raw);
   auto projected = project_onto_manifold(model, normalized, missing, kind, options.iterations);
   if (missing.defined() && options.keep_observed) projected = at::where(missing, projected, normalized);
@@ -140,23 +140,38 @@ at::Tensor project_onto_manifold(const MotionManifold& model, const at::Tensor& 
   return decoded;
 }
 
-at::Tensor zero_values_mask(const MotionManifold& model, const at::Tensor& raw) {
+at::Tensor missing_values_mask(const MotionManifold& model, const at::Tensor& raw, const DenoiseOptions& options) {
+  if (options.zeros_are_missing && options.means_are_missing) {
+    throw InputError("means_are_missing: expected either zeros_are_missing or means_are_missing, found both");
+  }
+  if (options.means_are_missing) return model.to_normalized(raw) == 0;
+  if (!options.zeros_are_missing) return {};
   const auto& kept = model.normalization().kept_columns;
   auto index = at::tensor(std::vector<int64_t>(kept.begin(), kept.end()), at::kLong).to(raw.device());
   return raw.index_select(-1, index) == 0;
 }
 
+const char* corruption_name(Corruption corruption) {
+  return corruption == Corruption::kReference ? "reference" : "zeroed";
+}
+
+Corruption parse_corruption(const std::string& name) {
+  if (name == "reference") return Corruption::kReference;
+  if (name == "zeroed") return Corruption::kZeroed;
+  throw InputError("corruption: expected reference or zeroed, found '" + name + "'");
+}
+
 MotionFrames corrupt_motion(const MotionFrames& motion, const PoseNormalization& normalization, double probability,
-                            uint64_t seed) {
+                            uint64_t seed, Corruption corruption) {
   if (!(probability >= 0 && probability <= 1)) {
     throw InputError("probability: expected a value in [0, 1], found " + std::to_string(probability));
   }
   std::mt19937_64 engine(seed);
-  std::bernoulli_distribution zeroed(probability);
+  std::bernoulli_distribution dropped(probability);
   MotionFrames corrupted = motion;
   for (int64_t f = 0; f < corrupted.frame_count(); ++f) {
     for (int c : normalization.kept_columns) {
-      if (zeroed(engine)) corrupted.frame(f)[c] = 0.0f;
+      if (dropped(engine)) corrupted.frame(f)[c] = corruption == Corruption::kReference ? normalization.mean[c] : 0.0f;
     }
   }
   return corrupted;

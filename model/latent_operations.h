@@ -14,6 +14,7 @@
 #include <ATen/ATen.h>
 
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "format/motion_text.h"
@@ -43,9 +44,10 @@ at::Tensor analogy_code(const at::Tensor& a, const at::Tensor& b, const at::Tens
 // How denoise_motions reads its input.
 struct DenoiseOptions {
   // Treat a modelled joint-angle value that is exactly zero as missing. The
-  // corruption of Sec. 5.4 drops values by zeroing them, while captured
-  // rotations almost never hold an exact zero, so the zeros say which values
-  // carry no information. Off: every value is taken as observed (the paper).
+  // corruption of Sec. 5.4 as the paper states it drops values by zeroing
+  // them, while captured rotations almost never hold an exact zero, so the
+  // zeros say which values carry no information. Off: every value is taken
+  // as observed (the paper).
   bool zeros_are_missing = false;
   // With missing values: rounds of projecting onto the manifold and refilling
   // the missing values from the decoded motion (they start at the training
@@ -53,8 +55,13 @@ struct DenoiseOptions {
   int iterations = 4;
   // With missing values: return the observed values as they are and the
   // manifold's values only where values are missing (gap filling), instead
-  // of the decoded motion throughout. Only with zeros_are_missing.
+  // of the decoded motion throughout. Only with zeros_are_missing or
+  // means_are_missing.
   bool keep_observed = false;
+  // Treat a modelled value exactly equal to its training mean as missing:
+  // the reference implementation's corruption (Corruption::kReference)
+  // leaves its dropped values there. Not together with zeros_are_missing.
+  bool means_are_missing = false;
 };
 
 // Projects each motion onto the manifold and decodes it (Sec. 5.4); root
@@ -69,13 +76,30 @@ std::vector<MotionFrames> denoise_motions(const MotionManifold& model, const std
 at::Tensor project_onto_manifold(const MotionManifold& model, const at::Tensor& normalized, const at::Tensor& missing,
                                  DecoderKind kind, int iterations);
 
-// Bool mask (..., D) of the modelled values that are exactly zero in raw
-// frames (..., input columns): the missing values of DenoiseOptions.
-at::Tensor zero_values_mask(const MotionManifold& model, const at::Tensor& raw);
+// Bool mask (..., D) of the modelled values that `options` says are
+// missing in raw frames (..., input columns): exactly zero
+// (zeros_are_missing) or exactly the training mean (means_are_missing); an
+// undefined tensor when neither is set. InputError when both are set.
+at::Tensor missing_values_mask(const MotionManifold& model, const at::Tensor& raw, const DenoiseOptions& options);
 
-// The corruption of Sec. 5.4: every modelled joint-angle value of every
-// frame is set to zero with the given probability, reproducibly by seed.
+// The two corruptions of the denoising experiment (Sec. 5.4). Each drops
+// every modelled joint-angle value of every frame with a probability; they
+// differ in what a dropped value becomes.
+enum class Corruption {
+  // The public reference implementation: the normalised clip times a random
+  // 0/1 mask, so a dropped value becomes its training mean.
+  kReference,
+  // The paper's text: the raw value (radians) set to zero, which for some
+  // values lies more than ten standard deviations from the mean.
+  kZeroed,
+};
+const char* corruption_name(Corruption corruption);  // "reference" / "zeroed"
+// Parses "reference" or "zeroed"; InputError naming the value otherwise.
+Corruption parse_corruption(const std::string& name);
+
+// Drops values as `corruption` says, reproducibly by seed: the same seed
+// drops the same values under either corruption.
 MotionFrames corrupt_motion(const MotionFrames& motion, const PoseNormalization& normalization, double probability,
-                            uint64_t seed);
+                            uint64_t seed, Corruption corruption = Corruption::kZeroed);
 
 }  // namespace mm

@@ -1,9 +1,15 @@
 #!/usr/bin/env python3
-"""Prints Table 1 rows (markdown) from evaluation JSON files written by
-`motion-manifold evaluate`, beside the paper's rows for the same variants.
-Usage: scripts/results_table.py NAME=evaluation.json [NAME=evaluation.json ...]
+"""Prints the tables of docs/RESULTS.md (markdown) from evaluation JSON files
+written by `motion-manifold evaluate`, beside the paper's rows for the same
+variants.
+Usage: scripts/results_table.py [--table paper|project|physical|denoising] NAME=evaluation.json ...
 NAME starts with the Table 1 variant (DKGM, DKGM hidden 256, ...); each
-paper row is printed once, above the first of our rows of its variant."""
+paper row is printed once, above the first of our rows of its variant.
+  paper      Table 1 in the reference implementation's units (the default),
+             with mean +- std over the evaluation's seeds where it has them
+  project    Table 1 in the evaluation's own units (one norm per frame)
+  physical   mean per-joint position error (mm) and joint-rotation error (rad)
+  denoising  the denoising experiment, every corruption and method (mm)"""
 import json
 import sys
 
@@ -22,37 +28,95 @@ PAPER = {
     ("DKGMZ", "velocity"): ([0.877, 0.883, 0.848, 0.916, 1.030], [0.635, 0.703, 0.689, 0.706, 0.815], 0.157),
     ("Seq2seq", "velocity"): ([0.875, 0.870, 0.891, 1.039, 1.154], [0.863, 0.954, 1.059, 1.177, 1.258], 0.216),
 }
+HEADER = ("| model | dec | E_r 1.2s | E_p 1.2s | E_r 2.4s | E_p 2.4s | E_r 3.6s | E_p 3.6s | E_r 4.8s | E_p 4.8s "
+          "| E_r 6.0s | E_p 6.0s | E_z |\n|---|---|" + "---:|" * 11)
 
 
-def row(label, decoder, e_r, e_p, e_z):
-    cells = [f"{r:.3f} | {p:.3f}" for r, p in zip(e_r, e_p)]
-    return f"| {label} | {decoder[:3]} | " + " | ".join(cells) + f" | {e_z:.3f} |"
+def cell(value, spread=None):
+    return f"{value:.3f}" if spread is None else f"{value:.3f} ± {spread:.3f}"
 
 
-def main(args):
-    print("| model | dec | E_r 1.2s | E_p 1.2s | E_r 2.4s | E_p 2.4s | E_r 3.6s | E_p 3.6s | E_r 4.8s | E_p 4.8s "
-          "| E_r 6.0s | E_p 6.0s | E_z |")
-    print("|---|---|" + "---:|" * 11)
-    physical = []
-    printed = set()
+def row(label, decoder, e_r, e_p, e_z, spread=None):
+    """spread: (E_r std, E_p std, E_z std) or None."""
+    s_r, s_p, s_z = spread if spread else ([None] * len(e_r), [None] * len(e_p), None)
+    cells = [f"{cell(r, sr)} | {cell(p, sp)}" for r, p, sr, sp in zip(e_r, e_p, s_r, s_p)]
+    return f"| {label} | {decoder[:3]} | " + " | ".join(cells) + f" | {cell(e_z, s_z)} |"
+
+
+def load(args):
     for arg in args:
         name, path = arg.split("=", 1)
         with open(path) as f:
-            result = json.load(f)
+            yield name, json.load(f)
+
+
+def table1(models, paper_units):
+    print(HEADER)
+    printed = set()
+    for name, result in models:
         for decoder, errors in result["decoders"].items():
             variant = name.split()[0]
             paper = PAPER.get((variant, decoder))
             if paper and (variant, decoder) not in printed:
                 print(row(f"{variant} (paper)", decoder, *paper))
                 printed.add((variant, decoder))
-            print(row(f"**{name} (ours)**", decoder, errors["E_r"], errors["E_p"], errors["E_z"]))
-            physical.append((name, decoder, errors["mpjpe_mm"], errors["angle_error_rad"]))
-    print()
-    print("| model | dec | mm 1.2s | mm 2.4s | mm 3.6s | mm 4.8s | mm 6.0s | rad 1.2s | rad 2.4s | rad 3.6s | rad 4.8s | rad 6.0s |")
+            ours = errors["paper_units"] if paper_units else errors
+            print(row(f"**{name} (ours, seed {result['seed']})**", decoder, ours["E_r"], ours["E_p"], ours["E_z"]))
+            spread = result.get("seed_spread", {}).get("decoders", {}).get(decoder)
+            if spread:
+                s = spread["paper_units"] if paper_units else spread
+                seeds = len(result["seed_spread"]["seeds"])
+                print(row(f"{name} (ours, {seeds} seeds: mean ± std)", decoder, s["E_r"]["mean"], s["E_p"]["mean"],
+                          s["E_z"]["mean"], (s["E_r"]["std"], s["E_p"]["std"], s["E_z"]["std"])))
+
+
+def physical(models):
+    print("| model | dec | mm 1.2s | mm 2.4s | mm 3.6s | mm 4.8s | mm 6.0s | rad 1.2s | rad 2.4s | rad 3.6s | rad 4.8s "
+          "| rad 6.0s |")
     print("|---|---|" + "---:|" * 10)
-    for name, decoder, mm, rad in physical:
-        print(f"| {name} | {decoder[:3]} | " + " | ".join(f"{v:.1f}" for v in mm) + " | " +
-              " | ".join(f"{v:.3f}" for v in rad) + " |")
+    for name, result in models:
+        for decoder, errors in result["decoders"].items():
+            print(f"| {name} | {decoder[:3]} | " + " | ".join(f"{v:.1f}" for v in errors["mpjpe_mm"]) + " | " +
+                  " | ".join(f"{v:.3f}" for v in errors["angle_error_rad"]) + " |")
+
+
+def denoising(models):
+    print("| model | corruption | values dropped | corrupted | projected | dropped as missing | observed kept "
+          "| interpolated in time |")
+    print("|---|---|---:|---:|---:|---:|---:|---:|")
+    for name, result in models:
+        d = result.get("denoising")
+        if not d:
+            continue
+        for c in d["corruptions"]:
+            kind = {"reference": "reference (to the mean)", "zeroed": "paper's text (zeroed)"}.get(c["corruption"])
+            if kind is None:
+                kind = f"joints zeroed over {c['window_frames'] / 25:.1f} s"
+            corrupted = c["corrupted_mpjpe_mm"]
+
+            def mm(key):
+                value = c[key]
+                return f"{value:.1f} ({100 * (value - corrupted) / corrupted:+.0f}%)"
+            print(f"| {name} | {kind} | {100 * c['missing_fraction']:.0f}% | {corrupted:.1f} | {mm('denoised_mpjpe_mm')} "
+                  f"| {mm('denoised_missing_mpjpe_mm')} | {mm('filled_missing_mpjpe_mm')} "
+                  f"| {mm('time_interpolation_mpjpe_mm')} |")
+
+
+def main(args):
+    table = "paper"
+    if args and args[0] == "--table":
+        table, args = args[1], args[2:]
+    models = list(load(args))
+    if table == "paper":
+        table1(models, paper_units=True)
+    elif table == "project":
+        table1(models, paper_units=False)
+    elif table == "physical":
+        physical(models)
+    elif table == "denoising":
+        denoising(models)
+    else:
+        sys.exit(f"results_table.py: --table: expected paper, project, physical or denoising, found {table}")
 
 
 if __name__ == "__main__":

@@ -9,7 +9,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 iterations=${1:-1000}
 hidden=${2:-256}
-tool=build/model/tool/motion-manifold
+tool=${MM_TOOL:-build/model/tool/motion-manifold}  # MM_TOOL: a copy, to rebuild meanwhile
 mkdir -p runs/variants docs/results/variants
 [ -f runs/h36m.mmd ] || "$tool" prepare --data data --out runs/h36m.mmd
 for variant in S D DK DKG DKGM DKGMZ Seq2seq; do

@@ -197,10 +197,64 @@ TEST(LatentOperations, ZeroValuesMaskMarksExactZerosOfModelledColumns) {
   auto raw = at::ones({2, 3, model.normalization().input_columns()});
   raw[1][2][kept[4]] = 0.0;
   raw[0][0][0] = 0.0;  // root translation is not modelled
-  auto mask = zero_values_mask(model, raw);
+  DenoiseOptions zeros;
+  zeros.zeros_are_missing = true;
+  auto mask = missing_values_mask(model, raw, zeros);
   ASSERT_EQ(mask.sizes(), (std::vector<int64_t>{2, 3, static_cast<int64_t>(kept.size())}));
   EXPECT_EQ(mask.sum().item<int64_t>(), 1);
   EXPECT_TRUE(mask[1][2][4].item<bool>());
+  EXPECT_FALSE(missing_values_mask(model, raw, DenoiseOptions{}).defined());
+}
+
+TEST(LatentOperations, MeansMaskMarksTheValuesTheReferenceCorruptionDropped) {
+  MM_REQUIRE_H36M();
+  auto& model = trained_tiny_model();
+  const auto& norm = model.normalization();
+  // Raw values from the text file (a prepared dataset's clips lie on a grid
+  // where values exactly at the mean are common), from frame 20 on (the
+  // files' first frames hold exact zeros in the root rotation).
+  const MotionFrames full =
+      split_phases(read_motion_text((test::h36m_dataset_dir() / "S5" / "walking_1.txt").string()), 2)[0];
+  MotionFrames clip;
+  clip.columns = full.columns;
+  clip.values.assign(full.frame(20), full.frame(50));
+  const MotionFrames zeroed = corrupt_motion(clip, norm, 0.3, 11, Corruption::kZeroed);
+  const MotionFrames reference = corrupt_motion(clip, norm, 0.3, 11, Corruption::kReference);
+  auto raw = [](const MotionFrames& m) {
+    return at::from_blob(const_cast<float*>(m.values.data()), {m.frame_count(), m.columns}).clone();
+  };
+  DenoiseOptions zeros, means;
+  zeros.zeros_are_missing = true;
+  means.means_are_missing = true;
+  // One seed drops the same values under both corruptions: at zero in one,
+  // at the training mean in the other, where the means mask finds them.
+  const auto dropped = missing_values_mask(model, raw(zeroed), zeros);
+  const auto found = missing_values_mask(model, raw(reference), means);
+  EXPECT_TRUE(at::equal(dropped, found));
+  const double fraction = dropped.to(at::kFloat).mean().item<double>();
+  EXPECT_NEAR(fraction, 0.3, 0.03);
+  for (int64_t f = 0; f < clip.frame_count(); ++f) {
+    for (int c : norm.kept_columns) {
+      const float value = reference.frame(f)[c];
+      EXPECT_TRUE(value == clip.frame(f)[c] || value == norm.mean[c]) << "frame " << f << " column " << c;
+    }
+  }
+  // Values the model does not see stay as they are.
+  EXPECT_EQ(reference.frame(3)[0], clip.frame(3)[0]);
+  DenoiseOptions both = zeros;
+  both.means_are_missing = true;
+  EXPECT_THROW(missing_values_mask(model, raw(clip), both), InputError);
+}
+
+TEST(LatentOperations, CorruptionNamesParseAndBadOnesAreNamed) {
+  EXPECT_EQ(parse_corruption("reference"), Corruption::kReference);
+  EXPECT_EQ(parse_corruption(corruption_name(Corruption::kZeroed)), Corruption::kZeroed);
+  try {
+    parse_corruption("gaussian");
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("gaussian"), std::string::npos) << e.what();
+  }
 }
 
 TEST(LatentOperations, DenoiseRejectsKeepingObservedValuesWithoutMissingOnes) {

@@ -101,11 +101,24 @@ TEST(Tool, PrepareTrainEvaluateAndDecodeOnRealData) {
   const auto json = nlohmann::json::parse(evaluation);
   EXPECT_EQ(json["clips"], 3);
   EXPECT_EQ(json["decoders"]["rotation"]["E_p"].size(), 5u);
-  EXPECT_GT(json["denoising"]["corrupted_mpjpe_mm"].get<double>(), 0.0);
-  EXPECT_GT(json["denoising"]["denoised_zeros_missing_mpjpe_mm"].get<double>(), 0.0);
-  EXPECT_GT(json["denoising"]["filled_zeros_missing_mpjpe_mm"].get<double>(), 0.0);
-  EXPECT_LT(json["denoising"]["time_interpolation_mpjpe_mm"].get<double>(),
-            json["denoising"]["corrupted_mpjpe_mm"].get<double>());
+  // Table 1 in the reference's units, with the spread over 5 clip sets.
+  EXPECT_EQ(json["decoders"]["rotation"]["paper_units"]["E_r"].size(), 5u);
+  EXPECT_EQ(json["decoders"]["rotation"]["paper_units"]["E_p"].size(), 5u);
+  EXPECT_EQ(json["seed_spread"]["seeds"].size(), 5u);
+  EXPECT_GT(json["seed_spread"]["decoders"]["rotation"]["paper_units"]["E_r"]["std"][0].get<double>(), 0.0);
+  // Denoising: the reference's corruption first, then the paper's zeroing.
+  const auto& corruptions = json["denoising"]["corruptions"];
+  ASSERT_EQ(corruptions.size(), 4u);
+  EXPECT_EQ(corruptions[0]["corruption"], "reference");
+  EXPECT_EQ(corruptions[1]["corruption"], "zeroed");
+  for (const auto& c : corruptions) {
+    EXPECT_GT(c["corrupted_mpjpe_mm"].get<double>(), 0.0) << c.dump();
+    EXPECT_GT(c["denoised_missing_mpjpe_mm"].get<double>(), 0.0) << c.dump();
+    EXPECT_GT(c["filled_missing_mpjpe_mm"].get<double>(), 0.0) << c.dump();
+    EXPECT_LT(c["time_interpolation_mpjpe_mm"].get<double>(), c["corrupted_mpjpe_mm"].get<double>()) << c.dump();
+  }
+  // Dropping values to their mean is the milder corruption.
+  EXPECT_LT(corruptions[0]["corrupted_mpjpe_mm"].get<double>(), corruptions[1]["corrupted_mpjpe_mm"].get<double>());
 
   r = run_tool("denoise --model " + run + "/model --input " + s5("walking_1.txt") + " --out " + dir.file("d.txt"));
   ASSERT_EQ(r.exit_code, 0) << r.output;
