@@ -8,6 +8,7 @@
 
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <cstdlib>
 #include <exception>
 #include <string>
 #include <thread>
@@ -29,9 +30,11 @@ std::string join_command_line(int argc, char** argv) {
 int run(int argc, char** argv) {
   using namespace mm::tool;
   // LibTorch starts with one intra-op thread here; the GRU's matrix products
-  // want every core.
-  const unsigned cores = std::thread::hardware_concurrency();
-  if (cores > 0) at::set_num_threads(static_cast<int>(cores));
+  // want every core, unless OMP_NUM_THREADS bounds them: OpenMP threads spin,
+  // so two runs that each take every core slow each other many times over.
+  const char* bound = std::getenv("OMP_NUM_THREADS");
+  const int threads = bound != nullptr ? std::atoi(bound) : static_cast<int>(std::thread::hardware_concurrency());
+  if (threads > 0) at::set_num_threads(threads);
 
   const std::string command_line = join_command_line(argc, argv);
   CLI::App app{
