@@ -184,7 +184,9 @@ nlohmann::json table1(const MotionManifold& model, const at::Tensor& motion, con
     auto decoded = model.decode(code, kind);
     auto decoded_mm = model.positions_mm(decoded);
     const double e_z = (model.encode(decoded) - code).abs().mean().item<double>();
-    nlohmann::json paper = {{"E_r", per_interval(paper_angle_error(decoded, motion), intervals)}};
+    // The reference's triplets need a multiple of 3 pose values (51 for H3.6M).
+    nlohmann::json paper = nlohmann::json::object();
+    if (motion.size(-1) % 3 == 0) paper["E_r"] = per_interval(paper_angle_error(decoded, motion), intervals);
     if (positions) paper["E_p"] = per_interval(paper_position_error(*positions, decoded_mm, truth_mm), intervals);
     paper["E_z"] = e_z;
     decoders[decoder_name(kind)] = {
@@ -259,7 +261,9 @@ std::string evaluate_reconstruction(const MotionManifold& model, const std::vect
   const auto decoders = table1(model, motion, positions, options.intervals);
   const double interval_seconds = static_cast<double>(config.frames) / options.intervals / 25.0;
   nlohmann::json paper_units = {
-      {"angles", "mean over the consecutive triplets of the normalised pose values of each triplet's norm"},
+      {"angles", model.normalization().dims() % 3 == 0
+                     ? "mean over the consecutive triplets of the normalised pose values of each triplet's norm"
+                     : "not computed: the pose values are not a multiple of 3, so they form no triplets"},
       {"positions", positions ? "FK coordinates (mm, root at the origin) standardised per coordinate by the training "
                                 "frames' mean and std, coordinates with std < 1e-4 mm dropped, mean over the joints' "
                                 "triplets of each norm"

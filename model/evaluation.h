@@ -40,7 +40,8 @@ struct EvaluationOptions {
 // them "paper_units": E_r, E_p and E_z in the units of the public reference
 // implementation (paper_units.h); E_p there needs the per-coordinate
 // position statistics of the training frames (`positions`; without them
-// paper_units has no E_p).
+// paper_units has no E_p), and E_r a multiple of 3 pose values (without
+// one it has no E_r).
 // With a corruption probability, also "denoising": for each corruption (the
 // reference's, then the paper's zeroing, then whole joints missing over 1.2 s
 // and over the whole clip, as when a marker is lost) the mean per-joint

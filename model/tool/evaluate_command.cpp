@@ -44,7 +44,7 @@ void print_table(const nlohmann::json& result) {
     for (size_t i = 0; i < intervals; ++i) std::fprintf(stderr, " %7.1fs", interval * static_cast<double>(i + 1));
     std::fprintf(stderr, "\n");
     const auto& paper = errors.at("paper_units");
-    print_row("E_r paper", paper.at("E_r"));
+    if (paper.contains("E_r")) print_row("E_r paper", paper.at("E_r"));
     if (paper.contains("E_p")) print_row("E_p paper", paper.at("E_p"));
     print_row("E_r", errors.at("E_r"));
     print_row("E_p", errors.at("E_p"));
