@@ -152,15 +152,15 @@ at::Tensor parse_code(const std::string& text, const std::string& name, int late
   return at::tensor(code).unsqueeze(0);
 }
 
-// sample decodes all its codes in one batch and holds the motions in memory;
-// this bounds what one run may take.
-constexpr double kSampleMemoryBytes = 1024.0 * 1024 * 1024;
+// sample and interpolate decode all their codes in one batch and hold the
+// motions in memory; this bounds what one run may take.
+constexpr double kDecodeMemoryBytes = 1024.0 * 1024 * 1024;
 
-// Bytes one sampled motion needs while it is decoded: the decoder's output
+// Bytes one decoded motion needs while it is decoded: the decoder's output
 // and its reversed copy (frames x pose dims, twice), the raw frames and
 // their copy for the text (frames x input columns, twice), and one step's
 // GRU state and gates (7 x hidden), all 4-byte floats.
-double sample_bytes_per_motion(const MotionManifold& model) {
+double decode_bytes_per_motion(const MotionManifold& model) {
   const auto& c = model.config();
   const double floats = static_cast<double>(c.frames) * (2.0 * c.pose_dims + 2.0 * model.normalization().input_columns()) +
                         7.0 * c.hidden;
@@ -179,17 +179,19 @@ std::string megabytes(double bytes) {
   return text;
 }
 
-void check_sample_count(const MotionManifold& model, int count) {
-  const double per_motion = sample_bytes_per_motion(model);
-  const auto most = static_cast<long long>(kSampleMemoryBytes / per_motion);
+// Throws InputError naming `option`, the memory needed and `hint` (what to do
+// instead) when decoding `count` motions at once would take more than
+// kDecodeMemoryBytes.
+void check_decode_count(const MotionManifold& model, int count, const std::string& option, const std::string& hint) {
+  const double per_motion = decode_bytes_per_motion(model);
+  const auto most = static_cast<long long>(kDecodeMemoryBytes / per_motion);
   if (count <= most) return;
-  throw InputError("--count " + std::to_string(count) + ": decoding " + std::to_string(count) +
+  throw InputError(option + " " + std::to_string(count) + ": decoding " + std::to_string(count) +
                    " motions at once needs about " + megabytes(count * per_motion) + " (" + std::to_string(count) +
                    " x " + std::to_string(model.config().frames) + " frames x " +
                    std::to_string(model.normalization().input_columns()) +
                    " values, with the decoder's working memory: " + megabytes(per_motion) +
-                   " a motion), more than the 1 GiB one run may use; expected at most " + std::to_string(most) +
-                   " (run again with another --seed for more)");
+                   " a motion), more than the 1 GiB one run may use; expected at most " + std::to_string(most) + " (" + hint + ")");
 }
 
 void add_sample(CLI::App& app, Action& action) {
@@ -204,14 +206,16 @@ void add_sample(CLI::App& app, Action& action) {
       "sample", "Decode random codes drawn from the prior (Sec. 5.2) into sample_000.txt, ... (25 Hz). One run "
                 "decodes at most what fits in 1 GiB (about 5000 motions with the shipped model).");
   o->model.add_to(command, true);
-  command->add_option("--count", o->count, "number of motions")->check(at_least(1))->capture_default_str();
+  command->add_option("--count", o->count, "number of motions (run again with another --seed for more than fit in 1 GiB)")
+      ->check(at_least(1))
+      ->capture_default_str();
   command->add_option("--seed", o->seed, "seed of the codes")->capture_default_str();
   command->add_option("--out-dir", o->out_dir, "folder for the motion files")->required();
   command->callback([o, &action] {
     action = [o] {
       ensure_directory(o->out_dir, "--out-dir");
       const MotionManifold model = load_model(o->model);
-      check_sample_count(model, o->count);
+      check_decode_count(model, o->count, "--count", "run again with another --seed for more");
       const auto codes = sample_codes(model, o->count, o->seed);
       return write_motions(decode_codes(model, codes, o->model.kind(model)), o->out_dir, "sample");
     };
@@ -249,6 +253,7 @@ void add_interpolate(CLI::App& app, Action& action) {
       o->inputs.read();
       ensure_directory(o->out_dir, "--out-dir");
       const MotionManifold model = load_model(o->model);
+      check_decode_count(model, o->steps, "--steps", "fewer steps");
       const auto codes = encode_motions(model, o->inputs.windows(model));
       const auto path = interpolate_codes(codes[0], codes[1], o->steps, o->spherical);
       return write_motions(decode_codes(model, path, o->model.kind(model)), o->out_dir, "interpolation");

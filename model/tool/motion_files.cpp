@@ -33,7 +33,9 @@ MotionFrames motion_window(const std::string& text, const std::string& name, int
     if (rate != kModelRate) found += " (" + std::to_string(file.frame_count()) + " at " + std::to_string(rate) + " Hz)";
     throw InputError(name + ": too short: " + found + ", need " + std::to_string(needed) + " (" +
                      std::to_string(frames) + " frames from frame " + std::to_string(start) + ")" +
-                     (rate == kModelRate ? "" : "; if the file is at 25 Hz, give --rate 25"));
+                     // Enough frames read at 25 Hz: most likely a file the tool wrote.
+                     (rate != kModelRate && file.frame_count() >= needed ? "; if the file is at 25 Hz, give --rate 25"
+                                                                          : ""));
   }
   MotionFrames window;
   window.columns = motion.columns;

@@ -405,7 +405,7 @@ TEST(Tool, ByteOrderMarksAreAccepted) {
   EXPECT_NE(config.output.find("missing.mmd"), std::string::npos) << "the configuration must parse: " << config.output;
 }
 
-TEST(Tool, SampleCountBeyondTheMemoryLimitNamesTheMemory) {
+TEST(Tool, DecodingBeyondTheMemoryLimitNamesTheMemory) {
   test::ScratchDir dir;
   const auto r = run_tool("sample " + kModel + " --count 100000 --out-dir " + dir.file("samples"));
   EXPECT_EQ(r.exit_code, 2) << r.output;
@@ -413,6 +413,11 @@ TEST(Tool, SampleCountBeyondTheMemoryLimitNamesTheMemory) {
     EXPECT_NE(r.output.find(said), std::string::npos) << said << ": " << r.output;
   }
   EXPECT_FALSE(std::filesystem::exists(dir.file("samples/sample_000.txt")));
+  const std::string motion = dir.write("motion.txt", synthetic_motion(300));
+  const auto steps = run_tool("interpolate " + kModel + " --steps 100000 --from " + motion + " --to " + motion +
+                              " --out-dir " + dir.file("between"));
+  EXPECT_EQ(steps.exit_code, 2) << steps.output;
+  EXPECT_NE(steps.output.find("--steps 100000"), std::string::npos) << steps.output;
   const auto within = run_tool("sample " + kModel + " --count 2 --out-dir " + dir.file("samples"));
   EXPECT_EQ(within.exit_code, 0) << within.output;
   EXPECT_TRUE(std::filesystem::exists(dir.file("samples/sample_001.txt")));
