@@ -65,8 +65,10 @@ struct MotionInputs {
   void add_rate_to(CLI::App* command, const std::string& inputs) {
     add_rate_option(command, rates, kDataSetRate, inputs);
   }
-  // Reads every file (or standard input for "-"); InputError on a bad path.
+  // Reads every file (or standard input for "-"); InputError on a bad path
+  // or a --rate list of the wrong length.
   void read() {
+    for (size_t i = 0; i < motions.size(); ++i) rate(i);
     std::vector<std::pair<std::string, std::string>> option_paths;
     for (const auto& m : motions) option_paths.emplace_back(m.option, m.path);
     check_one_standard_input(option_paths);
@@ -76,12 +78,12 @@ struct MotionInputs {
   std::vector<MotionFrames> windows(const MotionManifold& model) const {
     std::vector<MotionFrames> result;
     for (size_t i = 0; i < motions.size(); ++i) {
-      const int rate = per_input(rates, i, kDataSetRate, "--rate", motions.size());
       result.push_back(motion_window(motions[i].text, input_name(motions[i].path), model.config().frames,
-                                     motions[i].start, rate, model.normalization().input_columns()));
+                                     motions[i].start, rate(i), model.normalization().input_columns()));
     }
     return result;
   }
+  // The rate of motion i: --rate's value for it, or the data set's 50 Hz.
   int rate(size_t i) const { return per_input(rates, i, kDataSetRate, "--rate", motions.size()); }
 };
 
@@ -100,7 +102,8 @@ int write_motions(const std::vector<MotionFrames>& motions, const std::string& d
 // says so where it does not mix with the data.
 int write_motion(const MotionFrames& motion, const std::string& out) {
   write_motion_output(motion, out);
-  std::fprintf(message_stream({out}), "wrote %s (%lld frames at 25 Hz)\n", out == "-" ? "standard output" : out.c_str(),
+  std::fprintf(message_stream({out}), "wrote %s (%lld frames at 25 Hz)\n",
+               is_standard_stream(out) ? "standard output" : out.c_str(),
                static_cast<long long>(motion.frame_count()));
   return kExitSuccess;
 }
