@@ -58,6 +58,10 @@ MotionFrames parse_motion_text_buffer(const char* data, size_t size,
 
   const char* const end = data + size;
   const char* line_begin = data;
+  // Editors on Windows start UTF-8 text with a byte-order mark; it carries no
+  // data, and refusing it would reject an otherwise valid file.
+  static constexpr char kByteOrderMark[] = "\xEF\xBB\xBF";
+  if (size >= 3 && std::memcmp(data, kByteOrderMark, 3) == 0) line_begin += 3;
   int64_t line_number = 0;
   int64_t first_blank_line = 0;  // 0: none seen yet
   while (line_begin < end) {
@@ -118,6 +122,16 @@ MotionFrames parse_motion_text_buffer(const char* data, size_t size,
         throw InputError(location(source_name, line_number) + "value " +
                          std::to_string(column + 1) + " " + quoted(value_begin, value_end) +
                          " is not finite, expected a finite number");
+      }
+      const bool translation = column < kRootTranslationValues;
+      const double bound = translation ? kMaxRootTranslationMm : kMaxRotationRadians;
+      if (std::fabs(value) > bound) {
+        std::ostringstream limit;
+        limit << bound;
+        throw InputError(location(source_name, line_number) + "value " + std::to_string(column + 1) + " " +
+                         quoted(value_begin, value_end) + " is out of range, expected " +
+                         (translation ? "a root translation within +-" + limit.str() + " mm"
+                                      : "an exponential-map rotation within +-" + limit.str() + " radians"));
       }
       motion.values.push_back(value);
       field = field_end + 1;

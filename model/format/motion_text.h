@@ -20,6 +20,15 @@ namespace mm {
 constexpr int kH36mColumns = 99;
 constexpr double kH36mFrameRate = 50.0;  // frames per second of the text files
 
+// The largest magnitudes the parser accepts. Values beyond them cannot come
+// from a motion and would overflow float arithmetic downstream (forward
+// kinematics squares them), so they are refused as bad input. The bounds are
+// generous: in H3.6M the root moves at most about 55 mm a frame and every
+// exponential-map value is within pi.
+constexpr int kRootTranslationValues = 3;                // the first values of a frame
+constexpr double kMaxRootTranslationMm = 1e5;            // 100 m a frame
+constexpr double kMaxRotationRadians = 1e3;              // about 160 turns
+
 // A sequence of frames, row-major: values[i * columns + c] is column c of
 // frame i. Plain value type; not synchronised.
 struct MotionFrames {
@@ -36,12 +45,16 @@ struct MotionFrames {
 
 // Parses motion text from `in`. `source_name` is used only in error messages
 // (give the file name). Every non-blank line must hold exactly
-// `expected_columns` finite numbers separated by commas; spaces around a value,
-// a trailing '\r' and blank lines at the end are accepted.
+// `expected_columns` finite numbers separated by commas, the first
+// kRootTranslationValues within +-kMaxRootTranslationMm and the rest within
+// +-kMaxRotationRadians; spaces around a value, a trailing '\r', blank lines
+// at the end and a UTF-8 byte-order mark at the start (some editors write
+// one) are accepted.
 // Returns frames with columns == expected_columns and at least one frame.
-// Throws InputError "<source>:<line>: ..." naming the offending value and what
-// was expected: wrong number of values, a value that is not a number, NaN or
-// infinity, a blank line followed by more frames, or no frames at all.
+// Throws InputError "<source>:<line>: ..." naming the offending value (and
+// its column) and what was expected: wrong number of values, a value that is
+// not a number, NaN or infinity, a value out of the bounds above, a blank
+// line followed by more frames, or no frames at all.
 MotionFrames parse_motion_text(std::istream& in, const std::string& source_name,
                                int expected_columns = kH36mColumns);
 

@@ -19,6 +19,7 @@
 #include "cli_validators.h"
 #include "commands.h"
 #include "device_option.h"
+#include "file_arguments.h"
 #include "format/atomic_file.h"
 #include "format/input_error.h"
 #include "operation_count.h"
@@ -149,6 +150,8 @@ int run_bench(const BenchOptions& o) {
   } else {
     throw InputError("--device: expected cpu, cuda or all, found \"" + o.device + "\"");
   }
+  if (!o.dataset.empty()) check_input_file(o.dataset, "--dataset");
+  if (!o.out.empty()) check_output_file(o.out, "--out", "it carries the table of timings");
   const PreparedDataset data = o.dataset.empty() ? synthetic_dataset() : load_prepared_dataset(o.dataset);
   const std::string machine = cpu_name() + ", " + std::to_string(std::thread::hardware_concurrency()) +
                               " hardware threads, " + std::to_string(at::get_num_threads()) + " torch threads";

@@ -10,6 +10,7 @@
 #include "device_option.h"
 #include "default_model.h"
 #include "evaluation.h"
+#include "file_arguments.h"
 #include "format/atomic_file.h"
 #include "format/input_error.h"
 
@@ -93,6 +94,8 @@ void print_table(const nlohmann::json& result) {
 }
 
 int run_evaluate(const EvaluateOptions& o) {
+  check_input_file(o.dataset, "--dataset");
+  if (!o.out.empty()) check_output_file(o.out, "--out", "the JSON goes there already");
   const MotionManifold model = MotionManifold::load(o.model_dir, parse_device(o.device));
   PreparedDataset data = load_prepared_dataset(o.dataset);
   if (data.test_subjects.empty()) throw InputError(o.dataset + ": the dataset has no test subjects");

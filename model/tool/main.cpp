@@ -38,8 +38,10 @@ int run(int argc, char** argv) {
 
   const std::string command_line = join_command_line(argc, argv);
   CLI::App app{
-      "motion-manifold: human motion manifolds with sequential networks (Yoon et al.).\n"
+      "motion-manifold " MM_VERSION ": human motion manifolds with sequential networks (Jang & Lee, "
+      "\"Constructing Human Motion Manifold with Sequential Networks\", Computer Graphics Forum 2020).\n"
       "Prepare H3.6M, train, evaluate, and sample / interpolate / denoise / make analogies on the manifold."};
+  app.set_version_flag("--version", "motion-manifold " MM_VERSION);
   app.require_subcommand(1);
   Action action;
   add_prepare_command(app, action);

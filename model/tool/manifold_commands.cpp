@@ -4,15 +4,18 @@
 #include <c10/core/InferenceMode.h>
 
 #include <CLI/CLI.hpp>
+#include <cmath>
 #include <cstdio>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <sstream>
 
 #include "cli_validators.h"
 #include "commands.h"
 #include "format/atomic_file.h"
 #include "format/input_error.h"
 #include "default_model.h"
+#include "file_arguments.h"
 #include "latent_operations.h"
 #include "motion_files.h"
 
@@ -40,18 +43,68 @@ struct ModelOptions {
 
 MotionManifold load_model(const ModelOptions& o) { return MotionManifold::load(o.model_dir); }
 
-MotionFrames read_input(const MotionManifold& model, const std::string& path, int start) {
-  return read_motion_window(path, model.config().frames, start, model.normalization().input_columns());
-}
+// A motion named on the command line and the 25 Hz window of it to use.
+struct MotionArgument {
+  std::string option;  // "--input", "--from", ...
+  std::string path;
+  int start = 0;       // first 25 Hz frame of the window
+  std::string text;    // the file's bytes, once read
+};
 
+// The motions a command reads and their --rate. The files are read before the
+// model loads, so that a bad path fails at once; they are parsed after, with
+// the model's clip length and column count.
+struct MotionInputs {
+  std::vector<MotionArgument> motions;
+  std::vector<int> rates;
+
+  explicit MotionInputs(std::vector<std::string> options) {
+    for (auto& option : options) motions.push_back({std::move(option)});
+  }
+  // Registers --rate; `inputs` names the motions for its help.
+  void add_rate_to(CLI::App* command, const std::string& inputs) {
+    add_rate_option(command, rates, kDataSetRate, inputs);
+  }
+  // Reads every file (or standard input for "-"); InputError on a bad path
+  // or a --rate list of the wrong length.
+  void read() {
+    for (size_t i = 0; i < motions.size(); ++i) rate(i);
+    std::vector<std::pair<std::string, std::string>> option_paths;
+    for (const auto& m : motions) option_paths.emplace_back(m.option, m.path);
+    check_one_standard_input(option_paths);
+    for (auto& m : motions) m.text = read_input_file(m.path, m.option);
+  }
+  // The windows of the model's clip length, at 25 Hz.
+  std::vector<MotionFrames> windows(const MotionManifold& model) const {
+    std::vector<MotionFrames> result;
+    for (size_t i = 0; i < motions.size(); ++i) {
+      result.push_back(motion_window(motions[i].text, input_name(motions[i].path), model.config().frames,
+                                     motions[i].start, rate(i), model.normalization().input_columns()));
+    }
+    return result;
+  }
+  // The rate of motion i: --rate's value for it, or the data set's 50 Hz.
+  int rate(size_t i) const { return per_input(rates, i, kDataSetRate, "--rate", motions.size()); }
+};
+
+// Writes motions as <dir>/<stem>_000.txt, ...; the folder was made beforehand.
 int write_motions(const std::vector<MotionFrames>& motions, const std::string& dir, const std::string& stem) {
-  ensure_directory(dir, "--out-dir");
   for (size_t i = 0; i < motions.size(); ++i) {
     write_motion_text_file(motions[i], numbered_motion_path(dir, stem, static_cast<int>(i)));
   }
   std::printf("wrote %zu motions of %lld frames at 25 Hz: %s ... %s\n", motions.size(),
               static_cast<long long>(motions.front().frame_count()), numbered_motion_path(dir, stem, 0).c_str(),
               numbered_motion_path(dir, stem, static_cast<int>(motions.size()) - 1).c_str());
+  return kExitSuccess;
+}
+
+// Writes one decoded motion to --out (a file or - for standard output) and
+// says so where it does not mix with the data.
+int write_motion(const MotionFrames& motion, const std::string& out) {
+  write_motion_output(motion, out);
+  std::fprintf(message_stream({out}), "wrote %s (%lld frames at 25 Hz)\n",
+               is_standard_stream(out) ? "standard output" : out.c_str(),
+               static_cast<long long>(motion.frame_count()));
   return kExitSuccess;
 }
 
@@ -66,25 +119,82 @@ double mean_joint_error_mm(const MotionManifold& model, const MotionFrames& a, c
   return (positions(a) - positions(b)).norm(2, -1).mean().item<double>();
 }
 
-// A code file: {"code": [z...]}, as encode prints, or a bare array of numbers.
-at::Tensor read_code(const std::string& path, int latent) {
+// Codes come from the prior N(0, I): a value beyond this is no code of the
+// manifold, and would overflow the decoder's arithmetic long before it.
+constexpr double kMaxCodeValue = 1e3;
+
+// A code file's text: {"code": [z...]}, as encode prints, or a bare array of
+// numbers. `name` is the file's name in messages.
+at::Tensor parse_code(const std::string& text, const std::string& name, int latent) {
   nlohmann::json document;
   try {
-    document = nlohmann::json::parse(read_whole_file(path));
-  } catch (const nlohmann::json::parse_error& e) {
-    throw InputError(path + ": not valid JSON: " + e.what());
+    document = nlohmann::json::parse(text);
+  } catch (const nlohmann::json::exception& e) {
+    // Parse errors, and numbers too large for a double (1e999).
+    throw InputError(name + ": not a valid code file (JSON): " + json_error_reason(e.what()));
   }
   const nlohmann::json& values = document.is_object() && document.contains("code") ? document["code"] : document;
   if (!values.is_array() || values.size() != static_cast<size_t>(latent)) {
-    throw InputError(path + ": code: expected an array of " + std::to_string(latent) + " numbers" +
-                     (values.is_array() ? ", found " + std::to_string(values.size()) : std::string()));
+    throw InputError(name + ": code: expected an array of " + std::to_string(latent) + " numbers" +
+                     (values.is_array() ? ", found " + std::to_string(values.size()) : ", found " +
+                      std::string(values.type_name())));
   }
   std::vector<float> code;
-  for (const auto& v : values) {
-    if (!v.is_number()) throw InputError(path + ": code: expected numbers, found " + v.dump());
-    code.push_back(v.get<float>());
+  for (size_t i = 0; i < values.size(); ++i) {
+    const auto& v = values[i];
+    if (!v.is_number()) throw InputError(name + ": code[" + std::to_string(i) + "]: expected a number, found " + v.dump());
+    const double value = v.get<double>();
+    if (!(std::fabs(value) <= kMaxCodeValue)) {
+      std::ostringstream bound;
+      bound << kMaxCodeValue;
+      throw InputError(name + ": code[" + std::to_string(i) + "]: " + v.dump() + " is out of range, expected a value within +-" +
+                       bound.str() + " (codes follow the prior N(0, I))");
+    }
+    code.push_back(static_cast<float>(value));
   }
   return at::tensor(code).unsqueeze(0);
+}
+
+// sample and interpolate decode all their codes in one batch and hold the
+// motions in memory; this bounds what one run may take.
+constexpr double kDecodeMemoryBytes = 1024.0 * 1024 * 1024;
+
+// Bytes one decoded motion needs while it is decoded: the decoder's output
+// and its reversed copy (frames x pose dims, twice), the raw frames and
+// their copy for the text (frames x input columns, twice), and one step's
+// GRU state and gates (7 x hidden), all 4-byte floats.
+double decode_bytes_per_motion(const MotionManifold& model) {
+  const auto& c = model.config();
+  const double floats = static_cast<double>(c.frames) * (2.0 * c.pose_dims + 2.0 * model.normalization().input_columns()) +
+                        7.0 * c.hidden;
+  return 4.0 * floats;
+}
+
+std::string megabytes(double bytes) {
+  char text[32];
+  if (bytes < 1e6) {
+    std::snprintf(text, sizeof text, "%.0f kB", bytes / 1e3);
+  } else if (bytes >= 1e9) {
+    std::snprintf(text, sizeof text, "%.1f GB", bytes / 1e9);
+  } else {
+    std::snprintf(text, sizeof text, "%.1f MB", bytes / 1e6);
+  }
+  return text;
+}
+
+// Throws InputError naming `option`, the memory needed and `hint` (what to do
+// instead) when decoding `count` motions at once would take more than
+// kDecodeMemoryBytes.
+void check_decode_count(const MotionManifold& model, int count, const std::string& option, const std::string& hint) {
+  const double per_motion = decode_bytes_per_motion(model);
+  const auto most = static_cast<long long>(kDecodeMemoryBytes / per_motion);
+  if (count <= most) return;
+  throw InputError(option + " " + std::to_string(count) + ": decoding " + std::to_string(count) +
+                   " motions at once needs about " + megabytes(count * per_motion) + " (" + std::to_string(count) +
+                   " x " + std::to_string(model.config().frames) + " frames x " +
+                   std::to_string(model.normalization().input_columns()) +
+                   " values, with the decoder's working memory: " + megabytes(per_motion) +
+                   " a motion), more than the 1 GiB one run may use; expected at most " + std::to_string(most) + " (" + hint + ")");
 }
 
 void add_sample(CLI::App& app, Action& action) {
@@ -96,14 +206,19 @@ void add_sample(CLI::App& app, Action& action) {
   };
   auto o = std::make_shared<Options>();
   auto* command = app.add_subcommand(
-      "sample", "Decode random codes drawn from the prior (Sec. 5.2) into sample_000.txt, ... (25 Hz).");
+      "sample", "Decode random codes drawn from the prior (Sec. 5.2) into sample_000.txt, ... (25 Hz). One run "
+                "decodes at most what fits in 1 GiB (about 5000 motions with the shipped model).");
   o->model.add_to(command, true);
-  command->add_option("--count", o->count, "number of motions")->check(at_least(1))->capture_default_str();
+  command->add_option("--count", o->count, "number of motions (run again with another --seed for more than fit in 1 GiB)")
+      ->check(at_least(1))
+      ->capture_default_str();
   command->add_option("--seed", o->seed, "seed of the codes")->capture_default_str();
   command->add_option("--out-dir", o->out_dir, "folder for the motion files")->required();
   command->callback([o, &action] {
     action = [o] {
+      ensure_directory(o->out_dir, "--out-dir");
       const MotionManifold model = load_model(o->model);
+      check_decode_count(model, o->count, "--count", "run again with another --seed for more");
       const auto codes = sample_codes(model, o->count, o->seed);
       return write_motions(decode_codes(model, codes, o->model.kind(model)), o->out_dir, "sample");
     };
@@ -113,8 +228,9 @@ void add_sample(CLI::App& app, Action& action) {
 void add_interpolate(CLI::App& app, Action& action) {
   struct Options {
     ModelOptions model;
-    std::string from, to, out_dir;
-    int steps = 5, start_from = 0, start_to = 0;
+    MotionInputs inputs{{"--from", "--to"}};
+    std::string out_dir;
+    int steps = 5;
     bool spherical = false;
   };
   auto o = std::make_shared<Options>();
@@ -123,20 +239,25 @@ void add_interpolate(CLI::App& app, Action& action) {
       std::string("Interpolate two motions on the manifold (Sec. 5.3) into interpolation_000.txt (from) ... "
                   "interpolation_<steps-1>.txt (to). ") + kMotionRateNote);
   o->model.add_to(command, true);
-  command->add_option("--from", o->from, "first motion file")->required();
-  command->add_option("--to", o->to, "second motion file")->required();
+  auto& from = o->inputs.motions[0];
+  auto& to = o->inputs.motions[1];
+  command->add_option("--from", from.path, "first motion file (- for standard input)")->required();
+  command->add_option("--to", to.path, "second motion file (- for standard input)")->required();
+  o->inputs.add_rate_to(command, "--from and --to (one value, or two: from,to)");
   command->add_option("--steps", o->steps, "number of motions, both ends included (>= 2)")
       ->check(at_least(2))
       ->capture_default_str();
   command->add_flag("--spherical", o->spherical, "spherical instead of linear interpolation of the codes");
-  command->add_option("--start-from", o->start_from, "first 25 Hz frame of the window in --from");
-  command->add_option("--start-to", o->start_to, "first 25 Hz frame of the window in --to");
+  command->add_option("--start-from", from.start, "first 25 Hz frame of the window in --from");
+  command->add_option("--start-to", to.start, "first 25 Hz frame of the window in --to");
   command->add_option("--out-dir", o->out_dir, "folder for the motion files")->required();
   command->callback([o, &action] {
     action = [o] {
+      o->inputs.read();
+      ensure_directory(o->out_dir, "--out-dir");
       const MotionManifold model = load_model(o->model);
-      const auto codes = encode_motions(model, {read_input(model, o->from, o->start_from),
-                                                read_input(model, o->to, o->start_to)});
+      check_decode_count(model, o->steps, "--steps", "fewer steps");
+      const auto codes = encode_motions(model, o->inputs.windows(model));
       const auto path = interpolate_codes(codes[0], codes[1], o->steps, o->spherical);
       return write_motions(decode_codes(model, path, o->model.kind(model)), o->out_dir, "interpolation");
     };
@@ -146,29 +267,30 @@ void add_interpolate(CLI::App& app, Action& action) {
 void add_analogy(CLI::App& app, Action& action) {
   struct Options {
     ModelOptions model;
-    std::string a, b, c, out;
-    int start_a = 0, start_b = 0, start_c = 0;
+    MotionInputs inputs{{"--a", "--b", "--c"}};
+    std::string out;
   };
   auto o = std::make_shared<Options>();
   auto* command = app.add_subcommand(
       "analogy", std::string("Decode z(a) - z(b) + z(c) (Sec. 5.5) into --out. ") + kMotionRateNote);
   o->model.add_to(command, true);
-  command->add_option("--a", o->a, "motion a")->required();
-  command->add_option("--b", o->b, "motion b, subtracted")->required();
-  command->add_option("--c", o->c, "motion c")->required();
-  command->add_option("--start-a", o->start_a, "first 25 Hz frame of the window in a");
-  command->add_option("--start-b", o->start_b, "first 25 Hz frame of the window in b");
-  command->add_option("--start-c", o->start_c, "first 25 Hz frame of the window in c");
-  command->add_option("--out", o->out, "motion file to write (25 Hz)")->required();
+  auto& m = o->inputs.motions;
+  command->add_option("--a", m[0].path, "motion a (- for standard input)")->required();
+  command->add_option("--b", m[1].path, "motion b, subtracted (- for standard input)")->required();
+  command->add_option("--c", m[2].path, "motion c (- for standard input)")->required();
+  o->inputs.add_rate_to(command, "a, b and c (one value, or three: a,b,c)");
+  command->add_option("--start-a", m[0].start, "first 25 Hz frame of the window in a");
+  command->add_option("--start-b", m[1].start, "first 25 Hz frame of the window in b");
+  command->add_option("--start-c", m[2].start, "first 25 Hz frame of the window in c");
+  command->add_option("--out", o->out, "motion file to write (25 Hz; - for standard output)")->required();
   command->callback([o, &action] {
     action = [o] {
+      o->inputs.read();
+      check_output_file(o->out, "--out");
       const MotionManifold model = load_model(o->model);
-      const auto codes = encode_motions(model, {read_input(model, o->a, o->start_a), read_input(model, o->b, o->start_b),
-                                                read_input(model, o->c, o->start_c)});
+      const auto codes = encode_motions(model, o->inputs.windows(model));
       const auto code = analogy_code(codes[0], codes[1], codes[2]).unsqueeze(0);
-      write_motion_text_file(decode_codes(model, code, o->model.kind(model))[0], o->out);
-      std::printf("wrote %s (%d frames at 25 Hz)\n", o->out.c_str(), model.config().frames);
-      return kExitSuccess;
+      return write_motion(decode_codes(model, code, o->model.kind(model))[0], o->out);
     };
   });
 }
@@ -176,8 +298,8 @@ void add_analogy(CLI::App& app, Action& action) {
 void add_denoise(CLI::App& app, Action& action) {
   struct Options {
     ModelOptions model;
-    std::string input, out, corrupted_out;
-    int start = 0;
+    MotionInputs inputs{{"--input"}};
+    std::string out, corrupted_out;
     double probability = 0;
     uint64_t seed = 0;
     DenoiseOptions denoise;
@@ -187,15 +309,19 @@ void add_denoise(CLI::App& app, Action& action) {
       "denoise",
       std::string("Project a motion onto the manifold and decode it (Sec. 5.4), optionally after corrupting it as "
                   "in the paper (each joint-angle value zeroed with a probability). Prints, as JSON, the mean "
-                  "per-joint position error (mm) against the input. ") + kMotionRateNote);
+                  "per-joint position error (mm) against the input (on stderr when an output is -). ") +
+          kMotionRateNote);
   o->model.add_to(command, true);
-  command->add_option("--input", o->input, "motion file")->required();
-  command->add_option("--start", o->start, "first 25 Hz frame of the window");
-  command->add_option("--out", o->out, "denoised motion file to write (25 Hz)")->required();
+  auto& input = o->inputs.motions[0];
+  command->add_option("--input", input.path, "motion file (- for standard input)")->required();
+  o->inputs.add_rate_to(command, "--input");
+  command->add_option("--start", input.start, "first 25 Hz frame of the window");
+  command->add_option("--out", o->out, "denoised motion file to write (25 Hz; - for standard output)")->required();
   command->add_option("--corrupt-probability", o->probability, "zero each joint-angle value with this probability first")
       ->check(CLI::Range(0.0, 1.0));
   command->add_option("--seed", o->seed, "seed of the corruption")->capture_default_str();
-  command->add_option("--corrupted-out", o->corrupted_out, "also write the corrupted motion (25 Hz)");
+  command->add_option("--corrupted-out", o->corrupted_out,
+                      "also write the corrupted motion (25 Hz; - for standard output)");
   auto* zeros_are_missing = command->add_flag(
       "--zeros-are-missing", o->denoise.zeros_are_missing,
       "treat joint-angle values that are exactly zero as missing and fill them from the manifold");
@@ -209,16 +335,25 @@ void add_denoise(CLI::App& app, Action& action) {
       ->needs(zeros_are_missing);
   command->callback([o, &action] {
     action = [o] {
+      o->inputs.read();
+      check_output_file(o->out, "--out");
+      if (!o->corrupted_out.empty()) {
+        check_output_file(o->corrupted_out, "--corrupted-out");
+        if (is_standard_stream(o->out) && is_standard_stream(o->corrupted_out)) {
+          throw InputError("--out and --corrupted-out are both - (standard output): give one of them a file");
+        }
+      }
       const MotionManifold model = load_model(o->model);
-      const MotionFrames clean = read_input(model, o->input, o->start);
+      const MotionFrames clean = o->inputs.windows(model)[0];
       const MotionFrames noisy =
           o->probability > 0 ? corrupt_motion(clean, model.normalization(), o->probability, o->seed) : clean;
-      if (!o->corrupted_out.empty()) write_motion_text_file(noisy, o->corrupted_out);
+      if (!o->corrupted_out.empty()) write_motion_output(noisy, o->corrupted_out);
       const MotionFrames denoised = denoise_motions(model, {noisy}, o->model.kind(model), o->denoise)[0];
-      write_motion_text_file(denoised, o->out);
+      write_motion_output(denoised, o->out);
       const nlohmann::json report = {
-          {"input", o->input},
-          {"start", o->start},
+          {"input", input_name(o->inputs.motions[0].path)},
+          {"rate", o->inputs.rate(0)},
+          {"start", o->inputs.motions[0].start},
           {"frames", model.config().frames},
           {"corrupt_probability", o->probability},
           {"zeros_are_missing", o->denoise.zeros_are_missing},
@@ -227,7 +362,7 @@ void add_denoise(CLI::App& app, Action& action) {
           {"denoised_mpjpe_mm", mean_joint_error_mm(model, denoised, clean)},
           {"out", o->out},
       };
-      std::printf("%s\n", report.dump(2).c_str());
+      std::fprintf(message_stream({o->out, o->corrupted_out}), "%s\n", report.dump(2).c_str());
       return kExitSuccess;
     };
   });
@@ -236,22 +371,26 @@ void add_denoise(CLI::App& app, Action& action) {
 void add_encode(CLI::App& app, Action& action) {
   struct Options {
     ModelOptions model;
-    std::string input;
-    int start = 0;
+    MotionInputs inputs{{"--input"}};
   };
   auto o = std::make_shared<Options>();
   auto* command = app.add_subcommand(
-      "encode", std::string("Print the manifold code of a motion as JSON {\"code\": [...]}. ") + kMotionRateNote);
+      "encode", std::string("Print the manifold code of a motion as JSON {\"code\": [...]} on stdout, a code file "
+                            "for decode. ") + kMotionRateNote);
   o->model.add_to(command, false);
-  command->add_option("--input", o->input, "motion file")->required();
-  command->add_option("--start", o->start, "first 25 Hz frame of the window");
+  auto& input = o->inputs.motions[0];
+  command->add_option("--input", input.path, "motion file (- for standard input)")->required();
+  o->inputs.add_rate_to(command, "--input");
+  command->add_option("--start", input.start, "first 25 Hz frame of the window");
   command->callback([o, &action] {
     action = [o] {
+      o->inputs.read();
       const MotionManifold model = load_model(o->model);
-      const auto code = encode_motions(model, {read_input(model, o->input, o->start)})[0].contiguous();
+      const auto code = encode_motions(model, o->inputs.windows(model))[0].contiguous();
       const nlohmann::json result = {
-          {"input", o->input},
-          {"start", o->start},
+          {"input", input_name(o->inputs.motions[0].path)},
+          {"rate", o->inputs.rate(0)},
+          {"start", o->inputs.motions[0].start},
           {"frames", model.config().frames},
           {"code", std::vector<float>(code.data_ptr<float>(), code.data_ptr<float>() + code.numel())},
       };
@@ -267,17 +406,22 @@ void add_decode(CLI::App& app, Action& action) {
     std::string code, out;
   };
   auto o = std::make_shared<Options>();
-  auto* command = app.add_subcommand("decode", "Decode a code (JSON as printed by encode) into a motion file at 25 Hz.");
+  auto* command = app.add_subcommand(
+      "decode", "Decode a code (JSON as printed by encode) into a motion file at 25 Hz, standing in place (root "
+                "translation zero); read it back with --rate 25.");
   o->model.add_to(command, true);
-  command->add_option("--code", o->code, "JSON file: {\"code\": [...]} or a bare array")->required();
-  command->add_option("--out", o->out, "motion file to write (25 Hz)")->required();
+  command->add_option("--code", o->code,
+                      "JSON file: {\"code\": [...]} or a bare array of the model's latent size (64), each within "
+                      "+-1000 (- for standard input)")
+      ->required();
+  command->add_option("--out", o->out, "motion file to write (25 Hz; - for standard output)")->required();
   command->callback([o, &action] {
     action = [o] {
+      const std::string text = read_input_file(o->code, "--code");
+      check_output_file(o->out, "--out");
       const MotionManifold model = load_model(o->model);
-      const auto code = read_code(o->code, model.config().latent);
-      write_motion_text_file(decode_codes(model, code, o->model.kind(model))[0], o->out);
-      std::printf("wrote %s (%d frames at 25 Hz)\n", o->out.c_str(), model.config().frames);
-      return kExitSuccess;
+      const auto code = parse_code(text, input_name(o->code), model.config().latent);
+      return write_motion(decode_codes(model, code, o->model.kind(model))[0], o->out);
     };
   });
 }

@@ -2,31 +2,55 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <sstream>
 #include <system_error>
 
+#include "file_arguments.h"
 #include "format/input_error.h"
 
 namespace mm::tool {
 
 const char* const kMotionRateNote =
-    "Input motions are H3.6M exponential-map text files at 50 Hz; every second frame is kept (25 Hz) and a "
-    "window of the model's clip length (150 frames = 6 s) is taken from --start (in 25 Hz frames). Output motions "
-    "are written in the same text layout at 25 Hz.";
+    "Input motions are H3.6M exponential-map text files, at 50 Hz (the data set; the default) or at 25 Hz (what "
+    "decode, sample, interpolate, analogy and denoise write): give --rate 25 for the latter. At 50 Hz every "
+    "second frame is kept. A window of the model's clip length (150 frames = 6 s at 25 Hz) is taken from --start "
+    "(in 25 Hz frames). - reads standard input. Output motions are written in the same text layout at 25 Hz.";
 
-MotionFrames read_motion_window(const std::string& path, int frames, int start, int columns) {
-  if (start < 0) throw InputError(path + ": start frame must be >= 0, found " + std::to_string(start));
-  const MotionFrames full = read_motion_text(path, columns);
-  const MotionFrames slow = split_phases(full, 2)[0];
+MotionFrames at_model_rate(const MotionFrames& motion, int rate, const std::string& name) {
+  if (rate == kModelRate) return motion;
+  if (rate == 2 * kModelRate) return split_phases(motion, 2)[0];
+  throw InputError(name + ": rate " + std::to_string(rate) + " Hz is not supported, expected 25 or 50");
+}
+
+MotionFrames motion_window(const std::string& text, const std::string& name, int frames, int start, int rate,
+                           int columns) {
+  if (start < 0) throw InputError(name + ": start frame must be >= 0, found " + std::to_string(start));
+  const MotionFrames file = parse_motion_text_buffer(text.data(), text.size(), name, columns);
+  const MotionFrames motion = at_model_rate(file, rate, name);
   const int64_t needed = static_cast<int64_t>(start) + frames;
-  if (slow.frame_count() < needed) {
-    throw InputError(path + ": too short: " + std::to_string(slow.frame_count()) + " frames at 25 Hz (" +
-                     std::to_string(full.frame_count()) + " at 50 Hz), need " + std::to_string(needed) + " (" +
-                     std::to_string(frames) + " frames from frame " + std::to_string(start) + ")");
+  if (motion.frame_count() < needed) {
+    std::string found = std::to_string(motion.frame_count()) + " frames at 25 Hz";
+    if (rate != kModelRate) found += " (" + std::to_string(file.frame_count()) + " at " + std::to_string(rate) + " Hz)";
+    throw InputError(name + ": too short: " + found + ", need " + std::to_string(needed) + " (" +
+                     std::to_string(frames) + " frames from frame " + std::to_string(start) + ")" +
+                     // Enough frames read at 25 Hz: most likely a file the tool wrote.
+                     (rate != kModelRate && file.frame_count() >= needed ? "; if the file is at 25 Hz, give --rate 25"
+                                                                          : ""));
   }
   MotionFrames window;
-  window.columns = slow.columns;
-  window.values.assign(slow.frame(start), slow.frame(start) + static_cast<size_t>(frames) * slow.columns);
+  window.columns = motion.columns;
+  window.values.assign(motion.frame(start), motion.frame(start) + static_cast<size_t>(frames) * motion.columns);
   return window;
+}
+
+void write_motion_output(const MotionFrames& motion, const std::string& path) {
+  if (!is_standard_stream(path)) {
+    write_motion_text_file(motion, path);
+    return;
+  }
+  std::ostringstream text;
+  write_motion_text(motion, text);
+  write_output_file(path, text.str());
 }
 
 void ensure_directory(const std::string& dir, const std::string& option) {

@@ -1,6 +1,7 @@
 // Motion files as the tool reads and writes them: inputs are H3.6M text at
-// 50 Hz from which a window of the model's clip length is taken at 25 Hz;
-// outputs are written at 25 Hz. Torch-free.
+// 50 Hz (the data set) or 25 Hz (what the tool writes), from which a window
+// of the model's clip length is taken at 25 Hz; outputs are written at
+// 25 Hz. Torch-free.
 #pragma once
 
 #include <string>
@@ -9,12 +10,26 @@
 
 namespace mm::tool {
 
-// Reads `path` (50 Hz motion text with `columns` values a frame), keeps every
-// second frame (phase 0 of split_phases, 25 Hz) and returns `frames` frames
-// starting at 25 Hz frame `start`. Throws InputError naming the file, the
-// frames found and the frames needed when the file is too short, and for a
-// negative start or a malformed file.
-MotionFrames read_motion_window(const std::string& path, int frames, int start, int columns = kH36mColumns);
+// The model's frame rate, of every motion the tool writes.
+constexpr int kModelRate = 25;
+// The rate of the data set's files, the default of the commands that encode.
+constexpr int kDataSetRate = 50;
+
+// `motion` at the model's 25 Hz: as it is for rate 25, every second frame
+// (phase 0 of split_phases, as prepare downsamples) for rate 50. Throws
+// InputError naming `name` for any other rate.
+MotionFrames at_model_rate(const MotionFrames& motion, int rate, const std::string& name);
+
+// Parses `text` (motion text at `rate` Hz, 25 or 50, with `columns` values a
+// frame; `name` is the file's name in messages), brings it to 25 Hz and
+// returns `frames` frames starting at 25 Hz frame `start`. Throws InputError
+// naming the file, the frames found and the frames needed when it is too
+// short, and for a negative start or a malformed file.
+MotionFrames motion_window(const std::string& text, const std::string& name, int frames, int start, int rate,
+                           int columns = kH36mColumns);
+
+// Writes a motion as text to `path`, or to standard output for "-".
+void write_motion_output(const MotionFrames& motion, const std::string& path);
 
 // Creates `dir` (and its parents) if needed. Throws InputError naming the
 // option and the system's reason when it cannot.

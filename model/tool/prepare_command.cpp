@@ -8,6 +8,7 @@
 #include <memory>
 
 #include "commands.h"
+#include "file_arguments.h"
 #include "format/prepared_dataset.h"
 #include "format/skeleton.h"
 #include "trainer.h"
@@ -27,6 +28,7 @@ int64_t frame_total(const std::vector<const PreparedSequence*>& sequences) {
 }
 
 int run_prepare(const PrepareOptions& options) {
+  check_output_file(options.out, "--out", "a prepared dataset is a binary file read by path");
   const auto started = std::chrono::steady_clock::now();
   PreparedDataset data = prepare_h36m(options.data_dir, options.split);
   data.normalization.position_scale_mm = position_scale_for(data, Skeleton::h36m());

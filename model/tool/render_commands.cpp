@@ -12,10 +12,12 @@
 
 #include "cli_validators.h"
 #include "commands.h"
+#include "file_arguments.h"
 #include "format/atomic_file.h"
 #include "format/input_error.h"
 #include "format/motion_text.h"
 #include "forward_kinematics.h"
+#include "motion_files.h"
 #include "render/loss_curve_svg.h"
 #include "render/pose_strip_svg.h"
 
@@ -24,17 +26,6 @@ namespace {
 
 constexpr double kOutputRate = 25.0;  // Hz of every drawn row
 constexpr int kDefaultPoses = 6;
-
-// `values` holds either one value for every input or one per input.
-template <typename T>
-T per_input(const std::vector<T>& values, size_t input, T fallback, const char* option, size_t inputs) {
-  if (values.empty()) return fallback;
-  if (values.size() != 1 && values.size() != inputs) {
-    throw InputError(std::string(option) + ": expected one value or one per --input (" + std::to_string(inputs) +
-                     "), found " + std::to_string(values.size()));
-  }
-  return values.size() == 1 ? values[0] : values[input];
-}
 
 struct RenderOptions {
   std::vector<std::string> inputs, labels;
@@ -47,12 +38,13 @@ struct RenderOptions {
 
 // The 25 Hz window of input `i` that its row shows.
 MotionFrames read_row_motion(const RenderOptions& o, size_t i) {
-  const std::string& path = o.inputs[i];
-  const int rate = per_input(o.rates, i, 25, "--rate", o.inputs.size());
+  const std::string path = input_name(o.inputs[i]);
+  const int rate = per_input(o.rates, i, kModelRate, "--rate", o.inputs.size());
   const int start = per_input(o.starts, i, 0, "--start", o.inputs.size());
   const int length = per_input(o.lengths, i, -1, "--length", o.inputs.size());
-  const MotionFrames file = read_motion_text(path);
-  const MotionFrames motion = rate == 50 ? split_phases(file, 2)[0] : file;
+  const std::string text = read_input_file(o.inputs[i], "--input");
+  const MotionFrames file = parse_motion_text_buffer(text.data(), text.size(), path);
+  const MotionFrames motion = at_model_rate(file, rate, path);
   const int64_t available = motion.frame_count();
   if (start >= available) {
     throw InputError(path + ": --start " + std::to_string(start) + " is past the end: the file has " +
@@ -92,6 +84,10 @@ int run_render(const RenderOptions& o) {
     throw InputError("--label: expected one per --input (" + std::to_string(o.inputs.size()) + "), found " +
                      std::to_string(o.labels.size()));
   }
+  std::vector<std::pair<std::string, std::string>> option_paths;
+  for (const auto& input : o.inputs) option_paths.emplace_back("--input", input);
+  check_one_standard_input(option_paths);
+  check_output_file(o.out, "--out");
   const Skeleton skeleton = Skeleton::h36m();
   const ForwardKinematics fk(skeleton);
   std::vector<render::PoseRow> rows;
@@ -99,7 +95,7 @@ int run_render(const RenderOptions& o) {
   for (size_t i = 0; i < o.inputs.size(); ++i) {
     const MotionFrames motion = read_row_motion(o, i);
     render::PoseRow row;
-    row.label = o.labels.empty() ? std::filesystem::path(o.inputs[i]).stem().string() : o.labels[i];
+    row.label = o.labels.empty() ? std::filesystem::path(input_name(o.inputs[i])).stem().string() : o.labels[i];
     row.frames = motion.frame_count();
     row.positions_mm = joint_positions_mm(fk, motion);
     shortest = std::min(shortest, row.frames);
@@ -111,8 +107,9 @@ int run_render(const RenderOptions& o) {
   strip.title = o.title;
   strip.center_poses = o.center_poses;
   strip.view_azimuth_deg = o.azimuth_deg;
-  write_file_atomically(o.out, render::render_pose_strip_svg(skeleton, rows, strip));
-  std::printf("wrote %s: %zu rows x %zu poses\n", o.out.c_str(), rows.size(), strip.frame_indices.size());
+  write_output_file(o.out, render::render_pose_strip_svg(skeleton, rows, strip));
+  std::fprintf(message_stream({o.out}), "wrote %s: %zu rows x %zu poses\n", o.out.c_str(), rows.size(),
+               strip.frame_indices.size());
   return kExitSuccess;
 }
 
@@ -124,15 +121,13 @@ void add_render(CLI::App& app, Action& action) {
       "chosen frames, with one scale for all rows. Inputs are H3.6M exponential-map text files; rows are drawn "
       "at 25 Hz, so give --rate 50 for raw data set files (every second frame is kept) and 25 (the default) for "
       "files the model wrote. --rate, --start and --length take one value for all inputs or one per input.");
-  command->add_option("--input", o->inputs, "motion file (repeat for more rows)")->required();
+  command->add_option("--input", o->inputs, "motion file (repeat for more rows; - for standard input)")->required();
   command->add_option("--label", o->labels, "row label, one per --input (default: the file names)");
   command->add_option("--frames", o->frames,
                       "25 Hz frames to draw, within the window, comma-separated (default: 6 spread over the "
                       "shortest row, e.g. 0,30,60,90,120,149 for 150 frames)")
       ->delimiter(',');
-  command->add_option("--rate", o->rates, "frame rate of the input file: 50 (raw data set) or 25 (model output)")
-      ->check(CLI::IsMember({25, 50}))
-      ->delimiter(',');
+  add_rate_option(command, o->rates, kModelRate, "the input files");
   command->add_option("--start", o->starts, "first 25 Hz frame of the window (default 0)")
       ->check(at_least(0))
       ->delimiter(',');
@@ -146,7 +141,7 @@ void add_render(CLI::App& app, Action& action) {
       ->capture_default_str();
   command->add_flag("--center-poses", o->center_poses,
                     "centre each pose on its own horizontal extent instead of on its root joint");
-  command->add_option("--out", o->out, "SVG file to write")->required();
+  command->add_option("--out", o->out, "SVG file to write (- for standard output)")->required();
   command->callback([o, &action] { action = [o] { return run_render(*o); }; });
 }
 
@@ -171,9 +166,11 @@ void add_plot_log(CLI::App& app, Action& action) {
       ->capture_default_str();
   command->add_flag("--log-scale", o->log_scale, "logarithmic y axes (values <= 0 are left out)");
   command->add_option("--title", o->title, "title above the panels (default: the log's path)");
-  command->add_option("--out", o->out, "SVG file to write")->required();
+  command->add_option("--out", o->out, "SVG file to write (- for standard output)")->required();
   command->callback([o, &action] {
     action = [o] {
+      check_input_file(o->log, "--log");
+      check_output_file(o->out, "--out");
       const render::LossLog log = render::read_loss_log(o->log);
       std::vector<std::string> columns = o->columns;
       if (columns.empty()) {
@@ -185,8 +182,8 @@ void add_plot_log(CLI::App& app, Action& action) {
       curves.smooth_window = o->smooth;
       curves.log_scale = o->log_scale;
       curves.title = o->title.empty() ? o->log : o->title;
-      write_file_atomically(o->out, render::render_loss_curves_svg(log, columns, curves));
-      std::printf("wrote %s: %zu panels over %zu logged iterations\n", o->out.c_str(), columns.size(),
+      write_output_file(o->out, render::render_loss_curves_svg(log, columns, curves));
+      std::fprintf(message_stream({o->out}), "wrote %s: %zu panels over %zu logged iterations\n", o->out.c_str(), columns.size(),
                   log.rows.size());
       return kExitSuccess;
     };

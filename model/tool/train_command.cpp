@@ -14,6 +14,7 @@
 #include "cli_validators.h"
 #include "commands.h"
 #include "device_option.h"
+#include "file_arguments.h"
 #include "format/atomic_file.h"
 #include "format/input_error.h"
 #include "motion_files.h"
@@ -144,8 +145,21 @@ int64_t exported_iterations(const MotionManifold& model) {
   return iterations.is_number_integer() ? iterations.get<int64_t>() : 0;
 }
 
+// The training configuration file: its fields (training_config.h), with
+// numbers too large for a double (1e999) refused as bad input naming it.
+TrainConfig read_config_file(const std::string& path) {
+  const std::string text = read_input_file(path, "--config");
+  try {
+    return train_config_from_json_text(text, path);
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(path + ": not a valid training configuration (JSON): " + json_error_reason(e.what()));
+  }
+}
+
 int run_resume(const std::string& checkpoint, const std::string& dataset_path, int64_t iterations,
                const std::string& device_name, const std::string& command_line) {
+  check_input_file(checkpoint, "checkpoint");
+  check_input_file(dataset_path, "--dataset");
   const c10::Device device = parse_device(device_name);
   const PreparedDataset data = load_dataset(dataset_path);
   auto trainer = Trainer::resume(checkpoint, data, device, iterations);
@@ -158,7 +172,7 @@ int run_train(const TrainOptions& o, const std::string& command_line) {
     if (o.dataset.empty()) throw InputError("--resume needs --dataset (the prepared dataset the run was trained on)");
     return run_resume(o.resume, o.dataset, o.iterations, o.device, command_line);
   }
-  TrainConfig config = o.config_path.empty() ? variant_config(o.variant) : read_train_config(o.config_path);
+  TrainConfig config = o.config_path.empty() ? variant_config(o.variant) : read_config_file(o.config_path);
   if (!o.dataset.empty()) config.dataset = o.dataset;
   if (!o.out.empty()) config.output_dir = o.out;
   if (o.iterations > 0) config.iterations = o.iterations;
@@ -169,6 +183,7 @@ int run_train(const TrainOptions& o, const std::string& command_line) {
   if (config.output_dir.empty()) {
     throw InputError("train: no output folder: give --out or \"output_dir\" in the configuration");
   }
+  check_input_file(config.dataset, o.dataset.empty() ? "dataset" : "--dataset");
   const c10::Device device = parse_device(o.device);
   const PreparedDataset data = load_dataset(config.dataset);
   Trainer trainer(config, data, device);

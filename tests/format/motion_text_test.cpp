@@ -89,6 +89,43 @@ TEST(MotionText, RejectsValueOutOfFloatRange) {
   EXPECT_THAT(read_error("huge.txt", bad), AllOf(HasSubstr("huge.txt:1:"), HasSubstr("\"1e999\"")));
 }
 
+// 1e38 is a float but no joint angle: it would overflow forward kinematics.
+TEST(MotionText, RejectsRotationBeyondTheBoundNamingLineAndColumn) {
+  std::string bad = line_of(99);
+  bad.replace(bad.size() - 10, 9, "1e38");  // the last value, a rotation
+  EXPECT_THAT(read_error("wild.txt", line_of(99) + bad),
+              AllOf(HasSubstr("wild.txt:2:"), HasSubstr("value 99 \"1e38\""), HasSubstr("within +-1000 radians")));
+  std::string negative = line_of(99);
+  negative.replace(30, 9, "-1000.5");  // value 4, the first rotation
+  EXPECT_THAT(read_error("neg.txt", negative), AllOf(HasSubstr("neg.txt:1:"), HasSubstr("value 4 \"-1000.5\"")));
+}
+
+TEST(MotionText, RejectsRootTranslationBeyondTheBound) {
+  std::string bad = line_of(99);
+  bad.replace(0, 9, "1e30");
+  EXPECT_THAT(read_error("far.txt", bad),
+              AllOf(HasSubstr("far.txt:1:"), HasSubstr("value 1 \"1e30\""), HasSubstr("within +-100000 mm")));
+}
+
+// The bounds are inclusive and leave room far beyond real data: a root
+// translation of 100 m a frame and a rotation of 1000 radians still parse.
+TEST(MotionText, AcceptsValuesAtTheBounds) {
+  test::ScratchDir dir;
+  std::string line = line_of(99);
+  line.replace(10, 9, "-100000.0");  // value 2, root translation
+  line.replace(30, 9, "1000.0000");  // value 4, rotation
+  const MotionFrames motion = read_motion_text(dir.write("edge.txt", line));
+  EXPECT_EQ(motion.frame(0)[1], -1e5f);
+  EXPECT_EQ(motion.frame(0)[3], 1e3f);
+}
+
+TEST(MotionText, AcceptsAUtf8ByteOrderMark) {
+  test::ScratchDir dir;
+  const MotionFrames motion = read_motion_text(dir.write("bom.txt", "\xEF\xBB\xBF" + line_of(99) + line_of(99)));
+  EXPECT_EQ(motion.frame_count(), 2);
+  EXPECT_FLOAT_EQ(motion.frame(0)[0], 0.1f);
+}
+
 TEST(MotionText, RejectsEmptyFile) {
   EXPECT_THAT(read_error("empty.txt", ""), AllOf(HasSubstr("empty.txt:1:"), HasSubstr("no frames")));
   EXPECT_THAT(read_error("blank.txt", "\n\n  \n"), HasSubstr("blank.txt:1:"));

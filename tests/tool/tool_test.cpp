@@ -9,8 +9,11 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <cmath>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <string>
+#include <vector>
 
 #include "test_environment.h"
 
@@ -34,6 +37,58 @@ Result run_tool(const std::string& arguments) {
 }
 
 std::string s5(const std::string& name) { return (test::h36m_dataset_dir() / "S5" / name).string(); }
+
+// A run with its standard streams apart, for the commands that write data
+// on stdout; `input` (a file) becomes its standard input when given.
+struct SplitResult {
+  int exit_code;
+  std::string out, err;
+};
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+SplitResult run_tool_split(const std::string& arguments, const std::string& input = "") {
+  test::ScratchDir streams;
+  const std::string command = std::string(MM_TOOL_PATH) + " " + arguments + " >" + streams.file("out") + " 2>" +
+                              streams.file("err") + (input.empty() ? " </dev/null" : " <" + input);
+  const int status = std::system(command.c_str());
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, read_text(streams.file("out")), read_text(streams.file("err"))};
+}
+
+const std::string kModel = std::string("--model ") + MM_SHIPPED_MODEL;
+
+// The code in encode's output (or a code file).
+std::vector<double> code_of(const std::string& json_text) {
+  return nlohmann::json::parse(json_text).at("code").get<std::vector<double>>();
+}
+
+double distance(const std::vector<double>& a, const std::vector<double>& b) {
+  double sum = 0;
+  for (size_t i = 0; i < a.size(); ++i) sum += (a[i] - b[i]) * (a[i] - b[i]);
+  return std::sqrt(sum);
+}
+
+// `frames` lines of 99 values: small rotations, no root translation.
+std::string synthetic_motion(int frames) {
+  std::string text;
+  for (int frame = 0; frame < frames; ++frame) {
+    for (int c = 0; c < 99; ++c) text += (c ? "," : "") + std::string(c < 3 ? "0.0" : "0.1");
+    text += '\n';
+  }
+  return text;
+}
+
+std::vector<std::string> lines_of(const std::string& text) {
+  std::vector<std::string> lines;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  return lines;
+}
 
 TEST(Tool, UnknownVariantIsAUsageErrorNamingTheValue) {
   const auto r = run_tool("train --variant XYZ --dataset nowhere.mmd --out /tmp/unused");
@@ -152,6 +207,233 @@ TEST(Tool, PrepareTrainEvaluateAndDecodeOnRealData) {
   r = run_tool("encode --model " + run + "/model --input " + dir.file("short.txt"));
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("short.txt"), std::string::npos) << r.output;
+}
+
+TEST(Tool, VersionIsTheProjectVersion) {
+  const auto r = run_tool("--version");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find(MM_PROJECT_VERSION), std::string::npos) << r.output;
+}
+
+TEST(Tool, HelpCreditsThePapersAuthors) {
+  const auto r = run_tool("--help");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("Jang & Lee"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("Yoon"), std::string::npos) << r.output;
+}
+
+// decode writes 25 Hz; encode reads it back with --rate 25, and the code it
+// finds is near the one decoded: much nearer than another walk's code.
+TEST(Tool, DecodedMotionEncodesBackToANearbyCode) {
+  MM_REQUIRE_H36M();
+  test::ScratchDir dir;
+  auto r = run_tool_split("encode " + kModel + " --input " + s5("walking_1.txt"));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string code_file = dir.write("walking_1.json", r.out);
+  const auto code = code_of(r.out);
+  r = run_tool_split("encode " + kModel + " --input " + s5("walking_2.txt"));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto other_walk = code_of(r.out);
+
+  r = run_tool_split("decode " + kModel + " --code " + code_file + " --out " + dir.file("decoded.txt"));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(lines_of(read_text(dir.file("decoded.txt"))).size(), 150u);
+  r = run_tool_split("encode " + kModel + " --rate 25 --input " + dir.file("decoded.txt"));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto round_trip = code_of(r.out);
+  EXPECT_EQ(nlohmann::json::parse(r.out)["rate"], 25);
+  EXPECT_LT(distance(code, round_trip), 0.4 * distance(code, other_walk));
+
+  // At the default 50 Hz the decoded file holds only 75 frames: the message says what to do.
+  r = run_tool_split("encode " + kModel + " --input " + dir.file("decoded.txt"));
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find("decoded.txt"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("--rate 25"), std::string::npos) << r.err;
+}
+
+// Reading a 50 Hz file keeps every second frame: the same frames written at
+// 25 Hz give the very same window, hence the same code.
+TEST(Tool, A50HzFileReadsAsItsEvenFramesAt25Hz) {
+  MM_REQUIRE_H36M();
+  test::ScratchDir dir;
+  const auto lines = lines_of(read_text(s5("walking_1.txt")));
+  std::string even;
+  for (size_t i = 0; i < lines.size(); i += 2) even += lines[i] + "\n";
+  const std::string slow = dir.write("walking_1_25hz.txt", even);
+  const auto at_50 = run_tool_split("encode " + kModel + " --start 40 --input " + s5("walking_1.txt"));
+  const auto at_25 = run_tool_split("encode " + kModel + " --start 40 --rate 25 --input " + slow);
+  ASSERT_EQ(at_50.exit_code, 0) << at_50.err;
+  ASSERT_EQ(at_25.exit_code, 0) << at_25.err;
+  EXPECT_EQ(code_of(at_50.out), code_of(at_25.out));
+  const auto unshifted = run_tool_split("encode " + kModel + " --rate 25 --input " + slow);
+  EXPECT_NE(code_of(unshifted.out), code_of(at_25.out)) << "--start must move the window";
+}
+
+// "-" is standard input for code and motion files and standard output for
+// --out, whose message then goes to stderr so that stdout is only data.
+TEST(Tool, DashReadsStandardInputAndWritesStandardOutput) {
+  test::ScratchDir dir;
+  auto r = run_tool_split("encode " + kModel + " --rate 25 --input " +
+                          dir.write("still.txt", synthetic_motion(150)));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string code_file = dir.write("code.json", r.out);
+
+  r = run_tool_split("decode " + kModel + " --code - --out -", code_file);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto lines = lines_of(r.out);
+  ASSERT_EQ(lines.size(), 150u) << r.out.substr(0, 200);
+  for (const auto& line : lines) ASSERT_EQ(std::count(line.begin(), line.end(), ','), 98) << line;
+  EXPECT_NE(r.err.find("wrote standard output"), std::string::npos) << r.err;
+  const std::string decoded = dir.write("decoded.txt", r.out);
+
+  const auto from_stdin = run_tool_split("encode " + kModel + " --rate 25 --input -", decoded);
+  const auto from_file = run_tool_split("encode " + kModel + " --rate 25 --input " + decoded);
+  ASSERT_EQ(from_stdin.exit_code, 0) << from_stdin.err;
+  EXPECT_EQ(code_of(from_stdin.out), code_of(from_file.out));
+  EXPECT_EQ(nlohmann::json::parse(from_stdin.out)["input"], "standard input");
+
+  // denoise's report moves to stderr when the motion goes to stdout.
+  r = run_tool_split("denoise " + kModel + " --rate 25 --input - --out -", decoded);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(lines_of(r.out).size(), 150u);
+  EXPECT_NE(r.err.find("denoised_mpjpe_mm"), std::string::npos) << r.err;
+
+  // analogy and interpolate take - for one input and --rate per input.
+  r = run_tool_split("analogy " + kModel + " --rate 25,50,25 --a - --b " + dir.write("b.txt", synthetic_motion(300)) +
+                         " --c " + decoded + " --out -",
+                     decoded);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(lines_of(r.out).size(), 150u);
+  r = run_tool_split("interpolate " + kModel + " --rate 25 --steps 2 --from - --to " + decoded + " --out-dir " +
+                         dir.file("between"),
+                     decoded);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(std::filesystem::exists(dir.file("between/interpolation_001.txt")));
+
+  r = run_tool_split("analogy " + kModel + " --rate 25 --a - --b - --c " + decoded + " --out -", decoded);
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find("standard input"), std::string::npos) << r.err;
+}
+
+// A bad path must fail before the model loads: with a model folder that
+// does not exist, the message is about the input, not the model.
+TEST(Tool, InputPathsAreCheckedBeforeTheModelLoads) {
+  test::ScratchDir dir;
+  const std::string no_model = "--model " + dir.file("no-model");
+  for (const std::string& command :
+       {"encode --input " + dir.file("missing.txt"), "decode --code " + dir.file("missing.json") + " --out x.txt",
+        "denoise --input " + dir.file("missing.txt") + " --out x.txt",
+        "analogy --a " + dir.write("present.txt", "0") + " --b " + dir.file("missing.txt") + " --c - --out x.txt"}) {
+    const auto r = run_tool(command + " " + no_model);
+    EXPECT_EQ(r.exit_code, 2) << command << ": " << r.output;
+    EXPECT_NE(r.output.find("missing."), std::string::npos) << command << ": " << r.output;
+    EXPECT_EQ(r.output.find("no-model"), std::string::npos) << command << ": " << r.output;
+  }
+  const auto r = run_tool("decode --code " + dir.write("c.json", "[0]") + " --out " +
+                          dir.file("no-folder/x.txt") + " " + no_model);
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("no-folder"), std::string::npos) << r.output;
+}
+
+// Every bad input is exit 2 with a message naming the file, and no text of
+// the libraries underneath (c10, nlohmann, std::string).
+TEST(Tool, BadInputsAreExitTwoNamingTheFile) {
+  test::ScratchDir dir;
+  const std::string folder = dir.file("a-folder");
+  std::filesystem::create_directories(folder);
+  const std::string motion = dir.write("motion.txt", synthetic_motion(300));
+  std::string code_values;
+  for (int i = 1; i < 64; ++i) code_values += ",0.5";
+  std::string huge_rotation = synthetic_motion(300);
+  huge_rotation.replace(huge_rotation.find("0.1"), 3, "1e38");
+  std::string huge_root = synthetic_motion(300);
+  huge_root.replace(0, 3, "1e30");
+  const struct {
+    std::string arguments, named;
+  } cases[] = {
+      {"encode --input " + folder, "a-folder"},
+      {"encode --input " + dir.write("rotation.txt", huge_rotation), "rotation.txt:1: value 4"},
+      {"encode --input " + dir.write("root.txt", huge_root), "root.txt:1: value 1"},
+      {"decode --code " + folder + " --out " + dir.file("x.txt"), "a-folder"},
+      {"decode --code " + dir.write("overflow.json", "{\"code\": [1e999" + code_values + "]}") + " --out " +
+           dir.file("x.txt"),
+       "overflow.json"},
+      {"decode --code " + dir.write("far.json", "[1e30" + code_values + "]") + " --out " + dir.file("x.txt"),
+       "far.json: code[0]"},
+      {"decode --code " + dir.write("string.json", "\"z\"") + " --out " + dir.file("x.txt"), "string.json"},
+      {"decode --code " + dir.write("ok.json", "[0.1" + code_values + "]") + " --out " + folder, "a-folder"},
+      {"analogy --a " + motion + " --b " + motion + " --c " + folder + " --out " + dir.file("x.txt"), "a-folder"},
+      {"analogy --a " + motion + " --b " + motion + " --c " + motion + " --out " + folder, "a-folder"},
+      {"interpolate --from " + motion + " --to " + folder + " --out-dir " + dir.file("i"), "a-folder"},
+      {"interpolate --from " + motion + " --to " + motion + " --out-dir " + motion, "motion.txt"},
+      {"denoise --input " + folder + " --out " + dir.file("x.txt"), "a-folder"},
+      {"denoise --input " + motion + " --out " + folder, "a-folder"},
+      {"sample --out-dir " + motion, "motion.txt"},
+      {"render --input " + folder + " --out " + dir.file("x.svg"), "a-folder"},
+      {"render --input " + motion + " --rate 50 --out " + folder, "a-folder"},
+      {"plot-log --log " + folder + " --out " + dir.file("x.svg"), "a-folder"},
+      {"train --config " + folder + " --dataset " + motion + " --out " + dir.file("run"), "a-folder"},
+      {"train --config " + dir.write("overflow-config.json", "{\"learning_rate\": 1e999}") + " --dataset " + motion +
+           " --out " + dir.file("run"),
+       "overflow-config.json"},
+      {"train --config " + dir.write("big-config.json", "{\"model\": {\"hidden\": 99999999999}}") + " --dataset " +
+           motion + " --out " + dir.file("run"),
+       "big-config.json: model.hidden"},
+      {"train --dataset " + folder + " --out " + dir.file("run"), "a-folder"},
+      {"resume " + folder + " --dataset " + motion, "a-folder"},
+      {"evaluate --dataset " + folder, "a-folder"},
+      {"evaluate --dataset " + motion + " --out " + folder, "a-folder"},
+      {"bench --dataset " + folder, "a-folder"},
+      {"bench --out " + folder, "a-folder"},
+      {"prepare --data " + folder + " --out " + folder, "a-folder"},
+  };
+  for (const auto& c : cases) {
+    const std::string command = c.arguments.substr(0, c.arguments.find(' '));
+    const bool takes_model = command != "render" && command != "plot-log" && command != "train" &&
+                             command != "resume" && command != "bench" && command != "prepare";
+    const auto r = run_tool(c.arguments + (takes_model ? " " + kModel : ""));
+    EXPECT_EQ(r.exit_code, 2) << c.arguments << "\n" << r.output;
+    EXPECT_NE(r.output.find(c.named), std::string::npos) << c.arguments << "\n" << r.output;
+    for (const char* internal : {"json.exception", "c10", "basic_string", "what()"}) {
+      EXPECT_EQ(r.output.find(internal), std::string::npos) << c.arguments << "\n" << r.output;
+    }
+  }
+}
+
+// Files that editors start with a byte-order mark read like any other.
+TEST(Tool, ByteOrderMarksAreAccepted) {
+  test::ScratchDir dir;
+  const std::string plain = dir.write("plain.txt", synthetic_motion(150));
+  const std::string marked = dir.write("marked.txt", "\xEF\xBB\xBF" + synthetic_motion(150));
+  const auto a = run_tool_split("encode " + kModel + " --rate 25 --input " + plain);
+  const auto b = run_tool_split("encode " + kModel + " --rate 25 --input " + marked);
+  ASSERT_EQ(b.exit_code, 0) << b.err;
+  EXPECT_EQ(code_of(a.out), code_of(b.out));
+  const auto decoded = run_tool_split("decode " + kModel + " --code " + dir.write("code.json", "\xEF\xBB\xBF" + b.out) +
+                                      " --out " + dir.file("d.txt"));
+  EXPECT_EQ(decoded.exit_code, 0) << decoded.err;
+  const auto config = run_tool("train --config " + dir.write("config.json", "\xEF\xBB\xBF{\"batch\": 4}") +
+                               " --dataset " + dir.file("missing.mmd") + " --out " + dir.file("run"));
+  EXPECT_EQ(config.exit_code, 2) << config.output;
+  EXPECT_NE(config.output.find("missing.mmd"), std::string::npos) << "the configuration must parse: " << config.output;
+}
+
+TEST(Tool, DecodingBeyondTheMemoryLimitNamesTheMemory) {
+  test::ScratchDir dir;
+  const auto r = run_tool("sample " + kModel + " --count 100000 --out-dir " + dir.file("samples"));
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  for (const char* said : {"--count 100000", "GB", "1 GiB", "at most"}) {
+    EXPECT_NE(r.output.find(said), std::string::npos) << said << ": " << r.output;
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir.file("samples/sample_000.txt")));
+  const std::string motion = dir.write("motion.txt", synthetic_motion(300));
+  const auto steps = run_tool("interpolate " + kModel + " --steps 100000 --from " + motion + " --to " + motion +
+                              " --out-dir " + dir.file("between"));
+  EXPECT_EQ(steps.exit_code, 2) << steps.output;
+  EXPECT_NE(steps.output.find("--steps 100000"), std::string::npos) << steps.output;
+  const auto within = run_tool("sample " + kModel + " --count 2 --out-dir " + dir.file("samples"));
+  EXPECT_EQ(within.exit_code, 0) << within.output;
+  EXPECT_TRUE(std::filesystem::exists(dir.file("samples/sample_001.txt")));
 }
 
 TEST(Tool, ResumeWithoutADatasetIsAUsageError) {
