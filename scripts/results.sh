@@ -34,9 +34,9 @@ mkdir -p "$out" "$work"
 
 # Sec. 5.4: denoising with the paper's corruption (half the joint angles
 # zeroed), projected as it is and with the zeros treated as missing.
-"$tool" denoise --model "$model" --input "$s5/walking_2.txt" --corrupt-probability 0.5 --seed 3 \
+"$tool" denoise --model "$model" --input "$s5/walking_2.txt" --corrupt-probability 0.5 --corruption zeroed --seed 3 \
   --corrupted-out "$work/corrupted.txt" --out "$work/denoised.txt"
-"$tool" denoise --model "$model" --input "$s5/walking_2.txt" --corrupt-probability 0.5 --seed 3 \
+"$tool" denoise --model "$model" --input "$s5/walking_2.txt" --corrupt-probability 0.5 --corruption zeroed --seed 3 \
   --zeros-are-missing --out "$work/denoised-zeros-missing.txt"
 "$tool" render --input "$s5/walking_2.txt" --input "$work/corrupted.txt" --input "$work/denoised.txt" \
   --input "$work/denoised-zeros-missing.txt" --rate 50,25,25,25 --length 150 --label "ground truth" \

@@ -302,14 +302,16 @@ void add_denoise(CLI::App& app, Action& action) {
     std::string out, corrupted_out;
     double probability = 0;
     uint64_t seed = 0;
+    std::string corruption = "reference";
     DenoiseOptions denoise;
   };
   auto o = std::make_shared<Options>();
   auto* command = app.add_subcommand(
       "denoise",
       std::string("Project a motion onto the manifold and decode it (Sec. 5.4), optionally after corrupting it as "
-                  "in the paper (each joint-angle value zeroed with a probability). Prints, as JSON, the mean "
-                  "per-joint position error (mm) against the input (on stderr when an output is -). ") +
+                  "in the paper (each joint-angle value dropped with a probability: to its training mean as the "
+                  "paper's reference implementation does, or to zero as the paper's text says). Prints, as JSON, "
+                  "the mean per-joint position error (mm) against the input (on stderr when an output is -). ") +
           kMotionRateNote);
   o->model.add_to(command, true);
   auto& input = o->inputs.motions[0];
@@ -317,23 +319,37 @@ void add_denoise(CLI::App& app, Action& action) {
   o->inputs.add_rate_to(command, "--input");
   command->add_option("--start", input.start, "first 25 Hz frame of the window");
   command->add_option("--out", o->out, "denoised motion file to write (25 Hz; - for standard output)")->required();
-  command->add_option("--corrupt-probability", o->probability, "zero each joint-angle value with this probability first")
+  command->add_option("--corrupt-probability", o->probability, "drop each joint-angle value with this probability first")
       ->check(CLI::Range(0.0, 1.0));
+  command->add_option("--corruption", o->corruption,
+                      "what a dropped value becomes: reference (its training mean, as the reference implementation "
+                      "drops values) or zeroed (zero, as the paper's text says)")
+      ->check(CLI::IsMember({"reference", "zeroed"}))
+      ->capture_default_str();
   command->add_option("--seed", o->seed, "seed of the corruption")->capture_default_str();
   command->add_option("--corrupted-out", o->corrupted_out,
                       "also write the corrupted motion (25 Hz; - for standard output)");
   auto* zeros_are_missing = command->add_flag(
       "--zeros-are-missing", o->denoise.zeros_are_missing,
-      "treat joint-angle values that are exactly zero as missing and fill them from the manifold");
-  command->add_option("--iterations", o->denoise.iterations,
-                      "with --zeros-are-missing: rounds of projecting and refilling the missing values")
-      ->check(CLI::PositiveNumber)
-      ->needs(zeros_are_missing)
-      ->capture_default_str();
+      "treat joint-angle values that are exactly zero as missing and fill them from the manifold (the zeroed "
+      "corruption's dropped values)");
+  command->add_flag("--means-are-missing", o->denoise.means_are_missing,
+                    "treat joint-angle values exactly at their training mean as missing and fill them from the "
+                    "manifold (the reference corruption's dropped values)")
+      ->excludes(zeros_are_missing);
+  auto* iterations = command->add_option(
+      "--iterations", o->denoise.iterations,
+      "with --zeros-are-missing or --means-are-missing: rounds of projecting and refilling the missing values");
+  iterations->check(CLI::PositiveNumber)->capture_default_str();
   command->add_flag("--keep-observed", o->denoise.keep_observed,
-                    "with --zeros-are-missing: keep the observed values and take the manifold's only for the missing")
-      ->needs(zeros_are_missing);
-  command->callback([o, &action] {
+                    "with --zeros-are-missing or --means-are-missing: keep the observed values and take the "
+                    "manifold's only for the missing");
+  command->callback([o, &action, iterations] {
+    const bool missing_values = o->denoise.zeros_are_missing || o->denoise.means_are_missing;
+    if (!missing_values && (o->denoise.keep_observed || iterations->count() > 0)) {
+      throw CLI::ValidationError(std::string(o->denoise.keep_observed ? "--keep-observed" : "--iterations") +
+                                 ": expected together with --zeros-are-missing or --means-are-missing");
+    }
     action = [o] {
       o->inputs.read();
       check_output_file(o->out, "--out");
@@ -345,8 +361,9 @@ void add_denoise(CLI::App& app, Action& action) {
       }
       const MotionManifold model = load_model(o->model);
       const MotionFrames clean = o->inputs.windows(model)[0];
-      const MotionFrames noisy =
-          o->probability > 0 ? corrupt_motion(clean, model.normalization(), o->probability, o->seed) : clean;
+      const MotionFrames noisy = o->probability > 0 ? corrupt_motion(clean, model.normalization(), o->probability,
+                                                                     o->seed, parse_corruption(o->corruption))
+                                                    : clean;
       if (!o->corrupted_out.empty()) write_motion_output(noisy, o->corrupted_out);
       const MotionFrames denoised = denoise_motions(model, {noisy}, o->model.kind(model), o->denoise)[0];
       write_motion_output(denoised, o->out);
@@ -356,7 +373,9 @@ void add_denoise(CLI::App& app, Action& action) {
           {"start", o->inputs.motions[0].start},
           {"frames", model.config().frames},
           {"corrupt_probability", o->probability},
+          {"corruption", o->corruption},
           {"zeros_are_missing", o->denoise.zeros_are_missing},
+          {"means_are_missing", o->denoise.means_are_missing},
           {"keep_observed", o->denoise.keep_observed},
           {"corrupted_mpjpe_mm", mean_joint_error_mm(model, noisy, clean)},
           {"denoised_mpjpe_mm", mean_joint_error_mm(model, denoised, clean)},
