@@ -49,6 +49,20 @@ TEST(Evaluation, ReportsEveryIntervalForBothDecoders) {
     }
     EXPECT_GT(d["E_z"].get<double>(), 0.0);
   }
+  // Denoising: both corruptions drop the same half of the values, and each
+  // finds its dropped values (at the mean, at zero) as missing; once known,
+  // what they were set to no longer matters to the fill.
+  const auto& corruptions = report["denoising"]["corruptions"];
+  ASSERT_EQ(corruptions.size(), 4u);
+  const auto& reference = corruptions[0];
+  const auto& zeroed = corruptions[1];
+  EXPECT_EQ(reference["corruption"], "reference");
+  EXPECT_EQ(zeroed["corruption"], "zeroed");
+  EXPECT_NEAR(reference["missing_fraction"].get<double>(), 0.5, 0.01);
+  EXPECT_NEAR(reference["missing_fraction"].get<double>(), zeroed["missing_fraction"].get<double>(), 1e-3);
+  EXPECT_NEAR(reference["denoised_missing_mpjpe_mm"].get<double>(), zeroed["denoised_missing_mpjpe_mm"].get<double>(),
+              0.5);
+  EXPECT_LT(reference["corrupted_mpjpe_mm"].get<double>(), zeroed["corrupted_mpjpe_mm"].get<double>());
 }
 
 TEST(Evaluation, SameSeedSelectsTheSameClips) {
