@@ -65,6 +65,34 @@ TEST(Evaluation, ReportsEveryIntervalForBothDecoders) {
   EXPECT_LT(reference["corrupted_mpjpe_mm"].get<double>(), zeroed["corrupted_mpjpe_mm"].get<double>());
 }
 
+TEST(Evaluation, SeedSpreadIsTheMeanAndSampleStdOfTheSeedsEvaluations) {
+  MM_REQUIRE_H36M();
+  auto& model = trained_tiny_model();
+  const auto test_sequences = small_h36m().subset(small_h36m().test_subjects);
+  EvaluationOptions options;
+  options.clips = 4;
+  options.seed = 5;
+  options.corruption_probability = 0;
+  std::vector<double> values;  // rotation decoder, E_r at 2.4 s, for seeds 5, 6, 7
+  for (uint64_t seed : {5, 6, 7}) {
+    options.seed = seed;
+    values.push_back(nlohmann::json::parse(evaluate_reconstruction(model, test_sequences, options))["decoders"]
+                         ["rotation"]["E_r"][1]
+                             .get<double>());
+  }
+  options.seed = 5;
+  options.spread_seeds = 3;
+  const auto spread = nlohmann::json::parse(evaluate_reconstruction(model, test_sequences, options))["seed_spread"];
+  EXPECT_EQ(spread["seeds"], nlohmann::json({5, 6, 7}));
+  const double mean = (values[0] + values[1] + values[2]) / 3;
+  double squares = 0;
+  for (double v : values) squares += (v - mean) * (v - mean);
+  const auto& e_r = spread["decoders"]["rotation"]["E_r"];
+  EXPECT_NEAR(e_r["mean"][1].get<double>(), mean, 1e-9);
+  EXPECT_NEAR(e_r["std"][1].get<double>(), std::sqrt(squares / 2), 1e-9);  // sample std: n - 1 = 2
+  ASSERT_GT(squares, 0.0);
+}
+
 TEST(Evaluation, SameSeedSelectsTheSameClips) {
   MM_REQUIRE_H36M();
   auto& model = trained_tiny_model();
