@@ -55,6 +55,8 @@ def table1(models, paper_units):
     printed = set()
     for name, result in models:
         for decoder, errors in result["decoders"].items():
+            if paper_units and "paper_units" not in errors:
+                continue  # evaluated before the evaluation reported the paper's units
             variant = name.split()[0]
             paper = PAPER.get((variant, decoder))
             if paper and (variant, decoder) not in printed:
