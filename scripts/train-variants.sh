@@ -3,6 +3,7 @@
 # with the default model's evaluation (30 fixed S5 clips, seed 0): an
 # ablation at equal cost, far shorter than the paper's training.
 #   scripts/train-variants.sh [ITERATIONS] [HIDDEN]     (default 1000, 256)
+#   MM_VARIANTS="DK DKG" scripts/train-variants.sh     (a subset; default all)
 # Runs land in runs/variants/<variant>; the evaluations are copied to
 # docs/results/variants/<variant>.json for docs/RESULTS.md.
 set -euo pipefail
@@ -12,7 +13,7 @@ hidden=${2:-256}
 tool=${MM_TOOL:-build/model/tool/motion-manifold}  # MM_TOOL: a copy, to rebuild meanwhile
 mkdir -p runs/variants docs/results/variants
 [ -f runs/h36m.mmd ] || "$tool" prepare --data data --out runs/h36m.mmd
-for variant in S D DK DKG DKGM DKGMZ Seq2seq; do
+for variant in ${MM_VARIANTS:-S D DK DKG DKGM DKGMZ Seq2seq}; do
   run=runs/variants/$variant
   "$tool" train --variant "$variant" --dataset runs/h36m.mmd --out "$run" --iterations "$iterations" \
     --hidden "$hidden" --batch 30 --seed 1 2> "$run.log"

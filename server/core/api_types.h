@@ -1,0 +1,192 @@
+// The service's core API in plain C++ types: what every operation takes and
+// returns, independent of the wire. The gRPC and REST frontends translate
+// their messages to and from these; the core (manifold_core.h) works on them.
+// Torch-free and gRPC-free, so the frontends compile quickly and the wire
+// types never reach model/.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace mm::service {
+
+// The error model, shared by both protocols (gRPC status code <-> HTTP status):
+enum class ErrorCode {
+  kInvalidArgument,     // INVALID_ARGUMENT    400: a field is malformed
+  kNotFound,            // NOT_FOUND           404: no such model or job
+  kFailedPrecondition,  // FAILED_PRECONDITION 409: the state forbids it (e.g. cancel a finished job)
+  kResourceExhausted,   // RESOURCE_EXHAUSTED  413 (too large) / 429 (queue full)
+  kUnauthenticated,     // UNAUTHENTICATED     401: token missing or wrong
+  kUnavailable,         // UNAVAILABLE         503: no model loaded yet, or shutting down
+  kInternal,            // INTERNAL            500
+};
+const char* error_code_name(ErrorCode code);  // "INVALID_ARGUMENT", ...
+
+// Thrown by the core for a request it refuses. `field` names the request
+// field at fault in the wire's own spelling ("motions[2].columns"; empty
+// when no one field is), `message` says the value and what was expected.
+// `too_large` tells a RESOURCE_EXHAUSTED for size (413) from one for load (429).
+class ApiError : public std::runtime_error {
+ public:
+  ApiError(ErrorCode code, std::string field, const std::string& message, bool too_large = false)
+      : std::runtime_error(message), code_(code), field_(std::move(field)), too_large_(too_large) {}
+  ErrorCode code() const { return code_; }
+  const std::string& field() const { return field_; }
+  bool too_large() const { return too_large_; }
+
+ private:
+  ErrorCode code_;
+  std::string field_;
+  bool too_large_;
+};
+
+// Who is calling and how: the protocol labels the metrics, the bearer token
+// (without "Bearer ") is checked on calls that change state.
+struct CallContext {
+  std::string protocol;  // "grpc" or "rest"
+  std::string bearer_token;
+};
+
+// A motion on the wire: frames x columns values, row-major, at frame_rate Hz
+// (25, the model's rate, or 50, taken to 25 Hz by keeping every second frame
+// as the tool does) in a named layout ("h36m-expmap-99": root translation in
+// mm then 32 joints x 3 exponential-map values in radians).
+struct Motion {
+  int frames = 0;
+  int columns = 0;
+  double frame_rate = 0;
+  std::string layout;
+  std::vector<float> values;
+};
+constexpr const char* kH36mLayout = "h36m-expmap-99";
+
+// A point of the manifold: `latent` floats (64 for the shipped models).
+using Code = std::vector<float>;
+
+// A motion or a code, for the operations that take either.
+struct MotionOrCode {
+  std::optional<Motion> motion;
+  std::optional<Code> code;
+};
+
+// Which model and version answered a call.
+struct AnsweredBy {
+  std::string model;
+  std::string version;
+};
+
+// The decoder of Decode, Sample, Interpolate, Analogy and Denoise: "rotation",
+// "velocity", or empty for the model's default (rotation when it has one).
+struct EncodeRequest {
+  std::string model;  // empty: the active model
+  std::vector<Motion> motions;
+};
+struct EncodeReply {
+  AnsweredBy answered_by;
+  std::vector<Code> codes;
+};
+
+struct DecodeRequest {
+  std::string model;
+  std::vector<Code> codes;
+  std::string decoder;
+};
+struct MotionsReply {
+  AnsweredBy answered_by;
+  std::vector<Motion> motions;  // at 25 Hz in the model's layout
+  std::vector<Code> codes;      // the codes decoded (Sample, Interpolate, Analogy); empty otherwise
+};
+
+struct SampleRequest {
+  std::string model;
+  int count = 1;
+  uint64_t seed = 0;  // the same seed gives the same motions
+  std::string decoder;
+};
+
+struct InterpolateRequest {
+  std::string model;
+  MotionOrCode from, to;
+  int steps = 2;  // codes from `from` to `to` inclusive
+  std::string method = "linear";  // "linear" or "spherical"
+  std::string decoder;
+};
+
+// a - b + c (Sec. 5.5).
+struct AnalogyRequest {
+  std::string model;
+  MotionOrCode a, b, c;
+  std::string decoder;
+};
+
+struct DenoiseRequest {
+  std::string model;
+  std::vector<Motion> motions;
+  std::string decoder;
+  // The library's DenoiseOptions (model/latent_operations.h).
+  bool zeros_are_missing = false;
+  bool means_are_missing = false;
+  int iterations = 4;
+  bool keep_observed = false;
+};
+
+struct ModelInfo {
+  std::string name;     // the folder's name in the store
+  std::string version;  // content hash of its manifest, 16 hex digits
+  bool active = false;
+  bool loaded = false;
+  std::string variant;  // "DKGM", ...
+  int hidden = 0, latent = 0, frames = 0, columns = 0;
+  double frame_rate = 25;
+  std::string layout;
+  std::vector<std::string> decoders;
+  double load_seconds = 0;  // of its latest load; 0 when not loaded
+  // Describe only: the manifest's provenance and the evaluation, JSON text
+  // ("{}" when absent), and the model card (Markdown, empty when absent).
+  std::string provenance_json = "{}";
+  std::string evaluation_json = "{}";
+  std::string model_card;
+};
+
+// Training jobs.
+enum class JobState { kQueued, kRunning, kSucceeded, kFailed, kCancelled };
+const char* job_state_name(JobState state);  // "queued", "running", ...
+bool is_terminal(JobState state);
+
+struct JobSpec {
+  // A prepared dataset file (.mmd) or an H3.6M-layout text tree
+  // (S*/<action>_<n>.txt), relative to the configured data root.
+  std::string dataset;
+  std::string variant = "DKGM";  // S, D, DK, DKG, DKGM, DKGMZ, Seq2seq
+  std::string config_json;       // optional training configuration (JSON text); replaces variant
+  int64_t iterations = 0;        // 0: the configuration's
+  uint64_t seed = 0;
+  int hidden = 0;                // 0: the configuration's
+  int batch = 0;                 // 0: the configuration's
+  std::string model_name;        // the published model's name; empty: "job-<id>"
+};
+
+struct JobProgress {
+  int64_t iteration = 0;
+  int64_t total = 0;
+  std::map<std::string, double> losses;  // every loss term of the latest report
+  double iterations_per_second = 0;
+  double eta_seconds = 0;
+};
+
+struct JobInfo {
+  std::string id;
+  JobSpec spec;
+  JobState state = JobState::kQueued;
+  JobProgress progress;
+  std::string error;            // why a failed job failed
+  std::string published_model;  // the model a succeeded job published
+  double created_at = 0, started_at = 0, finished_at = 0;  // Unix seconds; 0 = not yet
+  int resumes = 0;  // times it was resumed from a checkpoint after a restart
+};
+
+}  // namespace mm::service

@@ -1,0 +1,93 @@
+// The core of the service: every operation once, in plain C++ types, for both
+// frontends (gRPC and REST translate to and from these calls and nothing
+// else). It holds the model store, runs all inference on one executor that
+// batches concurrent requests, records the metrics, checks the bearer token
+// on calls that change state, and hands training jobs to TrainingJobs.
+//
+// Torch-free header: the frontends include it without LibTorch.
+// Thread safety: every method may be called concurrently.
+#pragma once
+
+#include <atomic>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/api_types.h"
+
+namespace mm::service {
+
+class ServiceMetrics;
+class TrainingJobs;
+
+// Request limits: each refusal names the limit (RESOURCE_EXHAUSTED, 413).
+struct Limits {
+  int max_motions = 64;       // motions of one Encode or Denoise; codes of one Decode
+  int max_sample_count = 64;  // Sample's count
+  int max_steps = 64;         // Interpolate's steps
+  int max_denoise_iterations = 32;
+};
+
+// The inference executor's dynamic batching (as Triton's dynamic batcher):
+// requests of the same model, operation and decoder that arrive within
+// max_queue_delay_us of the first are run as one batch of at most max_batch
+// clips; more than max_queue_length waiting requests are refused (429).
+struct BatchingConfig {
+  int max_batch = 32;
+  int max_queue_delay_us = 2000;
+  int max_queue_length = 256;
+  int threads = 0;  // LibTorch intra-op threads of the executor; 0: the core count
+};
+
+struct CoreConfig {
+  std::string model_store;    // folder of model folders
+  std::string default_model;  // name in the store; empty: the first of h36m-dkgm-h100 or the only model
+  std::string auth_token;     // empty: no token needed
+  Limits limits;
+  BatchingConfig batching;
+};
+
+class ManifoldCore {
+ public:
+  // `metrics` and `jobs` outlive the core; `jobs` may be null (no training).
+  ManifoldCore(CoreConfig config, ServiceMetrics& metrics, TrainingJobs* jobs);
+  ~ManifoldCore();
+  ManifoldCore(const ManifoldCore&) = delete;
+  ManifoldCore& operator=(const ManifoldCore&) = delete;
+
+  // Loads the default model and starts the executor. Throws ApiError when
+  // the default cannot be loaded (the server does not start without one).
+  void start();
+  bool ready() const;  // a model is loaded and the core accepts calls
+
+  EncodeReply encode(const CallContext& ctx, const EncodeRequest& request);
+  MotionsReply decode(const CallContext& ctx, const DecodeRequest& request);
+  MotionsReply sample(const CallContext& ctx, const SampleRequest& request);
+  MotionsReply interpolate(const CallContext& ctx, const InterpolateRequest& request);
+  MotionsReply analogy(const CallContext& ctx, const AnalogyRequest& request);
+  MotionsReply denoise(const CallContext& ctx, const DenoiseRequest& request);
+
+  std::vector<ModelInfo> list_models(const CallContext& ctx);
+  ModelInfo describe_model(const CallContext& ctx, const std::string& name);
+  // Loads `name` if needed and makes it the active model; requests in flight
+  // finish on the model they started with. Needs the token.
+  ModelInfo activate_model(const CallContext& ctx, const std::string& name);
+
+  JobInfo submit_job(const CallContext& ctx, const JobSpec& spec);  // needs the token
+  JobInfo get_job(const CallContext& ctx, const std::string& id);
+  std::vector<JobInfo> list_jobs(const CallContext& ctx);
+  JobInfo cancel_job(const CallContext& ctx, const std::string& id);  // needs the token
+  // See TrainingJobs::watch.
+  void watch_job(const CallContext& ctx, const std::string& id, const std::function<bool(const JobInfo&)>& on_event,
+                 const std::atomic<bool>* stop);
+
+  // Stops accepting calls (UNAVAILABLE) and waits for those in flight.
+  void drain();
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
+
+}  // namespace mm::service

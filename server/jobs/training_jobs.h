@@ -1,0 +1,77 @@
+// Training jobs: a durable queue of runs of the model's trainer, executed one
+// at a time in the background, whose records (state, progress, error,
+// published model) live in SQLite and survive a restart.
+//
+// A job runs as a child process of the `motion-manifold` tool (train, or
+// resume from the job's checkpoint after a restart) with its threads bounded
+// and at the lowest CPU priority, so that it never starves serving on a small
+// machine; progress comes back as JSON lines on the child's stdout. A job
+// that succeeds publishes its model into the model store (copied to a
+// temporary folder, then renamed) under spec.model_name or "job-<id>".
+//
+// Torch-free: it only starts processes and keeps records.
+// Thread safety: every public method may be called from any thread.
+#pragma once
+
+#include <atomic>
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/api_types.h"
+
+namespace mm::service {
+
+struct JobsConfig {
+  std::string state_dir;    // jobs.sqlite and one folder per job (checkpoint, log, prepared dataset)
+  std::string data_root;    // every job's dataset must lie under it
+  std::string model_store;  // where a finished job publishes its model
+  std::string tool_path;    // the motion-manifold executable
+  int training_threads = 1;  // OMP_NUM_THREADS of the child
+  int checkpoint_every = 100;  // iterations between checkpoints (resume point after a crash)
+  int max_queued = 100;      // submissions beyond it: RESOURCE_EXHAUSTED
+};
+
+class TrainingJobs {
+ public:
+  // `on_published(name)` runs on the worker thread after a job published
+  // model `name` into the store.
+  TrainingJobs(JobsConfig config, std::function<void(const std::string&)> on_published);
+  ~TrainingJobs();  // shutdown()
+  TrainingJobs(const TrainingJobs&) = delete;
+  TrainingJobs& operator=(const TrainingJobs&) = delete;
+
+  // Opens (or creates) the database and starts the worker. A job found
+  // running (the server died under it) is queued again first and resumes
+  // from its last checkpoint.
+  void start();
+
+  // Validates the spec (dataset under the data root and a dataset; variant;
+  // numbers in range) and queues it; returns the new record at once.
+  // ApiError INVALID_ARGUMENT naming the field otherwise.
+  JobInfo submit(const JobSpec& spec);
+  JobInfo get(const std::string& id) const;  // NOT_FOUND for an unknown id
+  std::vector<JobInfo> list() const;         // newest first
+  // Cancels a queued or running job (a running one stops at its next
+  // iteration). FAILED_PRECONDITION for a job already finished.
+  JobInfo cancel(const std::string& id);
+  // Calls `on_event` with the job's record now and after every change, until
+  // the job is finished (the last call carries the terminal state),
+  // `on_event` returns false, or *stop becomes true.
+  void watch(const std::string& id, const std::function<bool(const JobInfo&)>& on_event,
+             const std::atomic<bool>* stop) const;
+  // Jobs per state, for the metrics.
+  std::map<JobState, int> counts() const;
+
+  // Stops the worker: a running job is stopped with a checkpoint and stays
+  // queued, to resume at the next start. Idempotent.
+  void shutdown();
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
+
+}  // namespace mm::service
