@@ -54,7 +54,15 @@ class ServerProcess {
       argv.push_back(model_store_);
     }
     argv.insert(argv.end(), args.begin(), args.end());
-    start(argv, timeout);
+    argv_ = argv;
+    start(argv_, timeout);
+  }
+
+  // Starts the server again with the same arguments (after terminate() or
+  // kill()), on new ports; the model store and scratch folder stay.
+  void restart(std::chrono::seconds timeout = std::chrono::seconds(120)) {
+    if (pid_ > 0) throw std::runtime_error("restart: the server is still running");
+    start(argv_, timeout);
   }
 
   ~ServerProcess() {
@@ -103,7 +111,7 @@ class ServerProcess {
       std::vector<char*> argv;
       for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
       argv.push_back(nullptr);
-      FILE* log = std::fopen(log_path.c_str(), "w");
+      FILE* log = std::fopen(log_path.c_str(), "a");
       if (log) {
         dup2(fileno(log), STDOUT_FILENO);
         dup2(fileno(log), STDERR_FILENO);
@@ -147,6 +155,7 @@ class ServerProcess {
   }
 
   std::filesystem::path dir_;
+  std::vector<std::string> argv_;
   std::string model_store_;
   pid_t pid_ = -1;
   int grpc_port_ = 0, rest_port_ = 0;
