@@ -126,11 +126,18 @@ class PythonClientTest(unittest.TestCase):
             cls.clip = [0.01 * math.sin(0.1 * i) for i in range(300 * 99)]
         else:
             raise RuntimeError(f"H3.6M not found: {clip} (run scripts/extract-h36m.sh, or set MM_ALLOW_MISSING_H36M=1)")
+        # Training jobs on a small text tree (one S1 and one S5 file, linked),
+        # which a job prepares in a moment.
+        data_root = os.path.join(cls.state_dir, "data")
+        for subject in ("S1", "S5"):
+            os.makedirs(os.path.join(data_root, "h36m", subject))
+            source = os.path.abspath(os.path.join(dataset_dir, subject, "walking_1.txt"))
+            if os.path.exists(source):
+                os.symlink(source, os.path.join(data_root, "h36m", subject, "walking_1.txt"))
         cls.server = Server(ARGS.server, ARGS.models,
                             ["--auth-token", TOKEN, "--max-message-bytes", str(MAX_MESSAGE_BYTES),
-                             "--state-dir", os.path.join(cls.state_dir, "state"),
-                             "--data-root", os.path.dirname(os.path.abspath(dataset_dir))])
-        cls.dataset_name = os.path.basename(os.path.abspath(dataset_dir))
+                             "--state-dir", os.path.join(cls.state_dir, "state"), "--data-root", data_root])
+        cls.dataset_name = "h36m"
         options = [("grpc.max_receive_message_length", -1), ("grpc.max_send_message_length", -1)]
         cls.channel = grpc.insecure_channel(f"127.0.0.1:{cls.server.grpc_port}", options=options)
         cls.stub = cls.pb_grpc.MotionManifoldStub(cls.channel)
