@@ -44,6 +44,7 @@ struct CoreConfig {
   std::string model_store;    // folder of model folders
   std::string default_model;  // name in the store; empty: the first of h36m-dkgm-h100 or the only model
   std::string auth_token;     // empty: no token needed
+  int max_loaded_models = 4;  // models kept in memory, the active one included
   Limits limits;
   BatchingConfig batching;
 };

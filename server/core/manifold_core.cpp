@@ -1,0 +1,412 @@
+#include "core/manifold_core.h"
+
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <condition_variable>
+#include <cstring>
+#include <filesystem>
+#include <mutex>
+#include <optional>
+#include <thread>
+
+#include "core/inference_executor.h"
+#include "core/model_store.h"
+#include "core/motion_conversion.h"
+#include "core/service_metrics.h"
+#include "format/input_error.h"
+#include "jobs/training_jobs.h"
+#include "latent_operations.h"
+
+namespace mm::service {
+namespace {
+
+const char* const kShippedDefault = "h36m-dkgm-h100";
+
+ApiError invalid(const std::string& field, const std::string& message) {
+  return ApiError(ErrorCode::kInvalidArgument, field, message);
+}
+
+// A count field within [1, limit]; above the limit is too large (413) and
+// names the server option that sets it.
+void check_count(int value, int minimum, int limit, const std::string& field, const std::string& option) {
+  if (value < minimum) {
+    throw invalid(field, "expected at least " + std::to_string(minimum) + ", found " + std::to_string(value));
+  }
+  if (value > limit) {
+    throw ApiError(ErrorCode::kResourceExhausted, field,
+                   "at most " + std::to_string(limit) + " allowed (the server's " + option + "), found " +
+                       std::to_string(value),
+                   true);
+  }
+}
+
+// Compares without an early exit, so that the time taken tells nothing about
+// how much of the token was right.
+bool same_token(const std::string& given, const std::string& expected) {
+  unsigned char difference = given.size() == expected.size() ? 0 : 1;
+  for (size_t i = 0; i < given.size(); ++i) {
+    difference |= static_cast<unsigned char>(given[i] ^ expected[i % std::max<size_t>(1, expected.size())]);
+  }
+  return difference == 0;
+}
+
+at::Tensor codes_tensor(const std::vector<Code>& codes, int latent) {
+  auto tensor = at::empty({static_cast<int64_t>(codes.size()), latent}, at::kFloat);
+  for (size_t i = 0; i < codes.size(); ++i) {
+    std::memcpy(tensor[static_cast<int64_t>(i)].data_ptr<float>(), codes[i].data(), sizeof(float) * latent);
+  }
+  return tensor;
+}
+
+std::vector<Code> to_codes(const at::Tensor& tensor) {
+  const auto codes = tensor.to(at::kFloat).contiguous();
+  std::vector<Code> result(static_cast<size_t>(codes.size(0)));
+  for (size_t i = 0; i < result.size(); ++i) {
+    const float* row = codes.data_ptr<float>() + static_cast<int64_t>(i) * codes.size(1);
+    result[i].assign(row, row + codes.size(1));
+  }
+  return result;
+}
+
+}  // namespace
+
+struct ManifoldCore::State {
+  State(CoreConfig c, ServiceMetrics& m, TrainingJobs* j)
+      : config(std::move(c)), metrics(m), jobs(j), store(config.model_store, m, config.max_loaded_models), executor(config.batching, m) {}
+
+  CoreConfig config;
+  ServiceMetrics& metrics;
+  TrainingJobs* jobs;
+  ModelStore store;
+  InferenceExecutor executor;
+
+  std::atomic<bool> accepting{false};
+  std::mutex calls_mutex;
+  std::condition_variable calls_done;
+  int calls_in_flight = 0;
+
+  // Keeps the job gauges current without the metrics knowing the jobs.
+  std::atomic<bool> stopping{false};
+  std::thread job_gauges;
+
+  DecoderKind decoder_for(const LoadedModel& model, const std::string& name) const {
+    DecoderKind kind;
+    if (name.empty()) return model.model.default_decoder();
+    if (name == "rotation") {
+      kind = DecoderKind::kRotation;
+    } else if (name == "velocity") {
+      kind = DecoderKind::kVelocity;
+    } else {
+      throw invalid("decoder", "expected \"rotation\", \"velocity\" or empty (the model's default), found \"" +
+                                   name + "\"");
+    }
+    if (!model.model.has_decoder(kind)) {
+      throw invalid("decoder", "model \"" + model.name + "\" has no " + name + " decoder; it has " +
+                                   decoder_name(model.model.default_decoder()));
+    }
+    return kind;
+  }
+
+  void require_token(const CallContext& ctx) const {
+    if (config.auth_token.empty()) return;
+    if (ctx.bearer_token.empty()) {
+      throw ApiError(ErrorCode::kUnauthenticated, "authorization",
+                     "this call changes the server's state and needs a bearer token (Authorization: Bearer <token>)");
+    }
+    if (!same_token(ctx.bearer_token, config.auth_token)) {
+      throw ApiError(ErrorCode::kUnauthenticated, "authorization", "the bearer token is not the server's");
+    }
+  }
+
+  TrainingJobs& training() const {
+    if (jobs == nullptr) {
+      throw ApiError(ErrorCode::kFailedPrecondition, "", "this server runs no training jobs (started without --state-dir)");
+    }
+    return *jobs;
+  }
+
+  // The code of a motion or a code given for `field` ("from", "a", ...).
+  at::Tensor latent_of(const std::shared_ptr<const LoadedModel>& model, const MotionOrCode& input,
+                       const std::string& field) {
+    if (input.motion.has_value() == input.code.has_value()) {
+      throw invalid(field, "expected exactly one of motion or code, found " +
+                               std::string(input.motion ? "both" : "neither"));
+    }
+    if (input.code) {
+      check_code(*input.code, model->shape, field + ".code");
+      return codes_tensor({*input.code}, model->shape.latent)[0];
+    }
+    auto frames = to_model_frames(*input.motion, model->shape, field + ".motion");
+    return executor.encode(model, {std::move(frames)})[0];
+  }
+
+  MotionsReply decode_reply(const std::shared_ptr<const LoadedModel>& model, const at::Tensor& codes,
+                            DecoderKind kind) {
+    MotionsReply reply;
+    reply.answered_by = {model->name, model->version};
+    for (const auto& motion : executor.decode(model, codes, kind)) {
+      reply.motions.push_back(to_wire_motion(motion, model->shape));
+    }
+    reply.codes = to_codes(codes);
+    return reply;
+  }
+
+  // Runs one call: refuses it while not accepting, counts it for drain(),
+  // announces it to the executor, records its metrics, and turns the
+  // library's own input errors (which the checks here should pre-empt) and
+  // anything unexpected into the error model.
+  template <typename Work>
+  auto call(const char* operation, const CallContext& ctx, Work&& work) -> decltype(work()) {
+    return call(operation, ctx, false, std::forward<Work>(work));
+  }
+  // `inference`: the call reaches the executor, which may wait for it to
+  // join a batch.
+  template <typename Work>
+  auto call(const char* operation, const CallContext& ctx, bool inference, Work&& work) -> decltype(work()) {
+    const auto started = std::chrono::steady_clock::now();
+    std::string code = "OK";
+    auto record = [&] {
+      metrics.observe_request(operation, ctx.protocol,
+                              code, std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count());
+    };
+    {
+      std::lock_guard<std::mutex> lock(calls_mutex);
+      if (!accepting) {
+        code = error_code_name(ErrorCode::kUnavailable);
+        record();
+        throw ApiError(ErrorCode::kUnavailable, "", "the server is not accepting calls (starting or shutting down)");
+      }
+      ++calls_in_flight;
+    }
+    struct Leave {
+      State& state;
+      ~Leave() {
+        std::lock_guard<std::mutex> lock(state.calls_mutex);
+        if (--state.calls_in_flight == 0) state.calls_done.notify_all();
+      }
+    } leave{*this};
+    std::optional<InferenceExecutor::Expected> expected;
+    if (inference) expected.emplace(executor);
+    try {
+      auto result = work();
+      record();
+      return result;
+    } catch (const ApiError& e) {
+      code = error_code_name(e.code());
+      record();
+      throw;
+    } catch (const InputError& e) {
+      code = error_code_name(ErrorCode::kInvalidArgument);
+      record();
+      throw ApiError(ErrorCode::kInvalidArgument, "", e.what());
+    } catch (const std::exception& e) {
+      code = error_code_name(ErrorCode::kInternal);
+      record();
+      std::string what = e.what();
+      spdlog::error("{} failed: {}", operation, what);
+      throw ApiError(ErrorCode::kInternal, "", what.substr(0, what.find('\n')));
+    }
+  }
+};
+
+ManifoldCore::ManifoldCore(CoreConfig config, ServiceMetrics& metrics, TrainingJobs* jobs)
+    : state_(std::make_unique<State>(std::move(config), metrics, jobs)) {}
+
+ManifoldCore::~ManifoldCore() {
+  state_->stopping = true;
+  if (state_->job_gauges.joinable()) state_->job_gauges.join();
+}
+
+void ManifoldCore::start() {
+  std::string name = state_->config.default_model;
+  if (name.empty()) {
+    const auto models = state_->store.list();
+    for (const auto& model : models) {
+      if (model.name == kShippedDefault) name = model.name;
+    }
+    if (name.empty() && models.size() == 1) name = models.front().name;
+    if (name.empty()) {
+      throw ApiError(ErrorCode::kFailedPrecondition, "default_model",
+                     "the model store " + state_->config.model_store + " has " + std::to_string(models.size()) +
+                         " models and none is named " + kShippedDefault + ": name the default with --default-model");
+    }
+  }
+  const auto model = state_->store.activate(name);
+  spdlog::info("model {} (version {}) active, loaded in {:.2f} s", model->name, model->version, model->load_seconds);
+  state_->accepting = true;
+  if (state_->jobs) {
+    state_->job_gauges = std::thread([state = state_.get()] {
+      while (!state->stopping) {
+        state->metrics.set_job_counts(state->jobs->counts());
+        for (int i = 0; i < 10 && !state->stopping; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      }
+    });
+  }
+}
+
+bool ManifoldCore::ready() const { return state_->accepting; }
+
+EncodeReply ManifoldCore::encode(const CallContext& ctx, const EncodeRequest& request) {
+  return state_->call("encode", ctx, true, [&] {
+    const auto model = state_->store.get(request.model);
+    check_count(static_cast<int>(request.motions.size()), 1, state_->config.limits.max_motions, "motions",
+                "max_motions");
+    std::vector<MotionFrames> frames;
+    for (size_t i = 0; i < request.motions.size(); ++i) {
+      frames.push_back(to_model_frames(request.motions[i], model->shape, "motions[" + std::to_string(i) + "]"));
+    }
+    EncodeReply reply;
+    reply.codes = to_codes(state_->executor.encode(model, std::move(frames)));
+    reply.answered_by = {model->name, model->version};
+    return reply;
+  });
+}
+
+MotionsReply ManifoldCore::decode(const CallContext& ctx, const DecodeRequest& request) {
+  return state_->call("decode", ctx, true, [&] {
+    const auto model = state_->store.get(request.model);
+    const DecoderKind kind = state_->decoder_for(*model, request.decoder);
+    check_count(static_cast<int>(request.codes.size()), 1, state_->config.limits.max_motions, "codes",
+                "max_motions");
+    for (size_t i = 0; i < request.codes.size(); ++i) {
+      check_code(request.codes[i], model->shape, "codes[" + std::to_string(i) + "]");
+    }
+    auto reply = state_->decode_reply(model, codes_tensor(request.codes, model->shape.latent), kind);
+    reply.codes.clear();  // the caller's own
+    return reply;
+  });
+}
+
+MotionsReply ManifoldCore::sample(const CallContext& ctx, const SampleRequest& request) {
+  return state_->call("sample", ctx, true, [&] {
+    const auto model = state_->store.get(request.model);
+    const DecoderKind kind = state_->decoder_for(*model, request.decoder);
+    check_count(request.count, 1, state_->config.limits.max_sample_count, "count", "max_sample_count");
+    return state_->decode_reply(model, sample_codes(model->model, request.count, request.seed), kind);
+  });
+}
+
+MotionsReply ManifoldCore::interpolate(const CallContext& ctx, const InterpolateRequest& request) {
+  return state_->call("interpolate", ctx, true, [&] {
+    const auto model = state_->store.get(request.model);
+    const DecoderKind kind = state_->decoder_for(*model, request.decoder);
+    check_count(request.steps, 2, state_->config.limits.max_steps, "steps", "max_steps");
+    if (request.method != "linear" && request.method != "spherical" && !request.method.empty()) {
+      throw invalid("method", "expected \"linear\" or \"spherical\", found \"" + request.method + "\"");
+    }
+    const auto from = state_->latent_of(model, request.from, "from");
+    const auto to = state_->latent_of(model, request.to, "to");
+    return state_->decode_reply(model, interpolate_codes(from, to, request.steps, request.method == "spherical"),
+                                kind);
+  });
+}
+
+MotionsReply ManifoldCore::analogy(const CallContext& ctx, const AnalogyRequest& request) {
+  return state_->call("analogy", ctx, true, [&] {
+    const auto model = state_->store.get(request.model);
+    const DecoderKind kind = state_->decoder_for(*model, request.decoder);
+    const auto a = state_->latent_of(model, request.a, "a");
+    const auto b = state_->latent_of(model, request.b, "b");
+    const auto c = state_->latent_of(model, request.c, "c");
+    return state_->decode_reply(model, analogy_code(a, b, c).unsqueeze(0), kind);
+  });
+}
+
+MotionsReply ManifoldCore::denoise(const CallContext& ctx, const DenoiseRequest& request) {
+  return state_->call("denoise", ctx, true, [&] {
+    const auto model = state_->store.get(request.model);
+    const DecoderKind kind = state_->decoder_for(*model, request.decoder);
+    check_count(static_cast<int>(request.motions.size()), 1, state_->config.limits.max_motions, "motions",
+                "max_motions");
+    check_count(request.iterations, 1, state_->config.limits.max_denoise_iterations, "iterations",
+                "max_denoise_iterations");
+    if (request.zeros_are_missing && request.means_are_missing) {
+      throw invalid("means_are_missing", "expected either zeros_are_missing or means_are_missing, found both");
+    }
+    if (request.keep_observed && !request.zeros_are_missing && !request.means_are_missing) {
+      throw invalid("keep_observed", "expected together with zeros_are_missing or means_are_missing (without "
+                                     "missing values every value is observed)");
+    }
+    std::vector<MotionFrames> frames;
+    for (size_t i = 0; i < request.motions.size(); ++i) {
+      frames.push_back(to_model_frames(request.motions[i], model->shape, "motions[" + std::to_string(i) + "]"));
+    }
+    DenoiseOptions options;
+    options.zeros_are_missing = request.zeros_are_missing;
+    options.means_are_missing = request.means_are_missing;
+    options.iterations = request.iterations;
+    options.keep_observed = request.keep_observed;
+    std::vector<MotionFrames> denoised;
+    state_->executor.run([&] { denoised = denoise_motions(model->model, frames, kind, options); });
+    MotionsReply reply;
+    reply.answered_by = {model->name, model->version};
+    for (const auto& motion : denoised) reply.motions.push_back(to_wire_motion(motion, model->shape));
+    return reply;
+  });
+}
+
+std::vector<ModelInfo> ManifoldCore::list_models(const CallContext& ctx) {
+  return state_->call("list_models", ctx, [&] { return state_->store.list(); });
+}
+
+ModelInfo ManifoldCore::describe_model(const CallContext& ctx, const std::string& name) {
+  return state_->call("describe_model", ctx, [&] {
+    if (name.empty()) return state_->store.describe(state_->store.active()->name);
+    return state_->store.describe(name);
+  });
+}
+
+ModelInfo ManifoldCore::activate_model(const CallContext& ctx, const std::string& name) {
+  return state_->call("activate_model", ctx, [&] {
+    state_->require_token(ctx);
+    try {
+      const auto model = state_->store.activate(name);
+      spdlog::info("model {} (version {}) active", model->name, model->version);
+    } catch (const ApiError& e) {
+      spdlog::warn("activating model {} failed, the active model stays: {}", name, e.what());
+      throw;
+    }
+    return state_->store.describe(name);
+  });
+}
+
+JobInfo ManifoldCore::submit_job(const CallContext& ctx, const JobSpec& spec) {
+  return state_->call("submit_job", ctx, [&] {
+    state_->require_token(ctx);
+    auto job = state_->training().submit(spec);
+    spdlog::info("job {} queued: {} on {}", job.id, spec.variant, spec.dataset);
+    return job;
+  });
+}
+
+JobInfo ManifoldCore::get_job(const CallContext& ctx, const std::string& id) {
+  return state_->call("get_job", ctx, [&] { return state_->training().get(id); });
+}
+
+std::vector<JobInfo> ManifoldCore::list_jobs(const CallContext& ctx) {
+  return state_->call("list_jobs", ctx, [&] { return state_->training().list(); });
+}
+
+JobInfo ManifoldCore::cancel_job(const CallContext& ctx, const std::string& id) {
+  return state_->call("cancel_job", ctx, [&] {
+    state_->require_token(ctx);
+    return state_->training().cancel(id);
+  });
+}
+
+void ManifoldCore::watch_job(const CallContext& ctx, const std::string& id,
+                             const std::function<bool(const JobInfo&)>& on_event, const std::atomic<bool>* stop) {
+  // A watch lasts as long as the job: it is not an inference call and must
+  // not hold drain() up, so it is counted only while it starts.
+  state_->call("watch_job", ctx, [&] { return state_->training().get(id); });
+  state_->training().watch(id, on_event, stop);
+}
+
+void ManifoldCore::drain() {
+  std::unique_lock<std::mutex> lock(state_->calls_mutex);
+  state_->accepting = false;
+  state_->calls_done.wait(lock, [this] { return state_->calls_in_flight == 0; });
+}
+
+}  // namespace mm::service

@@ -1,0 +1,223 @@
+#include "core/model_store.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "core/service_metrics.h"
+
+namespace mm::service {
+namespace fs = std::filesystem;
+namespace {
+
+const char* const kManifest = "manifest.json";
+
+bool is_plain_name(const std::string& name) {
+  if (name.empty() || name.size() > 128 || name == "." || name == "..") return false;
+  return std::all_of(name.begin(), name.end(),
+                     [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-'; });
+}
+
+std::string read_text(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return {};
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// FNV-1a over the manifest and the weight files, in name order: a model whose
+// files are copied elsewhere keeps its version, one retrained gets another.
+std::string content_version(const fs::path& dir) {
+  std::vector<fs::path> files;
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    const auto name = entry.path().filename().string();
+    if (entry.is_regular_file() && (name == kManifest || entry.path().extension() == ".pt")) files.push_back(entry.path());
+  }
+  std::sort(files.begin(), files.end());
+  uint64_t hash = 1469598103934665603ull;
+  std::vector<char> buffer(1 << 16);
+  for (const auto& file : files) {
+    std::ifstream in(file, std::ios::binary);
+    while (in) {
+      in.read(buffer.data(), static_cast<std::streamsize>(buffer.size()));
+      for (std::streamsize i = 0; i < in.gcount(); ++i) {
+        hash ^= static_cast<unsigned char>(buffer[static_cast<size_t>(i)]);
+        hash *= 1099511628211ull;
+      }
+    }
+  }
+  char text[17];
+  std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(hash));
+  return text;
+}
+
+ApiError not_loadable(const std::string& name, const std::string& reason) {
+  return ApiError(ErrorCode::kFailedPrecondition, "model", "model \"" + name + "\" cannot be loaded: " + reason);
+}
+
+}  // namespace
+
+ModelStore::ModelStore(std::string root, ServiceMetrics& metrics, int max_loaded)
+    : root_(std::move(root)), metrics_(metrics), max_loaded_(std::max(1, max_loaded)) {}
+
+std::string ModelStore::folder(const std::string& name) const {
+  if (!is_plain_name(name)) {
+    throw ApiError(ErrorCode::kInvalidArgument, "model",
+                   "expected a model name (letters, digits, '.', '_', '-'), found \"" + name + "\"");
+  }
+  const fs::path dir = fs::path(root_) / name;
+  std::error_code error;
+  if (!fs::is_directory(dir, error) || !fs::is_regular_file(dir / kManifest, error)) {
+    throw ApiError(ErrorCode::kNotFound, "model", "no model \"" + name + "\" in the store " + root_);
+  }
+  return dir.string();
+}
+
+std::shared_ptr<const LoadedModel> ModelStore::active() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!active_) throw ApiError(ErrorCode::kUnavailable, "", "no model is loaded yet");
+  return active_;
+}
+
+std::shared_ptr<const LoadedModel> ModelStore::cached(const std::string& name, const std::string& version) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (const auto& model : loaded_) {
+    if (model->name == name && (version.empty() || model->version == version)) return model;
+  }
+  return nullptr;
+}
+
+void ModelStore::remember(std::shared_ptr<const LoadedModel> model) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  loaded_.erase(std::remove_if(loaded_.begin(), loaded_.end(),
+                               [&](const auto& m) { return m->name == model->name; }),
+                loaded_.end());
+  loaded_.push_back(std::move(model));
+  // Forget the least recently used beyond the limit, never the active one;
+  // requests still holding a forgotten model keep it alive until they end.
+  while (static_cast<int>(loaded_.size()) > max_loaded_) {
+    auto victim = std::find_if(loaded_.begin(), loaded_.end(), [&](const auto& m) { return m != active_; });
+    if (victim == loaded_.end()) break;
+    loaded_.erase(victim);
+  }
+}
+
+std::shared_ptr<const LoadedModel> ModelStore::load(const std::string& name) {
+  const std::string dir = folder(name);
+  std::lock_guard<std::mutex> one_load(load_mutex_);
+  const std::string version = content_version(dir);
+  if (auto model = cached(name, version)) return model;
+  const auto started = std::chrono::steady_clock::now();
+  try {
+    auto manifold = MotionManifold::load(dir);
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    ModelShape shape;
+    shape.frames = manifold.config().frames;
+    shape.columns = manifold.normalization().input_columns();
+    shape.latent = manifold.config().latent;
+    shape.layout = layout_name(shape.columns);
+    auto model = std::shared_ptr<const LoadedModel>(
+        new LoadedModel{name, version, dir, std::move(manifold), shape, seconds});
+    metrics_.observe_model_load(name, seconds, true);
+    return model;
+  } catch (const std::exception& e) {
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    metrics_.observe_model_load(name, seconds, false);
+    // LibTorch's messages carry a C++ backtrace after the first line.
+    std::string reason = e.what();
+    reason = reason.substr(0, reason.find('\n'));
+    throw not_loadable(name, reason);
+  }
+}
+
+std::shared_ptr<const LoadedModel> ModelStore::get(const std::string& name) {
+  if (name.empty()) return active();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (active_ && active_->name == name) return active_;
+  }
+  // A named model that is loaded answers as loaded; a change of its files is
+  // taken up by activation, not by every request (hashing costs a file read).
+  if (auto model = cached(name, "")) {
+    remember(model);
+    return model;
+  }
+  auto model = load(name);
+  remember(model);
+  return model;
+}
+
+std::shared_ptr<const LoadedModel> ModelStore::activate(const std::string& name) {
+  auto model = load(name);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    active_ = model;
+  }
+  remember(model);
+  return model;
+}
+
+ModelInfo ModelStore::info(const std::string& name, bool details) const {
+  const fs::path dir = folder(name);
+  ModelInfo info;
+  info.name = name;
+  info.version = content_version(dir);
+  std::shared_ptr<const LoadedModel> loaded = cached(name, info.version);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    info.active = active_ && active_->name == name;
+  }
+  info.loaded = loaded != nullptr;
+  if (loaded) info.load_seconds = loaded->load_seconds;
+  // The listing reads the manifest, not the weights: it must not load models.
+  const auto manifest = nlohmann::json::parse(read_text(dir / kManifest), nullptr, false);
+  if (!manifest.is_discarded() && manifest.is_object()) {
+    const auto model = manifest.value("model", nlohmann::json::object());
+    info.hidden = model.value("hidden", 0);
+    info.latent = model.value("latent", 0);
+    info.frames = model.value("frames", 0);
+    if (model.value("rotation_decoder", false)) info.decoders.push_back("rotation");
+    if (model.value("velocity_decoder", false)) info.decoders.push_back("velocity");
+    const auto provenance = manifest.value("provenance", nlohmann::json::object());
+    info.variant = provenance.value("variant", "");
+    if (details) info.provenance_json = provenance.dump();
+  }
+  if (loaded) {
+    info.columns = loaded->shape.columns;
+    info.layout = loaded->shape.layout;
+  } else if (!manifest.is_discarded() && manifest.contains("normalization")) {
+    const auto& mean = manifest["normalization"].value("mean", nlohmann::json::array());
+    info.columns = static_cast<int>(mean.size());
+    info.layout = info.columns > 0 ? layout_name(info.columns) : "";
+  }
+  if (details) {
+    const auto evaluation = read_text(dir / "evaluation.json");
+    if (!evaluation.empty()) info.evaluation_json = evaluation;
+    info.model_card = read_text(dir / "MODEL_CARD.md");
+  }
+  return info;
+}
+
+std::vector<ModelInfo> ModelStore::list() const {
+  std::vector<std::string> names;
+  std::error_code error;
+  for (const auto& entry : fs::directory_iterator(root_, error)) {
+    const auto name = entry.path().filename().string();
+    if (is_plain_name(name) && name.front() != '.' && fs::is_regular_file(entry.path() / kManifest, error)) {
+      names.push_back(name);
+    }
+  }
+  std::sort(names.begin(), names.end());
+  std::vector<ModelInfo> models;
+  for (const auto& name : names) models.push_back(info(name, false));
+  return models;
+}
+
+ModelInfo ModelStore::describe(const std::string& name) const { return info(name, true); }
+
+}  // namespace mm::service

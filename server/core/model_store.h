@@ -1,0 +1,75 @@
+// The model store: a folder of model folders (manifest.json, weights,
+// evaluation.json, MODEL_CARD.md, as models/ ships them), the models loaded
+// from it, and which one is active.
+//
+// A loaded model is handed out as a shared_ptr: a request keeps the model it
+// started with even when another is activated meanwhile, and a model no
+// request holds any more is freed. At most `max_loaded` models stay loaded
+// (the active one always among them), so memory stays flat however often
+// models are activated. A model whose files changed on disk (another
+// version) is loaded afresh on its next activation.
+//
+// Thread safety: every method may be called concurrently.
+#pragma once
+
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "core/api_types.h"
+#include "core/motion_conversion.h"
+#include "motion_manifold.h"
+
+namespace mm::service {
+
+class ServiceMetrics;
+
+struct LoadedModel {
+  std::string name;
+  std::string version;  // 16 hex digits: FNV-1a of the manifest and weight files
+  std::string dir;
+  MotionManifold model;
+  ModelShape shape;
+  double load_seconds = 0;
+};
+
+class ModelStore {
+ public:
+  ModelStore(std::string root, ServiceMetrics& metrics, int max_loaded = 4);
+
+  // The folder of model `name` in the store. ApiError NOT_FOUND (field
+  // "model") for a name that is not a model folder there, INVALID_ARGUMENT
+  // for one that is not a plain folder name.
+  std::string folder(const std::string& name) const;
+
+  // The active model; ApiError UNAVAILABLE when none is loaded yet.
+  std::shared_ptr<const LoadedModel> active() const;
+  // The model a request names: the active one for "", else `name`, loaded
+  // if needed (FAILED_PRECONDITION with the loader's reason when it cannot).
+  std::shared_ptr<const LoadedModel> get(const std::string& name);
+  // Loads `name` if needed (or if its files changed) and makes it active;
+  // on failure the active model stays.
+  std::shared_ptr<const LoadedModel> activate(const std::string& name);
+
+  // Every model folder of the store, sorted by name; describe adds the
+  // provenance, evaluation and model card.
+  std::vector<ModelInfo> list() const;
+  ModelInfo describe(const std::string& name) const;
+
+ private:
+  std::shared_ptr<const LoadedModel> load(const std::string& name);
+  std::shared_ptr<const LoadedModel> cached(const std::string& name, const std::string& version) const;
+  void remember(std::shared_ptr<const LoadedModel> model);
+  ModelInfo info(const std::string& name, bool details) const;
+
+  const std::string root_;
+  ServiceMetrics& metrics_;
+  const int max_loaded_;
+  mutable std::mutex mutex_;
+  std::shared_ptr<const LoadedModel> active_;
+  std::vector<std::shared_ptr<const LoadedModel>> loaded_;  // most recently used last
+  std::mutex load_mutex_;  // one load at a time: loads are large
+};
+
+}  // namespace mm::service

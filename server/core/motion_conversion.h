@@ -1,0 +1,44 @@
+// Checking and converting the wire's motions and codes for a model: a Motion
+// becomes the library's MotionFrames at the model's 25 Hz (a 50 Hz motion
+// keeps every second frame, as the tool and `prepare` downsample), and every
+// refusal is an ApiError naming the field as the wire spells it, the value,
+// and what was expected. Torch-free: it runs on the frontends' threads.
+// Thread safety: pure functions.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/api_types.h"
+#include "format/motion_text.h"
+
+namespace mm::service {
+
+// What a model takes: its clip length at 25 Hz, columns, layout name and code size.
+struct ModelShape {
+  int frames = 150;
+  int columns = 99;
+  int latent = 64;
+  std::string layout = kH36mLayout;
+};
+
+// The layout name of a model with `columns` input columns: "h36m-expmap-99"
+// for H3.6M's 99, "expmap-<columns>" otherwise.
+std::string layout_name(int columns);
+
+// `motion` at 25 Hz, exactly shape.frames frames, for field `field`
+// ("motions[2]", "from.motion"). Refused: a layout other than the model's,
+// a column count other than the model's, a rate other than 25 or 50, a frame
+// count other than shape.frames (25 Hz) or 2 x shape.frames (50 Hz), a
+// values array of another length than frames x columns, and values that are
+// not finite or out of the text format's bounds (format/motion_text.h).
+MotionFrames to_model_frames(const Motion& motion, const ModelShape& shape, const std::string& field);
+
+// A motion of the model's output (25 Hz, its layout) for the wire.
+Motion to_wire_motion(const MotionFrames& frames, const ModelShape& shape);
+
+// Checks a code for field `field`: shape.latent finite values within +-1e3
+// (a code from the prior has |values| below 6).
+void check_code(const Code& code, const ModelShape& shape, const std::string& field);
+
+}  // namespace mm::service

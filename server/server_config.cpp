@@ -1,0 +1,137 @@
+#include "server_config.h"
+
+#include <CLI/CLI.hpp>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <thread>
+
+namespace mm::service {
+namespace {
+
+// The tool that runs training jobs: beside the server when installed, in the
+// build tree when run from there, else on PATH.
+std::string default_tool_path() {
+  std::error_code error;
+  const auto self = std::filesystem::read_symlink("/proc/self/exe", error);
+  if (!error) {
+    const auto beside = self.parent_path() / "motion-manifold";
+    if (std::filesystem::is_regular_file(beside, error)) return beside.string();
+  }
+#ifdef MM_BUILD_TOOL
+  if (std::filesystem::is_regular_file(MM_BUILD_TOOL, error)) return MM_BUILD_TOOL;
+#endif
+  return "motion-manifold";
+}
+
+}  // namespace
+
+int parse_server_config(int argc, char** argv, ServerConfig& config) {
+  CLI::App app{"motion-manifold-server " MM_VERSION
+               ": serves trained motion manifolds (Jang & Lee, CGF 2020) over gRPC and REST and runs training jobs.\n"
+               "Every option can also be set by the environment variable in brackets or in the --config file."};
+  app.set_config("--config", "", "configuration file (TOML or INI: key = value, keys as the long options)");
+  app.set_version_flag("--version", "motion-manifold-server " MM_VERSION);
+  app.get_formatter()->column_width(40);
+
+  config.core.model_store = MM_SOURCE_DIR "/models";
+  config.jobs.tool_path = default_tool_path();
+  std::string address = "0.0.0.0", token_file;
+
+  app.add_option("--model-store", config.core.model_store, "folder of model folders")
+      ->envname("MM_MODEL_STORE")->capture_default_str();
+  app.add_option("--default-model", config.core.default_model,
+                 "model to activate at start (default: h36m-dkgm-h100, or the store's only model)")
+      ->envname("MM_DEFAULT_MODEL");
+  app.add_option("--address", address, "address both frontends listen on")->envname("MM_ADDRESS")->capture_default_str();
+  app.add_option("--grpc-port", config.grpc.port, "gRPC port (0: any free port)")
+      ->envname("MM_GRPC_PORT")->capture_default_str()->check(CLI::Range(0, 65535));
+  app.add_option("--rest-port", config.rest.port, "REST port (0: any free port)")
+      ->envname("MM_REST_PORT")->capture_default_str()->check(CLI::Range(0, 65535));
+  app.add_option("--auth-token", config.core.auth_token,
+                 "bearer token required on calls that change state (submit, cancel, activate); empty: none")
+      ->envname("MM_AUTH_TOKEN");
+  app.add_option("--auth-token-file", token_file, "file holding the bearer token (first line)")
+      ->envname("MM_AUTH_TOKEN_FILE")->check(CLI::ExistingFile);
+  app.add_option("--tls-cert", config.grpc.tls_cert_file, "PEM certificate: serve gRPC and REST over TLS")
+      ->envname("MM_TLS_CERT")->check(CLI::ExistingFile);
+  app.add_option("--tls-key", config.grpc.tls_key_file, "PEM private key of --tls-cert")
+      ->envname("MM_TLS_KEY")->check(CLI::ExistingFile);
+
+  int max_message_bytes = config.grpc.max_message_bytes;
+  app.add_option("--max-message-bytes", max_message_bytes, "largest gRPC message and REST body, in bytes")
+      ->envname("MM_MAX_MESSAGE_BYTES")->capture_default_str()->check(CLI::Range(1024, 1 << 30));
+  app.add_option("--max-motions", config.core.limits.max_motions,
+                 "motions of one Encode or Denoise, codes of one Decode")
+      ->envname("MM_MAX_MOTIONS")->capture_default_str()->check(CLI::Range(1, 4096));
+  app.add_option("--max-sample-count", config.core.limits.max_sample_count, "Sample's largest count")
+      ->envname("MM_MAX_SAMPLE_COUNT")->capture_default_str()->check(CLI::Range(1, 4096));
+  app.add_option("--max-steps", config.core.limits.max_steps, "Interpolate's most steps")
+      ->envname("MM_MAX_STEPS")->capture_default_str()->check(CLI::Range(2, 4096));
+  app.add_option("--max-denoise-iterations", config.core.limits.max_denoise_iterations,
+                 "Denoise's most rounds")
+      ->envname("MM_MAX_DENOISE_ITERATIONS")->capture_default_str()->check(CLI::Range(1, 1000));
+  app.add_option("--max-batch", config.core.batching.max_batch, "most clips the executor runs as one batch")
+      ->envname("MM_MAX_BATCH")->capture_default_str()->check(CLI::Range(1, 4096));
+  app.add_option("--max-queue-delay-us", config.core.batching.max_queue_delay_us,
+                 "how long a batch waits for more requests, in microseconds")
+      ->envname("MM_MAX_QUEUE_DELAY_US")->capture_default_str()->check(CLI::Range(0, 1000000));
+  app.add_option("--max-queue-length", config.core.batching.max_queue_length,
+                 "requests waiting for the executor beyond which calls are refused (429)")
+      ->envname("MM_MAX_QUEUE_LENGTH")->capture_default_str()->check(CLI::Range(1, 1000000));
+  app.add_option("--threads", config.core.batching.threads, "LibTorch threads of the executor (0: the core count)")
+      ->envname("MM_THREADS")->capture_default_str()->check(CLI::Range(0, 1024));
+  app.add_option("--max-loaded-models", config.core.max_loaded_models, "models kept in memory")
+      ->envname("MM_MAX_LOADED_MODELS")->capture_default_str()->check(CLI::Range(1, 64));
+
+  app.add_option("--state-dir", config.jobs.state_dir,
+                 "folder of the job database and job runs; empty: no training jobs")
+      ->envname("MM_STATE_DIR");
+  app.add_option("--data-root", config.jobs.data_root, "folder every training dataset must lie under")
+      ->envname("MM_DATA_ROOT");
+  app.add_option("--tool", config.jobs.tool_path, "the motion-manifold executable that trains")
+      ->envname("MM_TOOL")->capture_default_str();
+  app.add_option("--training-threads", config.jobs.training_threads,
+                 "threads of a training job (it runs at the lowest CPU priority)")
+      ->envname("MM_TRAINING_THREADS")->capture_default_str()->check(CLI::Range(1, 1024));
+  app.add_option("--checkpoint-every", config.jobs.checkpoint_every, "iterations between a job's checkpoints")
+      ->envname("MM_CHECKPOINT_EVERY")->capture_default_str()->check(CLI::Range(1, 1000000));
+  app.add_option("--max-queued-jobs", config.jobs.max_queued, "queued jobs beyond which submissions are refused")
+      ->envname("MM_MAX_QUEUED_JOBS")->capture_default_str()->check(CLI::Range(1, 100000));
+
+  app.add_option("--ready-file", config.ready_file,
+                 "written once serving: JSON with the bound ports and the pid (for scripts and tests)")
+      ->envname("MM_READY_FILE");
+  app.add_option("--log-level", config.log_level, "trace, debug, info, warn, error")
+      ->envname("MM_LOG_LEVEL")->capture_default_str()
+      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}));
+  app.add_option("--log-format", config.log_format, "text, or json (one object a line)")
+      ->envname("MM_LOG_FORMAT")->capture_default_str()->check(CLI::IsMember({"text", "json"}));
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  if (config.grpc.tls_cert_file.empty() != config.grpc.tls_key_file.empty()) {
+    std::cerr << "--tls-cert and --tls-key go together\n";
+    return 2;
+  }
+  if (!token_file.empty()) {
+    std::ifstream in(token_file);
+    std::getline(in, config.core.auth_token);
+  }
+  if (!config.jobs.state_dir.empty() && config.jobs.data_root.empty()) {
+    std::cerr << "--state-dir needs --data-root: the folder that training datasets must lie under\n";
+    return 2;
+  }
+  config.grpc.address = config.rest.address = address;
+  config.grpc.max_message_bytes = max_message_bytes;
+  config.rest.max_body_bytes = static_cast<size_t>(max_message_bytes);
+  config.rest.tls_cert_file = config.grpc.tls_cert_file;
+  config.rest.tls_key_file = config.grpc.tls_key_file;
+  config.jobs.model_store = config.core.model_store;
+  return -1;
+}
+
+}  // namespace mm::service
