@@ -4,6 +4,7 @@
 #include <torch/serialize/output-archive.h>
 
 #include <filesystem>
+#include <map>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -31,12 +32,24 @@ void save_module(const torch::nn::Module& module, const std::string& path) {
 
 void load_module(torch::nn::Module& module, const std::string& path) {
   if (!std::filesystem::exists(path)) throw InputError(path + ": missing network weights file");
+  // Module::load replaces each tensor with the stored one whatever its
+  // shape, so weights of another network size would load and fail only at
+  // the first inference: compare with the shapes the manifest implies.
+  std::map<std::string, std::vector<int64_t>> expected;
+  for (const auto& item : module.named_parameters()) expected[item.key()] = item.value().sizes().vec();
   try {
     torch::serialize::InputArchive archive;
     archive.load_from(path, at::kCPU);  // weights saved from a GPU load anywhere; load() moves them on
     module.load(archive);
   } catch (const c10::Error& e) {
     throw InputError(path + ": unreadable or mismatched network weights: " + e.what_without_backtrace());
+  }
+  for (const auto& item : module.named_parameters()) {
+    const auto& shape = expected[item.key()];
+    if (item.value().sizes().vec() != shape) {
+      throw InputError(path + ": " + item.key() + " has shape " + c10::str(item.value().sizes()) +
+                       " where the manifest's network needs " + c10::str(at::IntArrayRef(shape)));
+    }
   }
 }
 

@@ -60,6 +60,26 @@ TEST(MotionManifold, LoadNamesTheMissingWeightsFile) {
   }
 }
 
+TEST(MotionManifold, LoadRefusesWeightsOfAnotherNetworkSize) {
+  MM_REQUIRE_H36M();
+  test::ScratchDir dir;
+  tiny_model().save(dir.file("model"));
+  // The manifest now claims a larger network than the weights hold.
+  std::ifstream in(dir.file("model/manifest.json"));
+  std::string manifest((std::istreambuf_iterator<char>(in)), {});
+  const auto at = manifest.find("\"hidden\": 48");
+  ASSERT_NE(at, std::string::npos) << manifest.substr(0, 300);
+  manifest.replace(at, 12, "\"hidden\": 96");
+  std::ofstream(dir.file("model/manifest.json")) << manifest;
+  try {
+    MotionManifold::load(dir.file("model"));
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("encoder.pt"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("has shape"), std::string::npos) << e.what();
+  }
+}
+
 TEST(MotionManifold, LoadRejectsACorruptManifest) {
   MM_REQUIRE_H36M();
   test::ScratchDir dir;

@@ -1,0 +1,139 @@
+#include "call_drivers.h"
+
+#include <grpcpp/grpcpp.h>
+#include <httplib.h>
+
+#include <nlohmann/json.hpp>
+#include <random>
+
+#include "motionmanifold/v1/manifold.grpc.pb.h"
+
+namespace mm::client {
+namespace {
+
+namespace v1 = motionmanifold::v1;
+constexpr int kLatent = 64;
+
+std::vector<float> random_code(std::mt19937& engine) {
+  std::normal_distribution<float> normal;
+  std::vector<float> code(kLatent);
+  for (auto& v : code) v = normal(engine);
+  return code;
+}
+
+const char* status_name(grpc::StatusCode code) {
+  switch (code) {
+    case grpc::StatusCode::OK: return "OK";
+    case grpc::StatusCode::INVALID_ARGUMENT: return "INVALID_ARGUMENT";
+    case grpc::StatusCode::NOT_FOUND: return "NOT_FOUND";
+    case grpc::StatusCode::RESOURCE_EXHAUSTED: return "RESOURCE_EXHAUSTED";
+    case grpc::StatusCode::UNAVAILABLE: return "UNAVAILABLE";
+    case grpc::StatusCode::DEADLINE_EXCEEDED: return "DEADLINE_EXCEEDED";
+    case grpc::StatusCode::INTERNAL: return "INTERNAL";
+    default: return "OTHER";
+  }
+}
+
+class GrpcDriver : public CallDriver {
+ public:
+  GrpcDriver(const std::string& target, const LoadCall& call, unsigned seed) : operation_(call.operation) {
+    // A channel of its own (no shared subchannel), as separate clients have.
+    grpc::ChannelArguments arguments;
+    arguments.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);
+    arguments.SetMaxReceiveMessageSize(256 << 20);
+    arguments.SetMaxSendMessageSize(256 << 20);
+    stub_ = v1::MotionManifold::NewStub(grpc::CreateCustomChannel(target, grpc::InsecureChannelCredentials(), arguments));
+    std::mt19937 engine(seed);
+    decode_.set_model(call.model);
+    for (int i = 0; i < call.batch; ++i) {
+      const auto code = random_code(engine);
+      decode_.add_codes()->mutable_values()->Add(code.begin(), code.end());
+    }
+    encode_.set_model(call.model);
+    for (int i = 0; i < call.batch && !call.motion_values.empty(); ++i) {
+      auto* motion = encode_.add_motions();
+      motion->set_frames(call.motion_frames);
+      motion->set_columns(99);
+      motion->set_frame_rate(call.motion_frame_rate);
+      motion->set_layout("h36m-expmap-99");
+      motion->mutable_values()->Add(call.motion_values.begin(), call.motion_values.end());
+    }
+    sample_.set_model(call.model);
+    sample_.set_count(call.batch);
+    sample_.set_seed(seed);
+  }
+
+  std::string call() override {
+    grpc::ClientContext context;
+    grpc::Status status;
+    if (operation_ == "decode") {
+      v1::MotionsReply reply;
+      status = stub_->Decode(&context, decode_, &reply);
+    } else if (operation_ == "encode") {
+      v1::EncodeReply reply;
+      status = stub_->Encode(&context, encode_, &reply);
+    } else {
+      v1::MotionsReply reply;
+      status = stub_->Sample(&context, sample_, &reply);
+    }
+    return status_name(status.error_code());
+  }
+
+ private:
+  std::string operation_;
+  std::unique_ptr<v1::MotionManifold::Stub> stub_;
+  v1::DecodeRequest decode_;
+  v1::EncodeRequest encode_;
+  v1::SampleRequest sample_;
+};
+
+class RestDriver : public CallDriver {
+ public:
+  RestDriver(const std::string& host, int port, const LoadCall& call, unsigned seed)
+      : client_(host, port), path_("/v1/" + call.operation) {
+    client_.set_keep_alive(true);
+    client_.set_read_timeout(120, 0);
+    std::mt19937 engine(seed);
+    nlohmann::json body = {{"model", call.model}};
+    if (call.operation == "decode") {
+      body["codes"] = nlohmann::json::array();
+      for (int i = 0; i < call.batch; ++i) body["codes"].push_back(random_code(engine));
+    } else if (call.operation == "encode") {
+      const nlohmann::json motion = {{"frames", call.motion_frames}, {"columns", 99},
+                                     {"frame_rate", call.motion_frame_rate}, {"layout", "h36m-expmap-99"},
+                                     {"values", call.motion_values}};
+      body["motions"] = nlohmann::json::array();
+      for (int i = 0; i < call.batch; ++i) body["motions"].push_back(motion);
+    } else {
+      body["count"] = call.batch;
+      body["seed"] = seed;
+    }
+    body_ = body.dump();
+  }
+
+  std::string call() override {
+    const auto result = client_.Post(path_.c_str(), body_, "application/json");
+    if (!result) return "CONNECTION:" + httplib::to_string(result.error());
+    if (result->status == 200) return "OK";
+    std::string code = "HTTP " + std::to_string(result->status);
+    const auto error = nlohmann::json::parse(result->body, nullptr, false);
+    if (!error.is_discarded() && error.contains("error")) code += " " + error["error"].value("code", "");
+    return code;
+  }
+
+ private:
+  httplib::Client client_;
+  std::string path_, body_;
+};
+
+}  // namespace
+
+std::unique_ptr<CallDriver> grpc_driver(const std::string& target, const LoadCall& call, unsigned seed) {
+  return std::make_unique<GrpcDriver>(target, call, seed);
+}
+
+std::unique_ptr<CallDriver> rest_driver(const std::string& host, int port, const LoadCall& call, unsigned seed) {
+  return std::make_unique<RestDriver>(host, port, call, seed);
+}
+
+}  // namespace mm::client

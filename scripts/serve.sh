@@ -1,0 +1,22 @@
+#!/usr/bin/env bash
+# The main job on a fresh machine: installs what it needs, builds the server
+# and the tool, and serves the shipped default model (models/h36m-dkgm-h100)
+# over gRPC (port 50051) and REST (port 8080) until Ctrl-C / SIGTERM.
+# The model store is runs/models (the shipped models linked in, and the
+# models training jobs publish). Training jobs are on: their records and runs
+# live in runs/state, and their datasets must lie under data/ (the H3.6M copy from ../shared is extracted
+# there when it exists). Any server option can follow, e.g.
+#   bash scripts/serve.sh --rest-port 9090 --auth-token "$(cat token)"
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/install-deps.sh
+bash scripts/extract-h36m.sh || echo "serve: no H3.6M copy extracted; training jobs need a dataset under data/" >&2
+mkdir -p data runs/state runs/models
+# The store: the shipped models (linked) and what training jobs publish.
+for model in models/*/; do
+  name=$(basename "$model")
+  [ -e "runs/models/$name" ] || ln -s "../../models/$name" "runs/models/$name"
+done
+cmake -S . -B build -DCMAKE_BUILD_TYPE=Release
+cmake --build build -j "$(nproc)" --target motion-manifold-server motion-manifold
+exec build/server/motion-manifold-server --model-store runs/models --state-dir runs/state --data-root data "$@"
