@@ -85,16 +85,51 @@ struct RestFrontend::State {
 
   State(ManifoldCore& c, ServiceMetrics& m, RestOptions o) : core(c), metrics(m), options(std::move(o)) {}
 
-  void handle(RouteId route, const httplib::Request& request, httplib::Response& response);
+  void handle(RouteId route, const httplib::Request& request, const std::string& body, httplib::Response& response);
+  bool read_body(const httplib::Request& request, const httplib::ContentReader& reader, std::string& body,
+                 httplib::Response& response) const;
   void stream_job_events(const CallContext& context, const std::string& id, httplib::Response& response);
   bool write_job_events(const CallContext& context, const std::string& id, EventStream& stream,
                         httplib::DataSink& sink);
   void install_error_handlers();
 };
 
-void RestFrontend::State::handle(RouteId route, const httplib::Request& request, httplib::Response& response) {
+// Reads a POST body through httplib's content reader rather than letting
+// httplib fill request.body: cpp-httplib 0.11 checks its payload limit only
+// against Content-Length, so a chunked body would grow without bound, and it
+// reads a request without Content-Length until the connection closes, where
+// RFC 9112 (6.3) says such a request has no body. Answers the error and
+// returns false when the body is too large or unreadable.
+bool RestFrontend::State::read_body(const httplib::Request& request, const httplib::ContentReader& reader,
+                                    std::string& body, httplib::Response& response) const {
+  if (!request.has_header("Content-Length") && !request.has_header("Transfer-Encoding")) return true;
+  bool too_large = false;
+  const bool ok = reader([&](const char* data, size_t length) {
+    if (body.size() + length > options.max_body_bytes) {
+      too_large = true;
+      return false;
+    }
+    body.append(data, length);
+    return true;
+  });
+  if (ok) return true;
+  // httplib sets 413 itself when Content-Length is over the limit.
+  if (too_large || response.status == 413) {
+    send_error(response, ApiError(ErrorCode::kResourceExhausted, "",
+                                  "the request body exceeds the limit of " + std::to_string(options.max_body_bytes) +
+                                      " bytes (--max-message-bytes)",
+                                  /*too_large=*/true));
+  } else {
+    send_error(response, ApiError(ErrorCode::kInvalidArgument, "", "the request body could not be read"));
+  }
+  // What is left of the body must not be read as the next request.
+  response.set_header("Connection", "close");
+  return false;
+}
+
+void RestFrontend::State::handle(RouteId route, const httplib::Request& request, const std::string& body,
+                                 httplib::Response& response) {
   const CallContext context{"rest", bearer_token(request)};
-  const std::string& body = request.body;
   try {
     switch (route) {
       case RouteId::kEncode:
@@ -291,14 +326,19 @@ void RestFrontend::start() {
   s.install_error_handlers();
   for (const rest::RestRoute& route : rest::rest_routes()) {
     const RouteId id = route.id;
-    auto handler = [&s, id](const httplib::Request& request, httplib::Response& response) {
-      s.handle(id, request, response);
-    };
     const std::string pattern = rest::route_regex(route.path_template);
-    if (route.method == "GET")
-      server.Get(pattern, handler);
-    else
-      server.Post(pattern, httplib::Server::Handler(handler));
+    if (route.method == "GET") {
+      server.Get(pattern, [&s, id](const httplib::Request& request, httplib::Response& response) {
+        s.handle(id, request, std::string(), response);
+      });
+    } else {
+      server.Post(pattern, httplib::Server::HandlerWithContentReader(
+                               [&s, id](const httplib::Request& request, httplib::Response& response,
+                                        const httplib::ContentReader& reader) {
+                                 std::string body;
+                                 if (s.read_body(request, reader, body, response)) s.handle(id, request, body, response);
+                               }));
+    }
   }
 
   const std::string where = s.options.address + ":" + std::to_string(s.options.port);

@@ -4,7 +4,11 @@
 // shipped default model on a real S5 clip), every kind of bad request
 // answered with the right status and a JSON error naming the field, and the
 // server serving on after each.
+#include <arpa/inet.h>
 #include <httplib.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
 
 #include <gtest/gtest.h>
 
@@ -449,11 +453,56 @@ TEST(RestLimits, ABodyOverTheLimitIsRefusedAsJsonNamingTheLimitAndTheServerServe
   EXPECT_NE(reply.error()["message"].get<std::string>().find("200000"), std::string::npos) << reply.body;
   expect_still_serving(server.rest_port());
 
+  // A chunked body has no Content-Length to check up front: it is cut off at the limit.
+  auto c = client(server.rest_port());
+  const std::string chunk = "[" + std::string(49998, ' ') + "]";
+  auto chunked = c.Post(
+      "/v1/encode",
+      [&](size_t offset, httplib::DataSink& sink) {
+        if (offset >= 6 * chunk.size()) {
+          sink.done();
+          return true;
+        }
+        return sink.write(chunk.data(), chunk.size());
+      },
+      "application/json");
+  const Reply chunked_reply = to_reply(chunked);
+  expect_error(chunked_reply, 413, "RESOURCE_EXHAUSTED", "");
+  EXPECT_NE(chunked_reply.body.find("200000"), std::string::npos) << chunked_reply.body;
+  expect_still_serving(server.rest_port());
+
   // The core's own limit on motions of one call (the body is within bounds).
   const json code = std::vector<float>(64, 0.f);
   expect_error(post(server.rest_port(), "/v1/decode", json{{"codes", {code, code, code}}}), 413,
                "RESOURCE_EXHAUSTED", "codes");
   expect_still_serving(server.rest_port());
+}
+
+// A request without Content-Length or Transfer-Encoding has no body (RFC 9112,
+// 6.3): it is answered at once, not after waiting for the connection to close.
+TEST_F(RestApi, APostWithoutContentLengthHasAnEmptyBody) {
+  const int fd = socket(AF_INET, SOCK_STREAM, 0);
+  ASSERT_GE(fd, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_port = htons(static_cast<uint16_t>(port()));
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ASSERT_EQ(connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address), 0);
+  const std::string request = "POST /v1/models/h36m-dkgm-h100:activate HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n";
+  ASSERT_EQ(write(fd, request.data(), request.size()), static_cast<ssize_t>(request.size()));
+  const auto started = std::chrono::steady_clock::now();
+  timeval timeout{20, 0};
+  setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
+  std::string answer;
+  char buffer[4096];
+  while (answer.find("\r\n\r\n") == std::string::npos) {
+    const ssize_t n = read(fd, buffer, sizeof buffer);
+    if (n <= 0) break;
+    answer.append(buffer, static_cast<size_t>(n));
+  }
+  close(fd);
+  EXPECT_EQ(answer.rfind("HTTP/1.1 200", 0), 0u) << answer;
+  EXPECT_LT(std::chrono::steady_clock::now() - started, std::chrono::seconds(2));
 }
 
 // ---------------------------------------------------------------- models and the token
