@@ -722,7 +722,8 @@ TEST(RestJobs, ATrainingJobStreamsItsProgressUntilItSucceeds) {
   ASSERT_EQ(again.size(), 1u);
   EXPECT_EQ(again[0].second["state"], "succeeded");
 
-  expect_error(post(port, "/v1/jobs/" + id + ":cancel", std::string(), bearer(kToken)), 409, "FAILED_PRECONDITION", "");
+  expect_error(post(port, "/v1/jobs/" + id + ":cancel", std::string(), bearer(kToken)), 409, "FAILED_PRECONDITION",
+               "id");
   expect_error(get(port, "/v1/jobs/no-such-job"), 404, "NOT_FOUND", "id");
   expect_error(get(port, "/v1/jobs/no-such-job/events"), 404, "NOT_FOUND", "id");
   // The published model is served.
