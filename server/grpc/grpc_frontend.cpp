@@ -1,0 +1,107 @@
+#include "grpc/grpc_frontend.h"
+
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+#include <grpcpp/ext/proto_server_reflection_plugin.h>
+#include <grpcpp/grpcpp.h>
+#include <grpcpp/health_check_service_interface.h>
+#include <grpcpp/resource_quota.h>
+
+#include "grpc/manifold_service.h"
+
+namespace mm::service {
+
+namespace {
+
+constexpr const char* kServiceName = "motionmanifold.v1.MotionManifold";
+
+std::string read_pem(const std::string& path, const char* what) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream text;
+  if (in) text << in.rdbuf();
+  if (!in || text.str().empty()) {
+    throw std::runtime_error("gRPC " + std::string(what) + " file " + path + " cannot be read or is empty");
+  }
+  return text.str();
+}
+
+std::shared_ptr<grpc::ServerCredentials> credentials(const GrpcOptions& options) {
+  if (options.tls_cert_file.empty() && options.tls_key_file.empty()) return grpc::InsecureServerCredentials();
+  if (options.tls_cert_file.empty() || options.tls_key_file.empty()) {
+    throw std::runtime_error("gRPC TLS needs both a certificate and a key file (got only the " +
+                             std::string(options.tls_cert_file.empty() ? "key" : "certificate") + ")");
+  }
+  grpc::SslServerCredentialsOptions ssl;
+  ssl.pem_key_cert_pairs.push_back({read_pem(options.tls_key_file, "TLS key"),
+                                    read_pem(options.tls_cert_file, "TLS certificate")});
+  return grpc::SslServerCredentials(ssl);
+}
+
+std::string listen_address(const GrpcOptions& options) {
+  const bool ipv6 = options.address.find(':') != std::string::npos && options.address.front() != '[';
+  return (ipv6 ? "[" + options.address + "]" : options.address) + ":" + std::to_string(options.port);
+}
+
+}  // namespace
+
+GrpcFrontend::GrpcFrontend(ManifoldCore& core, GrpcOptions options) : core_(core), options_(std::move(options)) {}
+
+GrpcFrontend::~GrpcFrontend() { shutdown(std::chrono::seconds(1)); }
+
+void GrpcFrontend::start() {
+  if (server_) throw std::runtime_error("gRPC frontend already started");
+  const std::string address = listen_address(options_);
+  stopping_ = false;
+  service_ = std::make_unique<wire::ManifoldService>(core_, stopping_);
+
+  // Both process-wide switches; they take effect for servers built after them.
+  grpc::EnableDefaultHealthCheckService(true);
+  grpc::reflection::InitProtoReflectionServerBuilderPlugin();
+
+  grpc::ServerBuilder builder;
+  builder.AddListeningPort(address, credentials(options_), &port_);
+  builder.RegisterService(service_.get());
+  builder.SetMaxReceiveMessageSize(options_.max_message_bytes);
+  builder.SetMaxSendMessageSize(options_.max_message_bytes);
+  grpc::ResourceQuota quota("motionmanifold-grpc");
+  quota.SetMaxThreads(options_.max_threads);
+  builder.SetResourceQuota(quota);
+  // One completion queue: the calls are short next to the inference they
+  // wait on, and the core batches them anyway.
+  builder.SetSyncServerOption(grpc::ServerBuilder::SyncServerOption::NUM_CQS, 1);
+  builder.SetSyncServerOption(grpc::ServerBuilder::SyncServerOption::MIN_POLLERS, 1);
+  builder.SetSyncServerOption(grpc::ServerBuilder::SyncServerOption::MAX_POLLERS, 2);
+
+  server_ = builder.BuildAndStart();
+  if (!server_ || port_ == 0) {
+    server_.reset();
+    port_ = 0;
+    throw std::runtime_error("gRPC cannot listen on " + address + " (address in use or not available)");
+  }
+  set_serving(serving_);
+}
+
+int GrpcFrontend::port() const { return port_; }
+
+void GrpcFrontend::set_serving(bool serving) {
+  serving_ = serving;
+  if (!server_) return;
+  if (auto* health = server_->GetHealthCheckService()) {
+    health->SetServingStatus("", serving);
+    health->SetServingStatus(kServiceName, serving);
+  }
+}
+
+void GrpcFrontend::shutdown(std::chrono::milliseconds deadline) {
+  if (!server_) return;
+  set_serving(false);
+  stopping_ = true;  // ends WatchJob streams, which could otherwise outlast any deadline
+  server_->Shutdown(std::chrono::system_clock::now() + deadline);
+  server_->Wait();
+  server_.reset();
+  service_.reset();
+}
+
+}  // namespace mm::service

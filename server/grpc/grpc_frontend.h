@@ -1,0 +1,79 @@
+// The gRPC frontend: a gRPC server exposing motionmanifold.v1.MotionManifold
+// over a ManifoldCore, with the standard health service (grpc.health.v1) and
+// server reflection. A thin translator: every rpc is one call of the core
+// (manifold_service.h); the core validates and the error model maps its
+// refusals to status codes (error_status.h).
+//
+// Torch-free: includes neither LibTorch nor the model.
+// Thread safety: start(), set_serving() and shutdown() may be called from any
+// thread but not concurrently with each other; port() any time after start().
+#pragma once
+
+#include <atomic>
+#include <chrono>
+#include <memory>
+#include <string>
+
+#include "core/manifold_core.h"
+
+namespace grpc {
+class Server;
+}
+
+namespace mm::service {
+
+namespace wire {
+class ManifoldService;
+}
+
+struct GrpcOptions {
+  std::string address = "0.0.0.0";  // interface to listen on (an IPv6 address without brackets is fine)
+  int port = 50051;                  // 0: a free port, see GrpcFrontend::port()
+  // Largest message received or sent; gRPC refuses a larger one with
+  // RESOURCE_EXHAUSTED before it reaches the core. 64 MiB holds a few
+  // thousand 6 s motions.
+  int max_message_bytes = 64 << 20;
+  // PEM files: with both, the server speaks TLS only; with neither,
+  // plaintext. One without the other is refused by start().
+  std::string tls_cert_file, tls_key_file;
+  // Most threads serving calls at once (gRPC's resource quota on the
+  // synchronous server's pool, its pollers included). A WatchJob stream holds
+  // one for its whole life; a call arriving when none is free is refused with
+  // RESOURCE_EXHAUSTED by gRPC.
+  int max_threads = 64;
+};
+
+class GrpcFrontend {
+ public:
+  // `core` outlives the frontend.
+  GrpcFrontend(ManifoldCore& core, GrpcOptions options);
+  ~GrpcFrontend();  // shutdown(1 s) when still serving
+  GrpcFrontend(const GrpcFrontend&) = delete;
+  GrpcFrontend& operator=(const GrpcFrontend&) = delete;
+
+  // Binds and starts serving on gRPC's thread pool. Throws
+  // std::runtime_error naming the address when it cannot listen there, or
+  // naming the file when a TLS file cannot be read.
+  void start();
+  // The bound port (the chosen one when options.port is 0); 0 before start().
+  int port() const;
+  // The health status (SERVING / NOT_SERVING) of "" (the whole server) and
+  // "motionmanifold.v1.MotionManifold". Before start() it is remembered and
+  // applied at start; the default is serving.
+  void set_serving(bool serving);
+  // Stops accepting calls and lets those in flight finish for at most
+  // `deadline`, then cancels the rest. WatchJob streams end at once with
+  // UNAVAILABLE. Idempotent.
+  void shutdown(std::chrono::milliseconds deadline);
+
+ private:
+  ManifoldCore& core_;
+  GrpcOptions options_;
+  std::atomic<bool> stopping_{false};
+  bool serving_ = true;
+  int port_ = 0;
+  std::unique_ptr<wire::ManifoldService> service_;
+  std::unique_ptr<grpc::Server> server_;
+};
+
+}  // namespace mm::service

@@ -1,0 +1,182 @@
+#include "grpc/manifold_service.h"
+
+#include <cctype>
+#include <chrono>
+#include <condition_variable>
+#include <exception>
+#include <mutex>
+#include <thread>
+
+#include "grpc/error_status.h"
+#include "grpc/proto_translation.h"
+
+namespace mm::service::wire {
+
+namespace {
+
+CallContext call_context(const grpc::ServerContext& context) { return CallContext{"grpc", bearer_token(context)}; }
+
+// Runs one call of the core and turns what it throws into the rpc's status:
+// the core's refusals by the error model, anything else as INTERNAL (a bug,
+// or the machine failing, never the caller's fault).
+template <typename Call>
+grpc::Status answer(grpc::ServerContext* context, Call&& call) {
+  try {
+    call(call_context(*context));
+    return grpc::Status::OK;
+  } catch (const ApiError& error) {
+    return error_status(error, context);
+  } catch (const std::exception& error) {
+    return grpc::Status(grpc::StatusCode::INTERNAL, error.what());
+  }
+}
+
+// How often a WatchJob stream looks whether its client has gone or the
+// server is stopping: short enough that neither waits noticeably.
+constexpr auto kWatchPollInterval = std::chrono::milliseconds(50);
+
+}  // namespace
+
+std::string bearer_token(const grpc::ServerContext& context) {
+  const auto& metadata = context.client_metadata();
+  const auto found = metadata.find("authorization");
+  if (found == metadata.end()) return "";
+  std::string value(found->second.data(), found->second.size());
+  static const std::string kScheme = "bearer ";
+  if (value.size() < kScheme.size()) return "";
+  for (size_t i = 0; i < kScheme.size(); ++i) {
+    if (std::tolower(static_cast<unsigned char>(value[i])) != kScheme[i]) return "";
+  }
+  std::string token = value.substr(kScheme.size());
+  const auto first = token.find_first_not_of(' ');
+  const auto last = token.find_last_not_of(' ');
+  return first == std::string::npos ? "" : token.substr(first, last - first + 1);
+}
+
+grpc::Status ManifoldService::Encode(grpc::ServerContext* context, const v1::EncodeRequest* request,
+                                     v1::EncodeReply* reply) {
+  return answer(context, [&](const CallContext& ctx) { to_wire(core_.encode(ctx, to_api(*request)), reply); });
+}
+
+grpc::Status ManifoldService::Decode(grpc::ServerContext* context, const v1::DecodeRequest* request,
+                                     v1::MotionsReply* reply) {
+  return answer(context, [&](const CallContext& ctx) { to_wire(core_.decode(ctx, to_api(*request)), reply); });
+}
+
+grpc::Status ManifoldService::Sample(grpc::ServerContext* context, const v1::SampleRequest* request,
+                                     v1::MotionsReply* reply) {
+  return answer(context, [&](const CallContext& ctx) { to_wire(core_.sample(ctx, to_api(*request)), reply); });
+}
+
+grpc::Status ManifoldService::Interpolate(grpc::ServerContext* context, const v1::InterpolateRequest* request,
+                                          v1::MotionsReply* reply) {
+  return answer(context, [&](const CallContext& ctx) { to_wire(core_.interpolate(ctx, to_api(*request)), reply); });
+}
+
+grpc::Status ManifoldService::Analogy(grpc::ServerContext* context, const v1::AnalogyRequest* request,
+                                      v1::MotionsReply* reply) {
+  return answer(context, [&](const CallContext& ctx) { to_wire(core_.analogy(ctx, to_api(*request)), reply); });
+}
+
+grpc::Status ManifoldService::Denoise(grpc::ServerContext* context, const v1::DenoiseRequest* request,
+                                      v1::MotionsReply* reply) {
+  return answer(context, [&](const CallContext& ctx) { to_wire(core_.denoise(ctx, to_api(*request)), reply); });
+}
+
+grpc::Status ManifoldService::ListModels(grpc::ServerContext* context, const v1::ListModelsRequest*,
+                                         v1::ListModelsReply* reply) {
+  return answer(context, [&](const CallContext& ctx) {
+    for (const auto& info : core_.list_models(ctx)) to_wire(info, reply->add_models());
+  });
+}
+
+grpc::Status ManifoldService::DescribeModel(grpc::ServerContext* context, const v1::DescribeModelRequest* request,
+                                            v1::ModelInfo* reply) {
+  return answer(context,
+                [&](const CallContext& ctx) { to_wire(core_.describe_model(ctx, request->model()), reply); });
+}
+
+grpc::Status ManifoldService::ActivateModel(grpc::ServerContext* context, const v1::ActivateModelRequest* request,
+                                            v1::ModelInfo* reply) {
+  return answer(context,
+                [&](const CallContext& ctx) { to_wire(core_.activate_model(ctx, request->model()), reply); });
+}
+
+grpc::Status ManifoldService::SubmitJob(grpc::ServerContext* context, const v1::SubmitJobRequest* request,
+                                        v1::Job* reply) {
+  return answer(context,
+                [&](const CallContext& ctx) { to_wire(core_.submit_job(ctx, to_api(request->spec())), reply); });
+}
+
+grpc::Status ManifoldService::GetJob(grpc::ServerContext* context, const v1::GetJobRequest* request,
+                                     v1::Job* reply) {
+  return answer(context, [&](const CallContext& ctx) { to_wire(core_.get_job(ctx, request->id()), reply); });
+}
+
+grpc::Status ManifoldService::ListJobs(grpc::ServerContext* context, const v1::ListJobsRequest*,
+                                       v1::ListJobsReply* reply) {
+  return answer(context, [&](const CallContext& ctx) {
+    for (const auto& info : core_.list_jobs(ctx)) to_wire(info, reply->add_jobs());
+  });
+}
+
+grpc::Status ManifoldService::CancelJob(grpc::ServerContext* context, const v1::CancelJobRequest* request,
+                                        v1::Job* reply) {
+  return answer(context, [&](const CallContext& ctx) { to_wire(core_.cancel_job(ctx, request->id()), reply); });
+}
+
+grpc::Status ManifoldService::WatchJob(grpc::ServerContext* context, const v1::WatchJobRequest* request,
+                                       grpc::ServerWriter<v1::Job>* writer) {
+  // The core's watch blocks until the job changes; a monitor turns "the
+  // client has gone" (IsCancelled is thread-safe in the synchronous API) and
+  // "the server is stopping" into its stop flag.
+  std::atomic<bool> stop{false};
+  std::mutex mutex;
+  std::condition_variable wake;
+  bool watch_done = false;
+  std::thread monitor([&] {
+    std::unique_lock<std::mutex> lock(mutex);
+    while (!watch_done) {
+      if (context->IsCancelled() || stopping_.load()) {
+        stop = true;
+        return;
+      }
+      wake.wait_for(lock, kWatchPollInterval);
+    }
+  });
+  struct JoinMonitor {
+    std::mutex& mutex;
+    std::condition_variable& wake;
+    bool& watch_done;
+    std::thread& monitor;
+    ~JoinMonitor() {
+      {
+        std::lock_guard<std::mutex> lock(mutex);
+        watch_done = true;
+      }
+      wake.notify_all();
+      monitor.join();
+    }
+  } join_monitor{mutex, wake, watch_done, monitor};
+
+  bool finished = false;  // the last record written carried a terminal state
+  const auto status = answer(context, [&](const CallContext& ctx) {
+    core_.watch_job(
+        ctx, request->id(),
+        [&](const JobInfo& info) {
+          finished = is_terminal(info.state);
+          v1::Job job;
+          to_wire(info, &job);
+          return writer->Write(job);  // false: the client has gone
+        },
+        &stop);
+  });
+  if (!status.ok() || finished) return status;
+  if (context->IsCancelled()) return grpc::Status::CANCELLED;
+  if (stopping_.load()) {
+    return grpc::Status(grpc::StatusCode::UNAVAILABLE, "the server is shutting down: watch the job again");
+  }
+  return grpc::Status::OK;
+}
+
+}  // namespace mm::service::wire

@@ -1,0 +1,66 @@
+// The rpc handlers of motionmanifold.v1.MotionManifold: each translates its
+// request to the core API's types, calls the one ManifoldCore method with
+// CallContext{"grpc", bearer token}, and translates the reply or the refusal
+// (error_status.h) back. No validation of its own: the core validates, once
+// for both protocols.
+//
+// Thread safety: the handlers run concurrently on gRPC's synchronous thread
+// pool; the service holds no state of its own beyond the core's reference
+// and the stopping flag.
+#pragma once
+
+#include <atomic>
+
+#include "core/manifold_core.h"
+#include "motionmanifold/v1/manifold.grpc.pb.h"
+
+namespace mm::service::wire {
+
+namespace v1 = ::motionmanifold::v1;
+
+// The bearer token of an "authorization: Bearer <token>" header (scheme
+// matched without regard to case, RFC 6750); empty when the header is absent
+// or of another scheme, which the core refuses where a token is needed.
+std::string bearer_token(const grpc::ServerContext& context);
+
+class ManifoldService final : public v1::MotionManifold::Service {
+ public:
+  // `core` and `stopping` outlive the service. While `stopping` is true,
+  // WatchJob streams end with UNAVAILABLE (the client watches again after
+  // the restart) so that a shutdown never waits on a job that trains for an
+  // hour.
+  ManifoldService(ManifoldCore& core, const std::atomic<bool>& stopping) : core_(core), stopping_(stopping) {}
+
+  grpc::Status Encode(grpc::ServerContext* context, const v1::EncodeRequest* request, v1::EncodeReply* reply) override;
+  grpc::Status Decode(grpc::ServerContext* context, const v1::DecodeRequest* request,
+                      v1::MotionsReply* reply) override;
+  grpc::Status Sample(grpc::ServerContext* context, const v1::SampleRequest* request,
+                      v1::MotionsReply* reply) override;
+  grpc::Status Interpolate(grpc::ServerContext* context, const v1::InterpolateRequest* request,
+                           v1::MotionsReply* reply) override;
+  grpc::Status Analogy(grpc::ServerContext* context, const v1::AnalogyRequest* request,
+                       v1::MotionsReply* reply) override;
+  grpc::Status Denoise(grpc::ServerContext* context, const v1::DenoiseRequest* request,
+                       v1::MotionsReply* reply) override;
+
+  grpc::Status ListModels(grpc::ServerContext* context, const v1::ListModelsRequest* request,
+                          v1::ListModelsReply* reply) override;
+  grpc::Status DescribeModel(grpc::ServerContext* context, const v1::DescribeModelRequest* request,
+                             v1::ModelInfo* reply) override;
+  grpc::Status ActivateModel(grpc::ServerContext* context, const v1::ActivateModelRequest* request,
+                             v1::ModelInfo* reply) override;
+
+  grpc::Status SubmitJob(grpc::ServerContext* context, const v1::SubmitJobRequest* request, v1::Job* reply) override;
+  grpc::Status GetJob(grpc::ServerContext* context, const v1::GetJobRequest* request, v1::Job* reply) override;
+  grpc::Status ListJobs(grpc::ServerContext* context, const v1::ListJobsRequest* request,
+                        v1::ListJobsReply* reply) override;
+  grpc::Status CancelJob(grpc::ServerContext* context, const v1::CancelJobRequest* request, v1::Job* reply) override;
+  grpc::Status WatchJob(grpc::ServerContext* context, const v1::WatchJobRequest* request,
+                        grpc::ServerWriter<v1::Job>* writer) override;
+
+ private:
+  ManifoldCore& core_;
+  const std::atomic<bool>& stopping_;
+};
+
+}  // namespace mm::service::wire

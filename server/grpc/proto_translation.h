@@ -1,0 +1,45 @@
+// Translation between the wire messages of motionmanifold.v1 and the core
+// API's plain types (core/api_types.h), one function per message. Fields map
+// one to one under the same names; nothing is validated here (the core
+// validates, once for both protocols).
+//
+// Proto3 cannot tell an unset field from one set to its zero value, so where
+// the core's default is not the zero value (SampleRequest.count,
+// InterpolateRequest.steps and method, DenoiseRequest.iterations,
+// JobSpec.variant) the zero value stands for the core's default; every other
+// value, zero included, reaches the core as sent.
+//
+// Thread safety: pure functions of their arguments.
+#pragma once
+
+#include "core/api_types.h"
+#include "motionmanifold/v1/manifold.pb.h"
+
+namespace mm::service::wire {
+
+namespace v1 = ::motionmanifold::v1;
+
+// Wire -> core.
+Motion to_api(const v1::Motion& motion);
+Code to_api(const v1::Code& code);
+MotionOrCode to_api(const v1::MotionOrCode& either);
+EncodeRequest to_api(const v1::EncodeRequest& request);
+DecodeRequest to_api(const v1::DecodeRequest& request);
+SampleRequest to_api(const v1::SampleRequest& request);
+InterpolateRequest to_api(const v1::InterpolateRequest& request);
+AnalogyRequest to_api(const v1::AnalogyRequest& request);
+DenoiseRequest to_api(const v1::DenoiseRequest& request);
+JobSpec to_api(const v1::JobSpec& spec);
+
+// Core -> wire: each fills `out` (cleared first).
+void to_wire(const Motion& motion, v1::Motion* out);
+void to_wire(const Code& code, v1::Code* out);
+void to_wire(const AnsweredBy& answered_by, v1::AnsweredBy* out);
+void to_wire(const EncodeReply& reply, v1::EncodeReply* out);
+void to_wire(const MotionsReply& reply, v1::MotionsReply* out);
+void to_wire(const ModelInfo& info, v1::ModelInfo* out);
+void to_wire(const JobSpec& spec, v1::JobSpec* out);
+void to_wire(const JobProgress& progress, v1::JobProgress* out);
+void to_wire(const JobInfo& info, v1::Job* out);  // state as job_state_name(): "queued", ...
+
+}  // namespace mm::service::wire
