@@ -83,8 +83,8 @@ int main(int argc, char** argv) {
       });
     }
     ManifoldCore core(config.core, metrics, jobs.get());
+    if (jobs) jobs->start();  // before the core, whose metrics read the jobs
     core.start();
-    if (jobs) jobs->start();
 
     GrpcFrontend grpc(core, config.grpc);
     grpc.start();

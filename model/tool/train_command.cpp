@@ -1,12 +1,15 @@
 // `train` and `resume`: run Trainer (Sec. 3.3) with a progress line, stop
 // cleanly on SIGINT/SIGTERM (checkpoint, export, exit 130) and export the
-// trained model with its provenance.
+// trained model with its provenance. With --progress-json each progress
+// report is also one JSON line on stdout, for a program that runs the tool
+// (the service's training jobs) to read.
 #include <signal.h>
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -64,6 +67,7 @@ class CancelOnSignal {
 struct TrainOptions {
   std::string config_path, variant, dataset, out, resume, init_from, device = "auto";
   int64_t iterations = 0;
+  bool progress_json = false;
   int batch = 0, hidden = 0;
   uint64_t seed = 0;
   CLI::Option* seed_option = nullptr;
@@ -80,11 +84,27 @@ PreparedDataset load_dataset(const std::string& path) {
   return data;
 }
 
+// One progress report as a JSON line on stdout, flushed at once so that a
+// reader on a pipe sees it when it happens:
+// {"iteration":..,"total":..,"losses":{..},"iterations_per_second":..,"eta_seconds":..}
+void print_progress_json(const TrainProgress& p) {
+  nlohmann::json losses = nlohmann::json::object();
+  // NaN/inf have no JSON spelling; null keeps the line parseable.
+  for (const auto& [name, value] : p.losses) losses[name] = std::isfinite(value) ? nlohmann::json(value) : nlohmann::json();
+  const nlohmann::json line = {{"iteration", p.iteration},
+                               {"total", p.total},
+                               {"losses", losses},
+                               {"iterations_per_second", p.iterations_per_second},
+                               {"eta_seconds", p.eta_seconds}};
+  std::fputs((line.dump() + "\n").c_str(), stdout);
+  std::fflush(stdout);
+}
+
 // Runs the trainer to its end or to a signal, then exports the model to
 // <output_dir>/model with its provenance, to which `origin` (where the run
 // started from, if not from scratch) is added. Returns the exit code.
 int train_and_export(Trainer& trainer, c10::Device device, const std::string& dataset_path,
-                     const std::string& command_line, const nlohmann::json& origin) {
+                     const std::string& command_line, const nlohmann::json& origin, bool progress_json) {
   const TrainConfig& config = trainer.config();
   ensure_directory(config.output_dir, "--out");
   write_file_atomically(config.output_dir + "/config.json", to_json_text(config));
@@ -100,8 +120,9 @@ int train_and_export(Trainer& trainer, c10::Device device, const std::string& da
   {
     CancelOnSignal cancel;
     outcome = trainer.run(
-        [&line](const TrainProgress& p) {
+        [&line, progress_json](const TrainProgress& p) {
           line.update(p.iteration, p.total, p.losses, p.iterations_per_second, p.eta_seconds);
+          if (progress_json) print_progress_json(p);
         },
         cancel.flag());
   }
@@ -157,20 +178,20 @@ TrainConfig read_config_file(const std::string& path) {
 }
 
 int run_resume(const std::string& checkpoint, const std::string& dataset_path, int64_t iterations,
-               const std::string& device_name, const std::string& command_line) {
+               const std::string& device_name, const std::string& command_line, bool progress_json) {
   check_input_file(checkpoint, "checkpoint");
   check_input_file(dataset_path, "--dataset");
   const c10::Device device = parse_device(device_name);
   const PreparedDataset data = load_dataset(dataset_path);
   auto trainer = Trainer::resume(checkpoint, data, device, iterations);
   if (trainer->config().output_dir.empty()) throw InputError(checkpoint + ": the checkpoint's run has no output_dir");
-  return train_and_export(*trainer, device, dataset_path, command_line, {{"resumed_from", checkpoint}});
+  return train_and_export(*trainer, device, dataset_path, command_line, {{"resumed_from", checkpoint}}, progress_json);
 }
 
 int run_train(const TrainOptions& o, const std::string& command_line) {
   if (!o.resume.empty()) {
     if (o.dataset.empty()) throw InputError("--resume needs --dataset (the prepared dataset the run was trained on)");
-    return run_resume(o.resume, o.dataset, o.iterations, o.device, command_line);
+    return run_resume(o.resume, o.dataset, o.iterations, o.device, command_line, o.progress_json);
   }
   TrainConfig config = o.config_path.empty() ? variant_config(o.variant) : read_config_file(o.config_path);
   if (!o.dataset.empty()) config.dataset = o.dataset;
@@ -196,10 +217,14 @@ int run_train(const TrainOptions& o, const std::string& command_line) {
     std::fprintf(stderr, "starting from %s at iteration %lld (fresh optimiser moments)\n", o.init_from.c_str(),
                  static_cast<long long>(iteration));
   }
-  return train_and_export(trainer, device, config.dataset, command_line, origin);
+  return train_and_export(trainer, device, config.dataset, command_line, origin, o.progress_json);
 }
 
 }  // namespace
+
+constexpr const char* kProgressJsonHelp =
+    "also print each progress report as one JSON line on stdout: {\"iteration\", \"total\", \"losses\" "
+    "(every loss term by name), \"iterations_per_second\", \"eta_seconds\"}; stderr is unchanged";
 
 void add_train_commands(CLI::App& app, Action& action, const std::string& command_line) {
   auto o = std::make_shared<TrainOptions>();
@@ -231,11 +256,13 @@ void add_train_commands(CLI::App& app, Action& action, const std::string& comman
       "start from the weights of this exported model (same shape and dataset) at the iteration its manifest "
       "records, with fresh optimiser moments: for continuing a model whose checkpoint is not at hand");
   init_from->excludes(resume);
+  train->add_flag("--progress-json", o->progress_json, kProgressJsonHelp);
   train->callback([o, &action, &command_line] { action = [o, &command_line] { return run_train(*o, command_line); }; });
 
   struct ResumeOptions {
     std::string checkpoint, dataset, device = "auto";
     int64_t iterations = 0;
+    bool progress_json = false;
   };
   auto r = std::make_shared<ResumeOptions>();
   auto* resume_command = app.add_subcommand(
@@ -245,8 +272,11 @@ void add_train_commands(CLI::App& app, Action& action, const std::string& comman
   resume_command->add_option("--iterations", r->iterations, "new total number of iterations")
       ->check(at_least(1));
   resume_command->add_option("--device", r->device, "cpu, cuda or auto (CUDA when available)")->capture_default_str();
+  resume_command->add_flag("--progress-json", r->progress_json, kProgressJsonHelp);
   resume_command->callback([r, &action, &command_line] {
-    action = [r, &command_line] { return run_resume(r->checkpoint, r->dataset, r->iterations, r->device, command_line); };
+    action = [r, &command_line] {
+      return run_resume(r->checkpoint, r->dataset, r->iterations, r->device, command_line, r->progress_json);
+    };
   });
 }
 

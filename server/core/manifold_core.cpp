@@ -238,7 +238,11 @@ void ManifoldCore::start() {
   if (state_->jobs) {
     state_->job_gauges = std::thread([state = state_.get()] {
       while (!state->stopping) {
-        state->metrics.set_job_counts(state->jobs->counts());
+        try {
+          state->metrics.set_job_counts(state->jobs->counts());
+        } catch (const std::exception& e) {
+          spdlog::debug("job gauges not updated: {}", e.what());
+        }
         for (int i = 0; i < 10 && !state->stopping; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
       }
     });

@@ -17,7 +17,8 @@ namespace {
 const char* const kManifest = "manifest.json";
 
 bool is_plain_name(const std::string& name) {
-  if (name.empty() || name.size() > 128 || name == "." || name == "..") return false;
+  // A leading dot marks a folder being copied in (a job publishing its model).
+  if (name.empty() || name.size() > 128 || name.front() == '.') return false;
   return std::all_of(name.begin(), name.end(),
                      [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-'; });
 }

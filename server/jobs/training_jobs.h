@@ -9,6 +9,13 @@
 // that succeeds publishes its model into the model store (copied to a
 // temporary folder, then renamed) under spec.model_name or "job-<id>".
 //
+// Layout: <state_dir>/jobs.sqlite (the records, WAL mode) and one folder
+// <state_dir>/jobs/<id>/ per job: train.log (the children's stderr),
+// config.json (the training configuration given to the tool, with
+// checkpoint_every set from JobsConfig), dataset.mmd (prepared from a text
+// tree) and run/ (the tool's output: checkpoint.pt, train_log.csv, model/).
+// The store gets hidden ".job-<id>.tmp" folders while a model is copied.
+//
 // Torch-free: it only starts processes and keeps records.
 // Thread safety: every public method may be called from any thread.
 #pragma once
@@ -50,16 +57,24 @@ class TrainingJobs {
 
   // Validates the spec (dataset under the data root and a dataset; variant;
   // numbers in range) and queues it; returns the new record at once.
-  // ApiError INVALID_ARGUMENT naming the field otherwise.
+  // ApiError INVALID_ARGUMENT naming the field otherwise (see
+  // job_spec_check.h); FAILED_PRECONDITION "model_name" for a name already
+  // in the store or claimed by an unfinished job; RESOURCE_EXHAUSTED when
+  // max_queued jobs are queued; UNAVAILABLE before start() or after
+  // shutdown(). The job trains with seed `spec.seed` always.
   JobInfo submit(const JobSpec& spec);
   JobInfo get(const std::string& id) const;  // NOT_FOUND for an unknown id
   std::vector<JobInfo> list() const;         // newest first
   // Cancels a queued or running job (a running one stops at its next
   // iteration). FAILED_PRECONDITION for a job already finished.
+  // The record says cancelled on return; a running child gets SIGTERM within
+  // ~200 ms and exits after its iteration and checkpoint. A job already
+  // publishing its model cannot be cancelled (FAILED_PRECONDITION).
   JobInfo cancel(const std::string& id);
   // Calls `on_event` with the job's record now and after every change, until
   // the job is finished (the last call carries the terminal state),
-  // `on_event` returns false, or *stop becomes true.
+  // `on_event` returns false, or *stop becomes true (looked at every
+  // ~200 ms), or shutdown() was called. Runs on the caller's thread.
   void watch(const std::string& id, const std::function<bool(const JobInfo&)>& on_event,
              const std::atomic<bool>* stop) const;
   // Jobs per state, for the metrics.

@@ -1,0 +1,162 @@
+#include "jobs/job_spec_check.h"
+
+#include <algorithm>
+#include <cstring>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <regex>
+
+namespace mm::service {
+namespace {
+
+namespace fs = std::filesystem;
+
+[[noreturn]] void refuse(const std::string& field, const std::string& message) {
+  throw ApiError(ErrorCode::kInvalidArgument, field, message);
+}
+
+std::string quoted(const std::string& value) { return nlohmann::json(value).dump(); }
+
+bool is_under(const fs::path& path, const fs::path& root) {
+  // Component by component, so that /data/root2 is not taken for a child
+  // of /data/root.
+  const auto mismatch = std::mismatch(root.begin(), root.end(), path.begin(), path.end());
+  return mismatch.first == root.end();
+}
+
+// The magic and version of format/prepared_dataset.h: enough to tell a
+// prepared dataset from anything else without loading it.
+bool has_prepared_dataset_header(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  char header[12] = {};
+  if (!in.read(header, sizeof header)) return false;
+  if (std::memcmp(header, "MMPREP\r\n", 8) != 0) return false;
+  const auto* v = reinterpret_cast<const unsigned char*>(header + 8);
+  const uint32_t version = v[0] | (v[1] << 8) | (v[2] << 16) | (static_cast<uint32_t>(v[3]) << 24);
+  return version == 1;
+}
+
+bool is_subject_name(const std::string& name) { return std::regex_match(name, std::regex("S[0-9]+")); }
+
+// A subject folder's motion files are <action>_<take>.txt.
+bool holds_motion_files(const fs::path& folder) {
+  static const std::regex motion_file("[a-z]+_[0-9]+\\.txt");
+  std::error_code error;
+  for (const auto& entry : fs::directory_iterator(folder, error)) {
+    if (std::regex_match(entry.path().filename().string(), motion_file) && entry.is_regular_file(error)) return true;
+  }
+  return false;
+}
+
+std::vector<std::string> subjects_with_motion_files(const fs::path& folder) {
+  std::vector<std::string> subjects;
+  std::error_code error;
+  for (const auto& entry : fs::directory_iterator(folder, error)) {
+    const std::string name = entry.path().filename().string();
+    if (is_subject_name(name) && entry.is_directory(error) && holds_motion_files(entry.path())) {
+      subjects.push_back(name);
+    }
+  }
+  std::sort(subjects.begin(), subjects.end(), [](const std::string& a, const std::string& b) {
+    return std::stoi(a.substr(1)) < std::stoi(b.substr(1));
+  });
+  return subjects;
+}
+
+}  // namespace
+
+const std::vector<std::string>& job_variants() {
+  static const std::vector<std::string> variants{"S", "D", "DK", "DKG", "DKGM", "DKGMZ", "Seq2seq"};
+  return variants;
+}
+
+JobDataset resolve_job_dataset(const std::string& data_root, const std::string& dataset) {
+  if (dataset.empty()) {
+    refuse("dataset", "dataset is empty, expected a prepared dataset file (.mmd) or an H3.6M text tree under the "
+                      "data root");
+  }
+  std::error_code error;
+  const fs::path root = fs::weakly_canonical(fs::path(data_root), error);
+  if (error) throw ApiError(ErrorCode::kInternal, "", "data root " + data_root + ": " + error.message());
+  const fs::path path = fs::weakly_canonical(root / dataset, error);
+  if (error || !is_under(path, root)) {
+    refuse("dataset", "dataset " + quoted(dataset) + " lies outside the data root, expected a path under it");
+  }
+  JobDataset result;
+  result.path = path;
+  if (fs::is_regular_file(path, error)) {
+    if (!has_prepared_dataset_header(path)) {
+      refuse("dataset", "dataset " + quoted(dataset) +
+                            " is not a prepared dataset file (no MMPREP header of version 1), expected a file "
+                            "written by motion-manifold prepare or an H3.6M text tree");
+    }
+    result.prepared = true;
+    return result;
+  }
+  if (!fs::is_directory(path, error)) {
+    refuse("dataset", "dataset " + quoted(dataset) +
+                          " does not exist, expected a prepared dataset file (.mmd) or an H3.6M text tree");
+  }
+  // The tool's own search (h36m_corpus.h): the folder itself, then
+  // h3.6m/dataset and dataset below it.
+  for (const fs::path& candidate : {path, path / "h3.6m" / "dataset", path / "dataset"}) {
+    if (!fs::is_directory(candidate, error)) continue;
+    auto subjects = subjects_with_motion_files(candidate);
+    if (subjects.empty()) continue;
+    if (std::all_of(subjects.begin(), subjects.end(), [](const std::string& s) { return s == "S5"; })) {
+      refuse("dataset", "dataset " + quoted(dataset) +
+                            " holds only the test subject S5, expected at least one training subject (S1, ...)");
+    }
+    result.path = candidate;
+    result.subjects = std::move(subjects);
+    return result;
+  }
+  refuse("dataset", "dataset " + quoted(dataset) +
+                        " is a folder without H3.6M motion files, expected S1, S5, ... folders holding "
+                        "<action>_<n>.txt files (in it, in h3.6m/dataset or in dataset below it)");
+}
+
+void check_job_spec(const JobSpec& spec) {
+  const auto& variants = job_variants();
+  nlohmann::json config;
+  if (!spec.config_json.empty()) {
+    try {
+      config = nlohmann::json::parse(spec.config_json);
+    } catch (const nlohmann::json::exception& e) {
+      refuse("config", std::string("config is not valid JSON (") + e.what() + "), expected a JSON object");
+    }
+    if (!config.is_object()) refuse("config", "config is JSON " + std::string(config.type_name()) + ", expected an object");
+    if (config.contains("variant")) {
+      const auto& v = config["variant"];
+      if (!v.is_string() || std::find(variants.begin(), variants.end(), v.get<std::string>()) == variants.end()) {
+        refuse("config", "config's \"variant\" is " + v.dump() + ", expected one of S, D, DK, DKG, DKGM, DKGMZ, Seq2seq");
+      }
+    }
+  }
+  // A configuration replaces the variant, which may then be left empty.
+  const bool variant_needed = spec.config_json.empty() || !spec.variant.empty();
+  if (variant_needed && std::find(variants.begin(), variants.end(), spec.variant) == variants.end()) {
+    refuse("variant", "variant " + quoted(spec.variant) + " is unknown, expected one of S, D, DK, DKG, DKGM, DKGMZ, Seq2seq");
+  }
+  if (spec.iterations < 0 || spec.iterations > 10'000'000) {
+    refuse("iterations", "iterations " + std::to_string(spec.iterations) +
+                             " is out of range, expected 0 (the configuration's) to 10000000");
+  }
+  if (spec.hidden != 0 && (spec.hidden < 8 || spec.hidden > 4096)) {
+    refuse("hidden", "hidden " + std::to_string(spec.hidden) + " is out of range, expected 0 (the configuration's) or 8 to 4096");
+  }
+  if (spec.batch != 0 && (spec.batch < 1 || spec.batch > 1024)) {
+    refuse("batch", "batch " + std::to_string(spec.batch) + " is out of range, expected 0 (the configuration's) or 1 to 1024");
+  }
+  if (!spec.model_name.empty()) {
+    static const std::regex name("[A-Za-z0-9._-]{1,64}");
+    if (!std::regex_match(spec.model_name, name) || spec.model_name == "." || spec.model_name == ".." ||
+        spec.model_name[0] == '.') {
+      refuse("model_name", "model_name " + quoted(spec.model_name) +
+                               " is not a model name, expected 1 to 64 of A-Z a-z 0-9 . _ - not starting with a dot "
+                               "(or empty for job-<id>)");
+    }
+  }
+}
+
+}  // namespace mm::service

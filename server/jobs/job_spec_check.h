@@ -1,0 +1,45 @@
+// Submission checks of a training job's spec: each refusal is an ApiError
+// naming the field as the wire spells it ("dataset", "variant", ...), with
+// the value and what was expected, so that a bad job fails when it is
+// submitted and not minutes later in the worker.
+//
+// Torch-free: a prepared dataset is recognised by its magic bytes and
+// version (format/prepared_dataset.h), a text tree by its S*/<action>_<n>.txt
+// files, without reading either. Thread safe (no shared state).
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "core/api_types.h"
+
+namespace mm::service {
+
+// A job's dataset, resolved to an absolute path inside the data root.
+struct JobDataset {
+  std::filesystem::path path;  // the .mmd file, or the folder holding S1, S5, ...
+  bool prepared = false;       // a prepared dataset file, not a text tree
+  // A text tree's subjects that hold motion files, sorted (S1, S5, S6, ...).
+  std::vector<std::string> subjects;
+};
+
+// Resolves `dataset` (relative to `data_root`, or absolute) with `..` and
+// symbolic links followed, and checks that it lies under the data root and
+// is a prepared dataset file or an H3.6M text tree with at least one
+// training subject (any subject but the test subject S5). ApiError
+// INVALID_ARGUMENT with field "dataset" otherwise.
+JobDataset resolve_job_dataset(const std::string& data_root, const std::string& dataset);
+
+// Checks the spec's other fields: variant (one of S D DK DKG DKGM DKGMZ
+// Seq2seq, unless a configuration replaces it), iterations 0..10,000,000,
+// hidden 0 or 8..4096, batch 0 or 1..1024, config (empty or a JSON object
+// whose "variant", if any, is a known one) and the form of model_name
+// ([A-Za-z0-9._-]{1,64}, not "." or "..", or empty). ApiError
+// INVALID_ARGUMENT naming the field otherwise.
+void check_job_spec(const JobSpec& spec);
+
+// The Table 1 variants the tool trains.
+const std::vector<std::string>& job_variants();
+
+}  // namespace mm::service

@@ -1,0 +1,379 @@
+#include "rest/rest_frontend.h"
+
+#include <httplib.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cctype>
+#include <chrono>
+#include <condition_variable>
+#include <mutex>
+#include <set>
+#include <stdexcept>
+#include <thread>
+
+#include "rest/http_errors.h"
+#include "rest/json_translation.h"
+#include "rest/openapi_document.h"
+#include "rest/rest_routes.h"
+
+namespace mm::service {
+
+namespace {
+
+using rest::RouteId;
+
+constexpr const char* kJsonType = "application/json";
+constexpr const char* kPrometheusType = "text/plain; version=0.0.4; charset=utf-8";
+// An idle event stream writes an SSE comment this often: the only way to
+// notice a client that went away while its job did not change (a queued
+// job can wait for hours), so that its worker thread is freed.
+constexpr auto kKeepAliveInterval = std::chrono::seconds(2);
+
+// The bearer token of "Authorization: Bearer <t>" (the scheme is
+// case-insensitive, RFC 7235); empty when absent or of another scheme, which
+// the core treats as a missing token.
+std::string bearer_token(const httplib::Request& request) {
+  const std::string header = request.get_header_value("Authorization");
+  if (header.size() < 7) return "";
+  std::string scheme = header.substr(0, 7);
+  for (char& c : scheme) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (scheme != "bearer ") return "";
+  const size_t start = header.find_first_not_of(' ', 7);
+  return start == std::string::npos ? "" : header.substr(start);
+}
+
+void send_json(httplib::Response& response, int status, const std::string& body) {
+  response.status = status;
+  response.set_content(body, kJsonType);
+}
+
+void send_error(httplib::Response& response, const ApiError& error) {
+  response.status = rest::http_status(error);
+  if (error.code() == ErrorCode::kUnauthenticated) response.set_header("WWW-Authenticate", "Bearer");
+  response.set_content(rest::error_body(error), kJsonType);
+}
+
+// One open event stream: its stop flag (read by the core's watch) and what
+// wakes its keep-alive writer.
+struct EventStream {
+  std::atomic<bool> stop{false};
+  std::mutex mutex;
+  std::condition_variable wake;
+  bool finished = false;  // guarded by mutex
+
+  void request_stop() {
+    stop = true;
+    std::lock_guard<std::mutex> lock(mutex);
+    wake.notify_all();
+  }
+};
+
+}  // namespace
+
+struct RestFrontend::State {
+  ManifoldCore& core;
+  ServiceMetrics& metrics;
+  RestOptions options;
+  std::unique_ptr<httplib::Server> server;
+  std::thread serve_thread;
+  std::atomic<int> port{-1};
+
+  std::mutex streams_mutex;
+  std::set<std::shared_ptr<EventStream>> streams;  // guarded by streams_mutex
+  bool shutting_down = false;                      // guarded by streams_mutex
+
+  State(ManifoldCore& c, ServiceMetrics& m, RestOptions o) : core(c), metrics(m), options(std::move(o)) {}
+
+  void handle(RouteId route, const httplib::Request& request, const std::string& body, httplib::Response& response);
+  bool read_body(const httplib::Request& request, const httplib::ContentReader& reader, std::string& body,
+                 httplib::Response& response) const;
+  void stream_job_events(const CallContext& context, const std::string& id, httplib::Response& response);
+  bool write_job_events(const CallContext& context, const std::string& id, EventStream& stream,
+                        httplib::DataSink& sink);
+  void install_error_handlers();
+};
+
+// Reads a POST body through httplib's content reader rather than letting
+// httplib fill request.body: cpp-httplib 0.11 checks its payload limit only
+// against Content-Length, so a chunked body would grow without bound, and it
+// reads a request without Content-Length until the connection closes, where
+// RFC 9112 (6.3) says such a request has no body. Answers the error and
+// returns false when the body is too large or unreadable.
+bool RestFrontend::State::read_body(const httplib::Request& request, const httplib::ContentReader& reader,
+                                    std::string& body, httplib::Response& response) const {
+  if (!request.has_header("Content-Length") && !request.has_header("Transfer-Encoding")) return true;
+  bool too_large = false;
+  const bool ok = reader([&](const char* data, size_t length) {
+    if (body.size() + length > options.max_body_bytes) {
+      too_large = true;
+      return false;
+    }
+    body.append(data, length);
+    return true;
+  });
+  if (ok) return true;
+  // httplib sets 413 itself when Content-Length is over the limit.
+  if (too_large || response.status == 413) {
+    send_error(response, ApiError(ErrorCode::kResourceExhausted, "",
+                                  "the request body exceeds the limit of " + std::to_string(options.max_body_bytes) +
+                                      " bytes (--max-message-bytes)",
+                                  /*too_large=*/true));
+  } else {
+    send_error(response, ApiError(ErrorCode::kInvalidArgument, "", "the request body could not be read"));
+  }
+  // What is left of the body must not be read as the next request.
+  response.set_header("Connection", "close");
+  return false;
+}
+
+void RestFrontend::State::handle(RouteId route, const httplib::Request& request, const std::string& body,
+                                 httplib::Response& response) {
+  const CallContext context{"rest", bearer_token(request)};
+  try {
+    switch (route) {
+      case RouteId::kEncode:
+        return send_json(response, 200,
+                         rest::encode_reply_to_json(core.encode(context, rest::encode_request_from_json(body))));
+      case RouteId::kDecode:
+        return send_json(response, 200,
+                         rest::motions_reply_to_json(core.decode(context, rest::decode_request_from_json(body))));
+      case RouteId::kSample:
+        return send_json(response, 200,
+                         rest::motions_reply_to_json(core.sample(context, rest::sample_request_from_json(body))));
+      case RouteId::kInterpolate:
+        return send_json(
+            response, 200,
+            rest::motions_reply_to_json(core.interpolate(context, rest::interpolate_request_from_json(body))));
+      case RouteId::kAnalogy:
+        return send_json(response, 200,
+                         rest::motions_reply_to_json(core.analogy(context, rest::analogy_request_from_json(body))));
+      case RouteId::kDenoise:
+        return send_json(response, 200,
+                         rest::motions_reply_to_json(core.denoise(context, rest::denoise_request_from_json(body))));
+      case RouteId::kListModels:
+        return send_json(response, 200, rest::model_list_to_json(core.list_models(context)));
+      case RouteId::kDescribeModel:
+        return send_json(response, 200, rest::model_info_to_json(core.describe_model(context, request.matches[1].str())));
+      case RouteId::kActivateModel:
+        rest::empty_request_from_json(body);
+        return send_json(response, 200, rest::model_info_to_json(core.activate_model(context, request.matches[1].str())));
+      case RouteId::kSubmitJob:
+        return send_json(response, 200,
+                         rest::job_info_to_json(core.submit_job(context, rest::job_spec_from_json(body))));
+      case RouteId::kListJobs:
+        return send_json(response, 200, rest::job_list_to_json(core.list_jobs(context)));
+      case RouteId::kGetJob:
+        return send_json(response, 200, rest::job_info_to_json(core.get_job(context, request.matches[1].str())));
+      case RouteId::kCancelJob:
+        rest::empty_request_from_json(body);
+        return send_json(response, 200, rest::job_info_to_json(core.cancel_job(context, request.matches[1].str())));
+      case RouteId::kJobEvents:
+        return stream_job_events(context, request.matches[1], response);
+      case RouteId::kHealth:
+        return send_json(response, 200, R"({"status":"alive"})");
+      case RouteId::kReady:
+        if (!core.ready()) throw ApiError(ErrorCode::kUnavailable, "", "not ready: no model is loaded yet, or the server is shutting down");
+        return send_json(response, 200, R"({"status":"ready"})");
+      case RouteId::kMetrics:
+        response.status = 200;
+        return response.set_content(metrics.text(), kPrometheusType);
+      case RouteId::kOpenApi: {
+        const std::string_view document = rest::openapi_document();
+        return send_json(response, 200, std::string(document));
+      }
+    }
+    throw ApiError(ErrorCode::kInternal, "", "route without a handler");
+  } catch (const ApiError& error) {
+    send_error(response, error);
+  } catch (const std::exception& error) {
+    send_error(response, ApiError(ErrorCode::kInternal, "", error.what()));
+  }
+}
+
+void RestFrontend::State::stream_job_events(const CallContext& context, const std::string& id,
+                                            httplib::Response& response) {
+  // Asked first so that an unknown job (or a missing token) is an ordinary
+  // error reply: once the stream has begun its status is sent.
+  core.get_job(context, id);
+  auto stream = std::make_shared<EventStream>();
+  {
+    std::lock_guard<std::mutex> lock(streams_mutex);
+    if (shutting_down) throw ApiError(ErrorCode::kUnavailable, "", "the server is shutting down");
+    streams.insert(stream);
+  }
+  response.status = 200;
+  response.set_header("Cache-Control", "no-cache");
+  response.set_chunked_content_provider(
+      "text/event-stream",
+      [this, context, id, stream](size_t, httplib::DataSink& sink) {
+        return write_job_events(context, id, *stream, sink);
+      },
+      [this, stream](bool) {
+        std::lock_guard<std::mutex> lock(streams_mutex);
+        streams.erase(stream);
+      });
+}
+
+// Runs on the connection's worker thread until the job ends, the client
+// goes away or the frontend shuts down. The core's watch blocks between
+// changes; a keep-alive thread meanwhile finds a client that left.
+bool RestFrontend::State::write_job_events(const CallContext& context, const std::string& id, EventStream& stream,
+                                           httplib::DataSink& sink) {
+  std::mutex sink_mutex;  // the sink is written from this thread and the keep-alive thread
+  bool failed = false;    // guarded by sink_mutex
+  auto write = [&](const std::string& text) {
+    std::lock_guard<std::mutex> lock(sink_mutex);
+    if (!failed && !sink.write(text.data(), text.size())) failed = true;
+    if (failed) stream.stop = true;
+    return !failed;
+  };
+  std::thread keep_alive([&] {
+    std::unique_lock<std::mutex> lock(stream.mutex);
+    while (!stream.finished && !stream.stop) {
+      if (stream.wake.wait_for(lock, kKeepAliveInterval, [&] { return stream.finished || stream.stop.load(); }))
+        break;
+      lock.unlock();
+      const bool ok = write(": keep-alive\n\n");
+      lock.lock();
+      if (!ok) break;
+    }
+  });
+  try {
+    core.watch_job(
+        context, id, [&](const JobInfo& job) { return write("event: job\ndata: " + rest::job_info_to_json(job) + "\n\n"); },
+        &stream.stop);
+  } catch (const ApiError& error) {
+    write("event: error\ndata: " + rest::error_body(error) + "\n\n");
+  } catch (const std::exception& error) {
+    write("event: error\ndata: " + rest::error_body("INTERNAL", "", error.what()) + "\n\n");
+  }
+  {
+    std::lock_guard<std::mutex> lock(stream.mutex);
+    stream.finished = true;
+    stream.wake.notify_all();
+  }
+  keep_alive.join();
+  if (failed) return false;
+  sink.done();
+  return true;
+}
+
+void RestFrontend::State::install_error_handlers() {
+  // httplib calls the error handler for every reply of status >= 400, ours
+  // included; it only fills in the replies httplib made itself (no route,
+  // body too large, unreadable request), which have no body yet.
+  httplib::Server::HandlerWithResponse on_error = [this](const httplib::Request& request,
+                                                         httplib::Response& response) {
+    if (!response.body.empty()) return httplib::Server::HandlerResponse::Unhandled;
+    std::string message;
+    std::string field;
+    switch (response.status) {
+      case 404:
+        message = "no route " + request.method + " " + request.path + " (the routes are listed at /v1/openapi.json)";
+        break;
+      case 413:
+        message = "the request body exceeds the limit of " + std::to_string(options.max_body_bytes) +
+                  " bytes (--max-message-bytes)";
+        break;
+      default:
+        message = "the HTTP request was refused (status " + std::to_string(response.status) + ")";
+    }
+    response.set_content(rest::error_body(rest::error_code_name_for_status(response.status), field, message),
+                         kJsonType);
+    return httplib::Server::HandlerResponse::Handled;
+  };
+  server->set_error_handler(on_error);
+  server->set_exception_handler([](const httplib::Request&, httplib::Response& response, std::exception_ptr error) {
+    std::string message = "unexpected error";
+    try {
+      if (error) std::rethrow_exception(error);
+    } catch (const std::exception& e) {
+      message = e.what();
+    } catch (...) {
+    }
+    send_error(response, ApiError(ErrorCode::kInternal, "", message));
+  });
+}
+
+RestFrontend::RestFrontend(ManifoldCore& core, ServiceMetrics& metrics, RestOptions options)
+    : state_(std::make_unique<State>(core, metrics, std::move(options))) {}
+
+RestFrontend::~RestFrontend() { shutdown(); }
+
+void RestFrontend::start() {
+  State& s = *state_;
+  if (s.server) throw std::runtime_error("the REST frontend is already started");
+  const bool tls = !s.options.tls_cert_file.empty() || !s.options.tls_key_file.empty();
+  if (tls) {
+    if (s.options.tls_cert_file.empty() || s.options.tls_key_file.empty())
+      throw std::runtime_error("REST TLS needs both a certificate and a key (--tls-cert and --tls-key)");
+    auto server =
+        std::make_unique<httplib::SSLServer>(s.options.tls_cert_file.c_str(), s.options.tls_key_file.c_str());
+    if (!server->is_valid())
+      throw std::runtime_error("cannot use the TLS certificate " + s.options.tls_cert_file + " with the key " +
+                               s.options.tls_key_file + " for the REST frontend");
+    s.server = std::move(server);
+  } else {
+    s.server = std::make_unique<httplib::Server>();
+  }
+  httplib::Server& server = *s.server;
+  const size_t threads = static_cast<size_t>(std::max(1, s.options.threads));
+  server.new_task_queue = [threads] { return new httplib::ThreadPool(threads); };
+  server.set_payload_max_length(s.options.max_body_bytes);
+  // Idle keep-alive connections hold a worker and delay shutdown by as long.
+  server.set_keep_alive_timeout(2);
+  s.install_error_handlers();
+  for (const rest::RestRoute& route : rest::rest_routes()) {
+    const RouteId id = route.id;
+    const std::string pattern = rest::route_regex(route.path_template);
+    if (route.method == "GET") {
+      server.Get(pattern, [&s, id](const httplib::Request& request, httplib::Response& response) {
+        s.handle(id, request, std::string(), response);
+      });
+    } else {
+      server.Post(pattern, httplib::Server::HandlerWithContentReader(
+                               [&s, id](const httplib::Request& request, httplib::Response& response,
+                                        const httplib::ContentReader& reader) {
+                                 std::string body;
+                                 if (s.read_body(request, reader, body, response)) s.handle(id, request, body, response);
+                               }));
+    }
+  }
+
+  const std::string where = s.options.address + ":" + std::to_string(s.options.port);
+  int port = s.options.port;
+  if (port == 0) {
+    port = server.bind_to_any_port(s.options.address);
+    if (port <= 0) port = -1;
+  } else if (!server.bind_to_port(s.options.address, port)) {
+    port = -1;
+  }
+  if (port < 0) {
+    s.server.reset();
+    throw std::runtime_error("the REST frontend cannot listen on " + where);
+  }
+  s.port = port;
+  s.serve_thread = std::thread([&server] { server.listen_after_bind(); });
+  // httplib's stop() does nothing before the serving thread has marked the
+  // server running; waiting here makes an early shutdown() reliable.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (!server.is_running() && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+}
+
+int RestFrontend::port() const { return state_->port; }
+
+void RestFrontend::shutdown() {
+  State& s = *state_;
+  {
+    std::lock_guard<std::mutex> lock(s.streams_mutex);
+    s.shutting_down = true;
+    for (const auto& stream : s.streams) stream->request_stop();
+  }
+  if (s.server) s.server->stop();
+  // Joining the pool (inside listen_after_bind) lets requests in flight finish.
+  if (s.serve_thread.joinable()) s.serve_thread.join();
+}
+
+}  // namespace mm::service

@@ -1,0 +1,51 @@
+// The REST/JSON frontend: an HTTP(S) server (cpp-httplib) that translates
+// each route to one call of ManifoldCore and its answer back to JSON, with
+// the same error model as gRPC (http_errors.h). It validates only what JSON
+// itself can get wrong (syntax, a field's type, the body's size); every
+// other check is the core's. Routes: rest_routes.h and openapi.json.
+//
+// Thread safety: start(), port() and shutdown() may be called from any
+// thread; requests are served by `threads` worker threads that call the
+// core concurrently.
+#pragma once
+
+#include <cstddef>
+#include <memory>
+#include <string>
+
+#include "core/manifold_core.h"
+#include "core/service_metrics.h"
+
+namespace mm::service {
+
+struct RestOptions {
+  std::string address = "0.0.0.0";
+  int port = 8080;                   // 0: any free port (see RestFrontend::port)
+  size_t max_body_bytes = 64 << 20;  // larger request bodies: 413 naming the limit
+  std::string tls_cert_file, tls_key_file;  // both given: HTTPS; neither: plain HTTP
+  int threads = 16;                  // worker threads (each serves one connection at a time)
+};
+
+class RestFrontend {
+ public:
+  // `core` and `metrics` outlive the frontend.
+  RestFrontend(ManifoldCore& core, ServiceMetrics& metrics, RestOptions options);
+  ~RestFrontend();  // shutdown()
+  RestFrontend(const RestFrontend&) = delete;
+  RestFrontend& operator=(const RestFrontend&) = delete;
+
+  // Binds the address and serves on a thread of its own. Throws
+  // std::runtime_error naming the address (or the TLS files) when it cannot.
+  void start();
+  // The bound port (the chosen one when options.port was 0); -1 before start().
+  int port() const;
+  // Stops accepting connections, ends open event streams and waits for the
+  // requests in flight to finish. Idempotent.
+  void shutdown();
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
+
+}  // namespace mm::service
