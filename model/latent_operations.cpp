@@ -93,6 +93,8 @@ at::Tensor interpolate_codes(const at::Tensor& a, const at::Tensor& b, int steps
   auto t = at::linspace(0.0, 1.0, steps).unsqueeze(1);
   if (!spherical) return a.unsqueeze(0) * (1 - t) + b.unsqueeze(0) * t;
   const double norm_a = a.norm().item<double>(), norm_b = b.norm().item<double>();
+  // A zero code has no direction: the arc is undefined, the line is not.
+  if (norm_a < 1e-12 || norm_b < 1e-12) return a.unsqueeze(0) * (1 - t) + b.unsqueeze(0) * t;
   const double cos_angle = std::clamp(a.dot(b).item<double>() / std::max(norm_a * norm_b, 1e-12), -1.0, 1.0);
   const double angle = std::acos(cos_angle);
   if (angle < 1e-6) return a.unsqueeze(0) * (1 - t) + b.unsqueeze(0) * t;  // parallel: slerp is linear

@@ -35,7 +35,8 @@ std::vector<MotionFrames> decode_codes(const MotionManifold& model, const at::Te
 at::Tensor sample_codes(const MotionManifold& model, int n, uint64_t seed, double prior_variance = 1.0);
 
 // `steps` codes from a to b inclusive (steps >= 2): linear, or spherical
-// (slerp on the angle between a and b, scaled by the interpolated norm).
+// (slerp on the angle between a and b, scaled by the interpolated norm;
+// linear when either code is zero, which has no direction).
 at::Tensor interpolate_codes(const at::Tensor& a, const at::Tensor& b, int steps, bool spherical);
 
 // a - b + c (Sec. 5.5).

@@ -417,6 +417,18 @@ RunEnd TrainingJobs::State::run_job(JobInfo& job) {
 RunEnd TrainingJobs::State::run_child(JobInfo& job, const std::vector<std::string>& argv, const std::string& what) {
   const fs::path log = job_dir(job.id) / "train.log";
   {
+    // A shutdown or cancel that came while the previous step (prepare) ended
+    // must not start the next one.
+    std::lock_guard<std::mutex> lock(mutex);
+    if (cancel_running) return RunEnd::kCancelled;
+    if (stopping) {
+      job.state = JobState::kQueued;
+      store->update_state_if(job, JobState::kRunning);
+      notify_locked();
+      return RunEnd::kStopped;
+    }
+  }
+  {
     std::ofstream(log, std::ios::app) << "== " << what << " (" << std::fixed << unix_now() << ")\n";
   }
   ChildProcess child({argv, config.training_threads, log.string(), /*stdout_to_pipe=*/true});

@@ -148,6 +148,16 @@ TEST(LatentOperations, InterpolationRunsFromTheFirstCodeToTheSecond) {
   EXPECT_THROW(interpolate_codes(a, at::randn({7}), 3, false), InputError);
 }
 
+TEST(LatentOperations, SphericalInterpolationFromTheZeroCodeIsTheLine) {
+  // The origin has no direction, so there is no arc: the path is the line,
+  // finite throughout.
+  auto zero = at::zeros({8}), b = at::randn({8});
+  const auto path = interpolate_codes(zero, b, 5, true);
+  EXPECT_TRUE(at::isfinite(path).all().item<bool>());
+  EXPECT_TRUE(at::allclose(path, interpolate_codes(zero, b, 5, false)));
+  EXPECT_TRUE(at::isfinite(interpolate_codes(b, zero, 3, true)).all().item<bool>());
+}
+
 TEST(LatentOperations, AnalogyIsAMinusBPlusC) {
   auto a = at::randn({8}), b = at::randn({8}), c = at::randn({8});
   EXPECT_TRUE(at::allclose(analogy_code(a, b, c), a - b + c));
