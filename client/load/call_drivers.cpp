@@ -92,6 +92,7 @@ class RestDriver : public CallDriver {
   RestDriver(const std::string& host, int port, const LoadCall& call, unsigned seed)
       : client_(host, port), path_("/v1/" + call.operation) {
     client_.set_keep_alive(true);
+    client_.set_tcp_nodelay(true);  // headers and body go out in two writes
     client_.set_read_timeout(120, 0);
     std::mt19937 engine(seed);
     nlohmann::json body = {{"model", call.model}};

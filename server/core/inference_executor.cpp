@@ -9,6 +9,8 @@
 #include "core/service_metrics.h"
 #include "latent_operations.h"
 
+#include <spdlog/spdlog.h>
+
 namespace mm::service {
 
 using Clock = std::chrono::steady_clock;
@@ -47,7 +49,30 @@ InferenceExecutor::~InferenceExecutor() {
   thread_.join();
 }
 
-InferenceExecutor::Expected::Expected(InferenceExecutor& executor) : executor_(executor) { ++executor_.expected_; }
+namespace {
+int64_t now_us() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(Clock::now().time_since_epoch()).count();
+}
+constexpr int64_t kConcurrencyWindowUs = 1000000;
+}  // namespace
+
+InferenceExecutor::Expected::Expected(InferenceExecutor& executor) : executor_(executor) {
+  const int in_flight = ++executor_.expected_;
+  const int64_t now = now_us();
+  int64_t start = executor_.window_start_us_.load();
+  if (now - start > kConcurrencyWindowUs && executor_.window_start_us_.compare_exchange_strong(start, now)) {
+    executor_.previous_window_peak_.store(executor_.window_peak_.exchange(0));
+  }
+  int peak = executor_.window_peak_.load();
+  while (in_flight > peak && !executor_.window_peak_.compare_exchange_weak(peak, in_flight)) {
+  }
+}
+
+int InferenceExecutor::recent_concurrency() const {
+  // A window that ended long ago says nothing about now.
+  if (now_us() - window_start_us_.load() > 2 * kConcurrencyWindowUs) return 1;
+  return std::max(window_peak_.load(), previous_window_peak_.load());
+}
 
 InferenceExecutor::Expected::~Expected() {
   --executor_.expected_;
@@ -121,7 +146,8 @@ std::vector<std::shared_ptr<InferenceExecutor::Request>> InferenceExecutor::next
     // Wait only for calls still on their way: those in flight that are
     // neither in this batch nor already queued (for another batch).
     const int on_their_way = expected_.load() - static_cast<int>(batch.size()) - static_cast<int>(queue_.size());
-    if (clips >= max_batch_ || on_their_way <= 0 || Clock::now() >= deadline) break;
+    const bool more_lately = recent_concurrency() > static_cast<int>(batch.size() + queue_.size());
+    if (clips >= max_batch_ || (on_their_way <= 0 && !more_lately) || Clock::now() >= deadline) break;
     arrived_.wait_until(lock, deadline);
   }
   return batch;
@@ -132,6 +158,7 @@ void InferenceExecutor::execute(const std::vector<std::shared_ptr<Request>>& bat
   int clips = 0;
   for (const auto& request : batch) clips += request->clips;
   if (first.kind != Request::Kind::kTask) metrics_.observe_batch(first.operation(), clips);
+  const auto started = Clock::now();
   try {
     if (first.kind == Request::Kind::kTask) {
       first.task();
@@ -159,6 +186,8 @@ void InferenceExecutor::execute(const std::vector<std::shared_ptr<Request>>& bat
         row += static_cast<size_t>(request->clips);
       }
     }
+    spdlog::debug("executor: {} of {} clips in {} requests took {:.1f} ms", first.operation(), clips, batch.size(),
+                  std::chrono::duration<double, std::milli>(Clock::now() - started).count());
     for (const auto& request : batch) request->done.set_value();
   } catch (...) {
     for (const auto& request : batch) request->done.set_exception(std::current_exception());

@@ -7,8 +7,11 @@
 // Concurrent encodes, and concurrent decodes, of the same model and decoder
 // are run as one batch (as Triton's dynamic batcher): the executor takes the
 // first waiting request, then waits up to max_queue_delay_us for more of the
-// same kind while other calls are on their way (none are: it runs at once),
-// up to max_batch clips. More than max_queue_length waiting requests are
+// same kind while other calls are on their way or while fewer requests are
+// in the batch than were in flight together lately (clients answered by the
+// last batch are about to call again: waiting for them turns two alternating
+// half batches into one full one), up to max_batch clips. A lone client
+// never waits. More than max_queue_length waiting requests are
 // refused with RESOURCE_EXHAUSTED (429).
 //
 // Thread safety: every method may be called from any thread; each blocks
@@ -75,6 +78,11 @@ class InferenceExecutor {
   std::condition_variable arrived_;
   std::deque<std::shared_ptr<Request>> queue_;
   std::atomic<int> expected_{0};  // calls in flight that have not reached the queue or are in it
+  // The most calls in flight at once in the current and the previous window
+  // of about a second: how many clients are calling lately.
+  std::atomic<int> window_peak_{0}, previous_window_peak_{0};
+  std::atomic<int64_t> window_start_us_{0};
+  int recent_concurrency() const;
   bool stopping_ = false;
   std::thread thread_;
 };

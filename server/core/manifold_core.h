@@ -30,12 +30,18 @@ struct Limits {
 };
 
 // The inference executor's dynamic batching (as Triton's dynamic batcher):
-// requests of the same model, operation and decoder that arrive within
-// max_queue_delay_us of the first are run as one batch of at most max_batch
-// clips; more than max_queue_length waiting requests are refused (429).
+// requests of the same model, operation and decoder are run as one batch of
+// at most max_batch clips. A batch waits up to max_queue_delay_us for more
+// requests only while more clients have been calling lately than it holds (a
+// lone client never waits). The default is long because on two cores the 31
+// clients a batch of 32 has just answered take 20 to 60 ms to call again
+// (their replies are serialised on the same cores); with 20 ms, 32 clients
+// got 44 clips/s in alternating half batches, with 60 ms 64 clips/s in full
+// ones (docs/PERFORMANCE.md). More than max_queue_length waiting requests are
+// refused (429).
 struct BatchingConfig {
   int max_batch = 32;
-  int max_queue_delay_us = 2000;
+  int max_queue_delay_us = 60000;
   int max_queue_length = 256;
   int threads = 0;  // LibTorch intra-op threads of the executor; 0: the core count
 };

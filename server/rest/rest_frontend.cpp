@@ -323,6 +323,9 @@ void RestFrontend::start() {
   server.set_payload_max_length(s.options.max_body_bytes);
   // Idle keep-alive connections hold a worker and delay shutdown by as long.
   server.set_keep_alive_timeout(2);
+  // httplib writes a reply's headers and body separately: with Nagle's
+  // algorithm the body then waits for the client's delayed ACK (40 ms).
+  server.set_tcp_nodelay(true);
   s.install_error_handlers();
   for (const rest::RestRoute& route : rest::rest_routes()) {
     const RouteId id = route.id;
