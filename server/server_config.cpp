@@ -81,6 +81,11 @@ int parse_server_config(int argc, char** argv, ServerConfig& config) {
       ->envname("MM_MAX_QUEUE_LENGTH")->capture_default_str()->check(CLI::Range(1, 1000000));
   app.add_option("--threads", config.core.batching.threads, "LibTorch threads of the executor (0: the core count)")
       ->envname("MM_THREADS")->capture_default_str()->check(CLI::Range(0, 1024));
+  app.add_option("--rest-threads", config.rest.threads,
+                 "REST worker threads: keep-alive connections served at once")
+      ->envname("MM_REST_THREADS")->capture_default_str()->check(CLI::Range(1, 4096));
+  app.add_option("--grpc-threads", config.grpc.max_threads, "gRPC threads: calls served at once")
+      ->envname("MM_GRPC_THREADS")->capture_default_str()->check(CLI::Range(2, 4096));
   app.add_option("--max-loaded-models", config.core.max_loaded_models, "models kept in memory")
       ->envname("MM_MAX_LOADED_MODELS")->capture_default_str()->check(CLI::Range(1, 64));
 
