@@ -13,6 +13,9 @@ packages=(
   python3 python3-grpcio python3-grpc-tools
   libgtest-dev libgmock-dev libbenchmark-dev
 )
+# Node.js and npm run the OpenAPI validator of the tests; a machine that
+# already has them (a newer Node.js) keeps its own.
+command -v npm > /dev/null || packages+=(nodejs npm)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
