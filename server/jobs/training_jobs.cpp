@@ -449,7 +449,7 @@ RunEnd TrainingJobs::State::run_child(JobInfo& job, const std::vector<std::strin
   ChildProcess child({argv, config.training_threads, log.string(), /*stdout_to_pipe=*/true});
   spdlog::info("training job {}: {} running as pid {}", job.id, what, child.pid());
 
-  bool signalled = false;
+  bool signalled = false, killed = false;
   Clock::time_point signalled_at, last_write = Clock::now() - kProgressWriteInterval;
   const auto renew_interval = lease_renew_interval(config.lease_seconds);
   const auto lease = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(config.lease_seconds));
@@ -510,12 +510,12 @@ RunEnd TrainingJobs::State::run_child(JobInfo& job, const std::vector<std::strin
       stop = stopping || cancel_running;
       lost = lease_lost;
     }
-    if (lost) {
+    if (lost && !killed) {
       // Another replica resumes from the checkpoint now: a SIGTERM's last
-      // checkpoint would be written under it.
-      if (!signalled) spdlog::warn("training job {}: its lease was lost; killing {}", job.id, what);
-      if (!signalled) child.signal(SIGKILL);
-      signalled = true;
+      // checkpoint would be written under it (even one already signalled).
+      spdlog::warn("training job {}: its lease was lost; killing {}", job.id, what);
+      child.signal(SIGKILL);
+      killed = signalled = true;
       signalled_at = Clock::now();
     } else if (stop && !signalled) {
       child.signal(SIGTERM);  // the tool finishes its iteration, checkpoints, exports, exits 130
