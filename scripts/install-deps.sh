@@ -9,7 +9,7 @@ packages=(
   libtorch-dev libopenblas0-openmp
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler
   libcpp-httplib-dev nlohmann-json3-dev libcli11-dev zlib1g-dev
-  libsqlite3-dev libspdlog-dev prometheus-cpp-dev
+  libsqlite3-dev libpqxx-dev postgresql libspdlog-dev prometheus-cpp-dev
   python3 python3-grpcio python3-grpc-tools
   libgtest-dev libgmock-dev libbenchmark-dev
 )

@@ -103,6 +103,13 @@ int parse_server_config(int argc, char** argv, ServerConfig& config) {
       ->envname("MM_CHECKPOINT_EVERY")->capture_default_str()->check(CLI::Range(1, 1000000));
   app.add_option("--max-queued-jobs", config.jobs.max_queued, "queued jobs beyond which submissions are refused")
       ->envname("MM_MAX_QUEUED_JOBS")->capture_default_str()->check(CLI::Range(1, 100000));
+  app.add_option("--job-store", config.jobs.job_store,
+                 "where job records live: empty for SQLite in --state-dir, or a postgresql:// URI shared by "
+                 "several replicas (which must then share --state-dir and --model-store)")
+      ->envname("MM_JOB_STORE");
+  app.add_option("--job-lease-seconds", config.jobs.lease_seconds,
+                 "how long a dead replica's running job waits before another replica takes it over (PostgreSQL)")
+      ->envname("MM_JOB_LEASE_SECONDS")->capture_default_str()->check(CLI::Range(1.0, 3600.0));
 
   app.add_option("--ready-file", config.ready_file,
                  "written once serving: JSON with the bound ports and the pid (for scripts and tests)")

@@ -1,15 +1,20 @@
-// JobStore: the training jobs' records in one SQLite database file, so that
-// a job's spec, state, progress, error and published model survive a restart
-// of the server.
+// JobStore: where the training jobs' records live, so that a job's spec,
+// state, progress, error and published model survive a restart of the
+// server and, with a shared database, are seen by every replica.
 //
-// The database runs in WAL mode; every change is one statement or one
-// transaction, so a record is never half-written, whatever kills the process.
-// Spec and progress are stored as JSON text columns: they are read and
-// written whole, never queried by part.
+// Two implementations: SqliteJobStore (one file in --state-dir, the embedded
+// default for a single server) and PostgresJobStore (one database shared by
+// several replicas). open_job_store() picks one from a location string.
+//
+// A running job is held by one replica under a lease: claim_next() takes a
+// queued job, or a running one whose lease expired (its replica died), and
+// the runner keeps the lease with renew_lease() every few seconds. A record
+// is never half-written: every change is one statement or one transaction.
 //
 // Thread safety: none. One JobStore is used under its owner's mutex
-// (TrainingJobs); SQLite itself runs in its serialized mode regardless.
-// Errors: std::runtime_error with SQLite's message for a database that
+// (TrainingJobs). Several JobStores (processes, machines) may share one
+// PostgreSQL database; a SQLite file belongs to one server at a time.
+// Errors: std::runtime_error with the database's message for a database that
 // cannot be opened, read or written.
 #pragma once
 
@@ -20,72 +25,52 @@
 #include <vector>
 
 #include "core/api_types.h"
-
-struct sqlite3;
+#include "jobs/job_record_json.h"
 
 namespace mm::service {
 
-// The record as JSON (every field), for logs, the model card and for telling
-// whether a record changed.
-std::string job_to_json_text(const JobInfo& job);
-std::string spec_to_json_text(const JobSpec& spec);
-
-// An open SQLite connection, closed with the object.
-class SqliteDatabase {
- public:
-  explicit SqliteDatabase(const std::string& path);  // opens or creates
-  ~SqliteDatabase();
-  SqliteDatabase(const SqliteDatabase&) = delete;
-  SqliteDatabase& operator=(const SqliteDatabase&) = delete;
-
-  void execute(const std::string& sql);  // statements without parameters or results
-  sqlite3* handle() const { return db_; }
-
- private:
-  sqlite3* db_ = nullptr;
-};
-
-// BEGIN IMMEDIATE ... COMMIT; rolled back when destroyed uncommitted (an
-// exception between the two leaves nothing written).
-class SqliteTransaction {
- public:
-  explicit SqliteTransaction(SqliteDatabase& db);
-  ~SqliteTransaction();
-  SqliteTransaction(const SqliteTransaction&) = delete;
-  SqliteTransaction& operator=(const SqliteTransaction&) = delete;
-  void commit();
-
- private:
-  SqliteDatabase& db_;
-  bool done_ = false;
-};
-
 class JobStore {
  public:
-  // Opens or creates the database at `path` (its folder must exist).
-  explicit JobStore(const std::string& path);
+  virtual ~JobStore() = default;
 
   // Adds a new record when fewer than `max_queued` jobs are queued; returns
   // false (nothing written) otherwise. Check and insert are one transaction.
-  bool insert_if_room(const JobInfo& job, int max_queued);
-  std::optional<JobInfo> find(const std::string& id) const;
-  std::vector<JobInfo> all() const;            // newest first
-  std::optional<JobInfo> oldest_queued() const;
-  std::map<JobState, int> counts() const;      // every state, zeros included
+  virtual bool insert_if_room(const JobInfo& job, int max_queued) = 0;
+  virtual std::optional<JobInfo> find(const std::string& id) const = 0;
+  virtual std::vector<JobInfo> all() const = 0;  // newest first
+  virtual std::map<JobState, int> counts() const = 0;  // every state, zeros included
   // Whether a queued or running job will publish under `model_name`.
-  bool unfinished_job_publishes(const std::string& model_name) const;
+  virtual bool unfinished_job_publishes(const std::string& model_name) const = 0;
+
+  // Atomically takes the oldest job that is queued, or running under an
+  // expired lease, for this store's replica: the record becomes running with
+  // a fresh lease, and started_at = `now` if it was 0. Returns the record as
+  // claimed, or nullopt when there is none. Two replicas never claim the same
+  // job while its lease holds.
+  virtual std::optional<JobInfo> claim_next(double now) = 0;
+  // Renews the lease of running job `id`; returns false (nothing written)
+  // when the record is no longer running under this replica: cancelled by
+  // any replica, or taken over by another after the lease expired. The
+  // runner then stops the job without touching the record.
+  virtual bool renew_lease(const std::string& id) = 0;
 
   // Writes the record's state, error, published model, timestamps and
   // resumes (not spec or progress) when its stored state is `expected`;
   // returns whether it did. The condition keeps a cancel from being undone by
   // a worker that learns of it late.
-  bool update_state_if(const JobInfo& job, JobState expected);
-  void update_progress(const std::string& id, const JobProgress& progress);
-  // Running jobs (their server died) become queued; returns how many.
-  int requeue_running();
-
- private:
-  std::unique_ptr<SqliteDatabase> db_;
+  virtual bool update_state_if(const JobInfo& job, JobState expected) = 0;
+  virtual void update_progress(const std::string& id, const JobProgress& progress) = 0;
+  // At start: jobs known to have lost their runner become queued; returns
+  // how many. SQLite: every running job (its one server died). PostgreSQL:
+  // none; a dead replica's jobs are claimed once their lease expires.
+  virtual int requeue_interrupted() = 0;
 };
+
+// Opens the store at `location`: "" for SQLite at <state_dir>/jobs.sqlite,
+// "postgresql://..." (or "postgres://...", a libpq connection URI) for
+// PostgreSQL, whose leases last `lease_seconds`. Throws std::runtime_error
+// for another scheme or a database that cannot be opened.
+std::unique_ptr<JobStore> open_job_store(const std::string& location, const std::string& state_dir,
+                                         double lease_seconds);
 
 }  // namespace mm::service

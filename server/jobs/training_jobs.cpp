@@ -3,6 +3,7 @@
 #include <signal.h>
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <chrono>
 #include <condition_variable>
 #include <deque>
@@ -34,6 +35,9 @@ constexpr auto kStopGrace = std::chrono::seconds(60);
 constexpr auto kProgressWriteInterval = std::chrono::milliseconds(500);
 // How often the worker and watchers look at their stop conditions.
 constexpr int kPollMilliseconds = 200;
+// How long an idle worker waits before it looks for a job again: one queued
+// by another replica wakes nobody here.
+constexpr auto kClaimPollInterval = std::chrono::seconds(1);
 // Lines of the child's log kept in a failed job's error.
 constexpr size_t kErrorLogLines = 12;
 
@@ -92,6 +96,12 @@ bool parse_progress(const std::string& line, JobProgress& progress) {
 // How a child run ended, as the job sees it.
 enum class RunEnd { kSucceeded, kFailed, kCancelled, kStopped };
 
+// How often a runner renews its lease (and so sees a cancel written by
+// another replica): three times a lease, and at least every 2 s.
+Clock::duration lease_renew_interval(double lease_seconds) {
+  return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(std::min(lease_seconds / 3, 2.0)));
+}
+
 }  // namespace
 
 struct TrainingJobs::State {
@@ -108,6 +118,7 @@ struct TrainingJobs::State {
   bool stopping = false;
   std::string running_id;       // the job the worker runs, empty when idle
   bool cancel_running = false;  // cancel() asked the worker to stop it
+  bool lease_lost = false;      // another replica took the running job over
   bool publishing = false;      // the running job is past training
   std::thread worker;
 
@@ -142,10 +153,10 @@ void TrainingJobs::start() {
   if (s.stopping) throw ApiError(ErrorCode::kUnavailable, "", "training jobs were shut down");
   fs::create_directories(fs::path(s.config.state_dir) / "jobs");
   fs::create_directories(s.config.model_store);
-  s.store = std::make_unique<JobStore>((fs::path(s.config.state_dir) / "jobs.sqlite").string());
-  // A job still marked running lost its server; it resumes from its
-  // checkpoint when the worker reaches it (oldest first, as it was).
-  const int requeued = s.store->requeue_running();
+  s.store = open_job_store(s.config.job_store, s.config.state_dir, s.config.lease_seconds);
+  // A job still marked running in a SQLite file lost its server; it resumes
+  // from its checkpoint when the worker reaches it (oldest first, as it was).
+  const int requeued = s.store->requeue_interrupted();
   if (requeued > 0) spdlog::info("training jobs: {} job(s) interrupted by a restart queued again", requeued);
   s.started = true;
   s.worker = std::thread([&s] { s.worker_loop(); });
@@ -256,7 +267,8 @@ void TrainingJobs::watch(const std::string& id, const std::function<bool(const J
     // After shutdown nothing changes any more: a job left queued would keep
     // the watcher waiting for ever.
     if (s.stopping && s.version == seen) return;
-    if (s.version == seen) continue;
+    // Read at every poll, changed here or not: another replica sharing the
+    // store may have changed the record.
     seen = s.version;
     auto current = s.require_store().find(id);
     if (!current) return;
@@ -275,21 +287,22 @@ void TrainingJobs::State::worker_loop() {
     {
       std::unique_lock<std::mutex> lock(mutex);
       std::optional<JobInfo> next;
-      try {
-        changed.wait(lock, [&] { return stopping || (next = store->oldest_queued()).has_value(); });
-      } catch (const std::exception& e) {
-        // An unreadable database: try again shortly rather than end the worker.
-        spdlog::error("training jobs: cannot read the queue: {}", e.what());
-        changed.wait_for(lock, std::chrono::seconds(1));
-        continue;
+      while (!stopping) {
+        try {
+          next = store->claim_next(unix_now());
+        } catch (const std::exception& e) {
+          // An unreadable database: try again shortly rather than end the worker.
+          spdlog::error("training jobs: cannot read the queue: {}", e.what());
+        }
+        if (next) break;
+        const uint64_t seen = version;
+        changed.wait_for(lock, kClaimPollInterval, [&] { return stopping || version != seen; });
       }
       if (stopping) return;
       job = *next;
-      job.state = JobState::kRunning;
-      if (job.started_at == 0) job.started_at = unix_now();
-      if (!store->update_state_if(job, JobState::kQueued)) continue;
       running_id = job.id;
       cancel_running = false;
+      lease_lost = false;
       publishing = false;
       notify_locked();
     }
@@ -398,6 +411,8 @@ RunEnd TrainingJobs::State::run_job(JobInfo& job) {
   {
     std::lock_guard<std::mutex> lock(mutex);
     if (cancel_running) return RunEnd::kCancelled;
+    // A cancel written by another replica since the last renewal.
+    if (!store->renew_lease(job.id)) return RunEnd::kCancelled;
     publishing = true;  // from here on a cancel is refused
   }
   const std::string name = job.spec.model_name.empty() ? "job-" + job.id : job.spec.model_name;
@@ -434,8 +449,39 @@ RunEnd TrainingJobs::State::run_child(JobInfo& job, const std::vector<std::strin
   ChildProcess child({argv, config.training_threads, log.string(), /*stdout_to_pipe=*/true});
   spdlog::info("training job {}: {} running as pid {}", job.id, what, child.pid());
 
-  bool signalled = false;
+  bool signalled = false, killed = false;
   Clock::time_point signalled_at, last_write = Clock::now() - kProgressWriteInterval;
+  const auto renew_interval = lease_renew_interval(config.lease_seconds);
+  const auto lease = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(config.lease_seconds));
+  Clock::time_point renewed = Clock::now(), renew_tried = Clock::now();
+  // Renews the lease; a record no longer running here was cancelled (by any
+  // replica) or taken over (this replica was presumed dead): either way the
+  // child stops and the record is left alone.
+  auto renew_lease = [&] {
+    renew_tried = Clock::now();
+    std::lock_guard<std::mutex> lock(mutex);
+    try {
+      if (store->renew_lease(job.id)) {
+        renewed = renew_tried;
+        return;
+      }
+      const auto current = store->find(job.id);
+      if (current && current->state == JobState::kRunning) {
+        lease_lost = true;
+      } else if (!cancel_running) {
+        spdlog::info("training job {} cancelled by another replica", job.id);
+      }
+      cancel_running = true;
+    } catch (const std::exception& e) {
+      spdlog::warn("training job {}: cannot renew its lease: {}", job.id, e.what());
+      // Past the lease another replica may take the job over: stop writing
+      // into its folder.
+      if (Clock::now() - renewed > lease) {
+        lease_lost = true;
+        cancel_running = true;
+      }
+    }
+  };
   bool unwritten = false;
   auto write_progress = [&] {
     std::lock_guard<std::mutex> lock(mutex);
@@ -457,12 +503,21 @@ RunEnd TrainingJobs::State::run_child(JobInfo& job, const std::vector<std::strin
       }
     }
     if (unwritten && Clock::now() - last_write >= kProgressWriteInterval) write_progress();
-    bool stop;
+    if (Clock::now() - renew_tried >= renew_interval) renew_lease();
+    bool stop, lost;
     {
       std::lock_guard<std::mutex> lock(mutex);
       stop = stopping || cancel_running;
+      lost = lease_lost;
     }
-    if (stop && !signalled) {
+    if (lost && !killed) {
+      // Another replica resumes from the checkpoint now: a SIGTERM's last
+      // checkpoint would be written under it (even one already signalled).
+      spdlog::warn("training job {}: its lease was lost; killing {}", job.id, what);
+      child.signal(SIGKILL);
+      killed = signalled = true;
+      signalled_at = Clock::now();
+    } else if (stop && !signalled) {
       child.signal(SIGTERM);  // the tool finishes its iteration, checkpoints, exports, exits 130
       signalled = true;
       signalled_at = Clock::now();
@@ -473,14 +528,19 @@ RunEnd TrainingJobs::State::run_child(JobInfo& job, const std::vector<std::strin
     }
   }
   const int status = child.wait();
-  if (unwritten) write_progress();
-
-  bool cancelled, stopped;
+  bool cancelled, stopped, lost;
   {
     std::lock_guard<std::mutex> lock(mutex);
     cancelled = cancel_running;
     stopped = stopping;
+    lost = lease_lost;
   }
+  if (lost) {
+    spdlog::warn("training job {}: {} stopped: another replica took the job over ({})", job.id, what,
+                 describe_wait_status(status));
+    return RunEnd::kCancelled;
+  }
+  if (unwritten) write_progress();
   if (cancelled) {
     spdlog::info("training job {}: {} stopped after a cancel ({})", job.id, what, describe_wait_status(status));
     return RunEnd::kCancelled;

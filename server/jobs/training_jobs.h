@@ -1,6 +1,12 @@
 // Training jobs: a durable queue of runs of the model's trainer, executed one
 // at a time in the background, whose records (state, progress, error,
-// published model) live in SQLite and survive a restart.
+// published model) live in a JobStore and survive a restart: SQLite in the
+// state folder by default, or a PostgreSQL database that several replicas
+// share (JobsConfig::job_store). With PostgreSQL every replica claims jobs
+// from the one queue and holds the job it runs under a lease; a replica that
+// dies loses it, and another takes the job over from its last checkpoint.
+// That checkpoint lives in the job's folder under state_dir, so replicas
+// sharing a database must share state_dir (and the model store) too.
 //
 // A job runs as a child process of the `motion-manifold` tool (train, or
 // resume from the job's checkpoint after a restart) with its threads bounded
@@ -9,7 +15,7 @@
 // that succeeds publishes its model into the model store (copied to a
 // temporary folder, then renamed) under spec.model_name or "job-<id>".
 //
-// Layout: <state_dir>/jobs.sqlite (the records, WAL mode) and one folder
+// Layout: <state_dir>/jobs.sqlite (the records with SQLite) and one folder
 // <state_dir>/jobs/<id>/ per job: train.log (the children's stderr),
 // config.json (the training configuration given to the tool, with
 // checkpoint_every set from JobsConfig), dataset.mmd (prepared from a text
@@ -39,6 +45,13 @@ struct JobsConfig {
   int training_threads = 1;  // OMP_NUM_THREADS of the child
   int checkpoint_every = 100;  // iterations between checkpoints (resume point after a crash)
   int max_queued = 100;      // submissions beyond it: RESOURCE_EXHAUSTED
+  // Where the records live: "" for SQLite at <state_dir>/jobs.sqlite, or a
+  // postgresql:// URI for a database shared by several replicas.
+  std::string job_store;
+  // How long a replica's hold on a running job lasts unless renewed (it is,
+  // every lease/3 and at most every 2 s, while the replica lives): the time
+  // before another replica takes over the job of one that died.
+  double lease_seconds = 30;
 };
 
 class TrainingJobs {
@@ -50,9 +63,11 @@ class TrainingJobs {
   TrainingJobs(const TrainingJobs&) = delete;
   TrainingJobs& operator=(const TrainingJobs&) = delete;
 
-  // Opens (or creates) the database and starts the worker. A job found
-  // running (the server died under it) is queued again first and resumes
-  // from its last checkpoint.
+  // Opens (or creates) the database and starts the worker. With SQLite, a
+  // job found running (the server died under it) is queued again first and
+  // resumes from its last checkpoint; with PostgreSQL such a job is taken
+  // over once its lease expires. Throws std::runtime_error for a store that
+  // cannot be opened.
   void start();
 
   // Validates the spec (dataset under the data root and a dataset; variant;
@@ -68,7 +83,8 @@ class TrainingJobs {
   // Cancels a queued or running job (a running one stops at its next
   // iteration). FAILED_PRECONDITION for a job already finished.
   // The record says cancelled on return; a running child gets SIGTERM within
-  // ~200 ms and exits after its iteration and checkpoint. A job already
+  // ~200 ms (within a lease renewal, at most 2 s, when another replica runs
+  // it) and exits after its iteration and checkpoint. A job already
   // publishing its model cannot be cancelled (FAILED_PRECONDITION).
   JobInfo cancel(const std::string& id);
   // Calls `on_event` with the job's record now and after every change, until

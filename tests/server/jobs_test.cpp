@@ -17,7 +17,7 @@
 
 #include <gtest/gtest.h>
 
-#include "jobs/job_store.h"
+#include "jobs/sqlite_job_store.h"
 #include "jobs/training_jobs.h"
 #include "test_environment.h"
 
@@ -491,7 +491,7 @@ TEST_F(TrainingJobsTest, JobResumedAfterTheServerWasKilledEndsWithTheUninterrupt
   EXPECT_TRUE(eventually([&] { return processes_mentioning(dir.string()).empty(); }, 5s)) << "orphaned training";
   ASSERT_FALSE(fs::exists(dir / "run" / "model" / "manifest.json")) << "the run went on after its server's kill";
   {
-    JobStore store((fs::path(config_.state_dir) / "jobs.sqlite").string());
+    SqliteJobStore store((fs::path(config_.state_dir) / "jobs.sqlite").string());
     EXPECT_EQ(job_state_name(store.find(id)->state), std::string("running"));
   }
 

@@ -1,0 +1,26 @@
+// The JSON text forms of a training job's record, shared by the job stores
+// (spec and progress are stored as JSON text columns: read and written
+// whole, never queried by part) and by logs and the model card.
+//
+// Thread safety: free functions without shared state.
+// Errors: the *_from_* readers throw std::runtime_error (or nlohmann's
+// exceptions, which derive from std::exception) for malformed text.
+#pragma once
+
+#include <string>
+
+#include "core/api_types.h"
+
+namespace mm::service {
+
+// The record as JSON (every field), for logs, the model card and for telling
+// whether a record changed.
+std::string job_to_json_text(const JobInfo& job);
+std::string spec_to_json_text(const JobSpec& spec);
+JobSpec spec_from_json_text(const std::string& text);
+std::string progress_to_json_text(const JobProgress& progress);
+JobProgress progress_from_json_text(const std::string& text);
+// The inverse of job_state_name().
+JobState job_state_from_name(const std::string& name);
+
+}  // namespace mm::service
