@@ -79,19 +79,19 @@ json to_json(const v1::DecodeRequest& request) {
 }
 
 json to_json(const v1::SampleRequest& request) {
-  return {{"model", request.model()},
-          {"count", request.count()},
-          {"seed", request.seed()},
-          {"decoder", request.decoder()}};
+  json out = {{"model", request.model()}, {"seed", request.seed()}, {"decoder", request.decoder()}};
+  if (request.count() != 0) out["count"] = request.count();
+  return out;
 }
 
 json to_json(const v1::InterpolateRequest& request) {
-  return {{"model", request.model()},
-          {"from", motion_or_code_json(request.from())},
-          {"to", motion_or_code_json(request.to())},
-          {"steps", request.steps()},
-          {"method", request.method()},
-          {"decoder", request.decoder()}};
+  json out = {{"model", request.model()},
+              {"from", motion_or_code_json(request.from())},
+              {"to", motion_or_code_json(request.to())},
+              {"decoder", request.decoder()}};
+  if (request.steps() != 0) out["steps"] = request.steps();
+  if (!request.method().empty()) out["method"] = request.method();
+  return out;
 }
 
 json to_json(const v1::AnalogyRequest& request) {
@@ -105,19 +105,20 @@ json to_json(const v1::AnalogyRequest& request) {
 json to_json(const v1::DenoiseRequest& request) {
   json motions = json::array();
   for (const auto& m : request.motions()) motions.push_back(motion_json(m));
-  return {{"model", request.model()},
-          {"motions", std::move(motions)},
-          {"decoder", request.decoder()},
-          {"zeros_are_missing", request.zeros_are_missing()},
-          {"means_are_missing", request.means_are_missing()},
-          {"iterations", request.iterations()},
-          {"keep_observed", request.keep_observed()}};
+  json out = {{"model", request.model()},
+              {"motions", std::move(motions)},
+              {"decoder", request.decoder()},
+              {"zeros_are_missing", request.zeros_are_missing()},
+              {"means_are_missing", request.means_are_missing()},
+              {"keep_observed", request.keep_observed()}};
+  if (request.iterations() != 0) out["iterations"] = request.iterations();
+  return out;
 }
 
 json to_json(const v1::JobSpec& spec) {
-  json out = {{"dataset", spec.dataset()}, {"variant", spec.variant()}, {"iterations", spec.iterations()},
-              {"seed", spec.seed()},       {"hidden", spec.hidden()},   {"batch", spec.batch()},
-              {"model_name", spec.model_name()}};
+  json out = {{"dataset", spec.dataset()}, {"iterations", spec.iterations()}, {"seed", spec.seed()},
+              {"hidden", spec.hidden()},   {"batch", spec.batch()},           {"model_name", spec.model_name()}};
+  if (!spec.variant().empty()) out["variant"] = spec.variant();
   if (!spec.config_json().empty()) out["config"] = embedded(spec.config_json());
   return out;
 }
@@ -252,7 +253,8 @@ v1::Job job_from_json(const json& body) {
     auto* progress = job.mutable_progress();
     progress->set_iteration(integer<int64_t>(p, "iteration"));
     progress->set_total(integer<int64_t>(p, "total"));
-    for (const auto& [name, value] : p.value("losses", json::object()).items()) {
+    const json losses = p.value("losses", json::object());  // items() must not outlive it
+    for (const auto& [name, value] : losses.items()) {
       if (value.is_number()) (*progress->mutable_losses())[name] = value.get<double>();
     }
     progress->set_iterations_per_second(p.value("iterations_per_second", 0.0));

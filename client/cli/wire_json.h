@@ -14,7 +14,9 @@ namespace mm::client {
 namespace v1 = motionmanifold::v1;
 using nlohmann::json;
 
-// Requests, as the REST routes take them.
+// Requests, as the REST routes take them. Where the proto's zero value means
+// "the default" (count, steps, method, iterations, variant) the field is left
+// out, which is how REST asks for the default (a REST 0 is taken as 0).
 json to_json(const v1::EncodeRequest& request);
 json to_json(const v1::DecodeRequest& request);
 json to_json(const v1::SampleRequest& request);
