@@ -65,6 +65,21 @@ class ServerProcess {
     start(argv_, timeout);
   }
 
+  // Starts the server again on the ports it had, as a restarted service
+  // comes back at the same address: for clients that reconnect on their own
+  // (a job watch). The ports were the server's until it stopped; another
+  // process could take them meanwhile, which a test run on loopback makes
+  // unlikely enough.
+  void restart_on_same_ports(std::chrono::seconds timeout = std::chrono::seconds(120)) {
+    if (pid_ > 0) throw std::runtime_error("restart: the server is still running");
+    std::vector<std::string> argv = argv_;
+    for (size_t i = 0; i + 1 < argv.size(); ++i) {
+      if (argv[i] == "--grpc-port") argv[i + 1] = std::to_string(grpc_port_);
+      if (argv[i] == "--rest-port") argv[i + 1] = std::to_string(rest_port_);
+    }
+    start(argv, timeout);
+  }
+
   ~ServerProcess() {
     if (pid_ > 0) {
       ::kill(pid_, SIGKILL);
@@ -79,6 +94,7 @@ class ServerProcess {
   int grpc_port() const { return grpc_port_; }
   int rest_port() const { return rest_port_; }
   std::string grpc_target() const { return "127.0.0.1:" + std::to_string(grpc_port_); }
+  std::string rest_url() const { return "http://127.0.0.1:" + std::to_string(rest_port_); }
   const std::string& model_store() const { return model_store_; }
   // A scratch folder removed with the harness (state, data roots).
   std::filesystem::path scratch() const { return dir_; }

@@ -1,0 +1,282 @@
+// encode, decode, sample, interpolate, analogy, denoise: a request built
+// from local files and flags, one call, and the reply written as motion
+// files (or printed with --json).
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <memory>
+
+#include "commands.h"
+#include "format/input_error.h"
+#include "motion_io.h"
+#include "server_connection.h"
+#include "server_error.h"
+#include "wire_json.h"
+
+namespace mm::client {
+namespace {
+
+// The options every inference command has.
+struct ModelChoice {
+  std::string model, decoder;
+
+  void add_to(CLI::App* command, bool with_decoder) {
+    command->add_option("--model", model, "model of the server's store (default: the active one)");
+    if (with_decoder) {
+      command->add_option("--decoder", decoder, "rotation or velocity (default: the model's)");
+    }
+  }
+};
+
+void add_rate(CLI::App* command, std::vector<MotionSource*> sources) {
+  auto* rate = command->add_option_function<int>(
+      "--rate", [sources](int value) { for (auto* s : sources) s->rate = value; },
+      "frame rate of the input motions: 50 (H3.6M files, default) or 25");
+  rate->check(CLI::IsMember({25, 50}));
+}
+
+// A file that is a motion (.txt) or a code (.json), for interpolate and analogy.
+v1::MotionOrCode motion_or_code(const MotionSource& source) {
+  v1::MotionOrCode input;
+  if (is_code_file(source.path)) {
+    *input.mutable_code() = read_code(source.path);
+  } else {
+    *input.mutable_motion() = read_motion(source);
+  }
+  return input;
+}
+
+void require_output(const ClientSettings& settings, const std::string& out, const std::string& option) {
+  if (out.empty() && !settings.json) throw InputError(option + " is required (or --json to print the reply)");
+  if (!out.empty() && option == "--out") check_motion_output(out, option);
+}
+
+// Writes a MotionsReply's motions (files named on stdout) or prints it.
+int finish_motions(const ClientSettings& settings, const v1::MotionsReply& reply, const std::string& out,
+                   const std::string& out_dir, const std::string& stem) {
+  if (!out.empty() && reply.motions_size() > 0) {
+    write_motion(reply.motions(0), out);
+    if (out != "-" && !settings.json) std::printf("%s\n", out.c_str());
+  }
+  if (!out_dir.empty()) {
+    for (const auto& path : write_numbered_motions(reply.motions(), out_dir, stem)) {
+      if (!settings.json) std::printf("%s\n", path.c_str());
+    }
+  }
+  if (settings.json) print_json(to_json(reply));
+  return kExitSuccess;
+}
+
+void add_encode(CLI::App& app, const ClientSettings& settings, Action& action) {
+  struct Options {
+    ModelChoice model;
+    MotionSource input;
+  };
+  auto o = std::make_shared<Options>();
+  auto* command = app.add_subcommand(
+      "encode", std::string("Print the code of a motion: {\"code\": [...], ...} on stdout, a code file for decode, "
+                            "interpolate and analogy. ") + kMotionInputNote);
+  o->model.add_to(command, false);
+  command->add_option("--input", o->input.path, "motion file (.txt; - for standard input)")->required();
+  add_rate(command, {&o->input});
+  command->add_option("--start", o->input.start, "first 25 Hz frame of the clip");
+  command->callback([o, &settings, &action] {
+    action = [o, &settings] {
+      v1::EncodeRequest request;
+      request.set_model(o->model.model);
+      *request.add_motions() = read_motion(o->input);
+      const auto reply = connect(settings.connection)->encode(request);
+      if (settings.json) {
+        print_json(to_json(reply));
+      } else {
+        const auto& code = reply.codes(0).values();
+        const nlohmann::json result = {{"code", std::vector<float>(code.begin(), code.end())},
+                                       {"model", reply.answered_by().model()},
+                                       {"version", reply.answered_by().version()}};
+        std::printf("%s\n", result.dump().c_str());
+      }
+      return kExitSuccess;
+    };
+  });
+}
+
+void add_decode(CLI::App& app, const ClientSettings& settings, Action& action) {
+  struct Options {
+    ModelChoice model;
+    std::vector<std::string> codes;
+    std::string out, out_dir;
+  };
+  auto o = std::make_shared<Options>();
+  auto* command = app.add_subcommand(
+      "decode", "Decode codes (JSON files as encode prints them, or bare arrays) into motions at 25 Hz; read them "
+                "back with --rate 25.");
+  o->model.add_to(command, true);
+  command->add_option("--code", o->codes, "code file(s) (.json; - for standard input)")->required();
+  command->add_option("--out", o->out, "motion file of the first code (.txt; - for standard output)");
+  command->add_option("--out-dir", o->out_dir, "folder for every code's motion: decode_000.txt, ...");
+  command->callback([o, &settings, &action] {
+    action = [o, &settings] {
+      if (o->out_dir.empty()) require_output(settings, o->out, "--out");
+      if (o->codes.size() > 1 && o->out_dir.empty() && !o->out.empty()) {
+        throw InputError("--out takes one code's motion; give --out-dir for " + std::to_string(o->codes.size()) +
+                         " codes");
+      }
+      v1::DecodeRequest request;
+      request.set_model(o->model.model);
+      request.set_decoder(o->model.decoder);
+      for (const auto& path : o->codes) *request.add_codes() = read_code(path);
+      const auto reply = connect(settings.connection)->decode(request);
+      return finish_motions(settings, reply, o->out, o->out_dir, "decode");
+    };
+  });
+}
+
+void add_sample(CLI::App& app, const ClientSettings& settings, Action& action) {
+  struct Options {
+    ModelChoice model;
+    int count = 1;
+    uint64_t seed = 0;
+    std::string out_dir;
+  };
+  auto o = std::make_shared<Options>();
+  auto* command = app.add_subcommand(
+      "sample", "Draw codes from the prior N(0, I) and write their motions (25 Hz) as <out-dir>/sample_000.txt, "
+                "...; the same seed, count and model give the same motions.");
+  o->model.add_to(command, true);
+  command->add_option("--count", o->count, "number of motions")->check(CLI::PositiveNumber)->capture_default_str();
+  command->add_option("--seed", o->seed, "seed of the codes")->capture_default_str();
+  command->add_option("--out-dir", o->out_dir, "folder for the motion files");
+  command->callback([o, &settings, &action] {
+    action = [o, &settings] {
+      require_output(settings, o->out_dir, "--out-dir");
+      v1::SampleRequest request;
+      request.set_model(o->model.model);
+      request.set_decoder(o->model.decoder);
+      request.set_count(o->count);
+      request.set_seed(o->seed);
+      const auto reply = connect(settings.connection)->sample(request);
+      return finish_motions(settings, reply, "", o->out_dir, "sample");
+    };
+  });
+}
+
+void add_interpolate(CLI::App& app, const ClientSettings& settings, Action& action) {
+  struct Options {
+    ModelChoice model;
+    MotionSource from, to;
+    int steps = 2;
+    std::string method = "linear", out_dir;
+  };
+  auto o = std::make_shared<Options>();
+  auto* command = app.add_subcommand(
+      "interpolate", std::string("Interpolate between two motions or codes (Sec. 5.3) and write the --steps motions "
+                                 "(ends included) as <out-dir>/interpolate_000.txt, .... ") + kMotionInputNote);
+  o->model.add_to(command, true);
+  command->add_option("--from", o->from.path, "first motion (.txt) or code (.json)")->required();
+  command->add_option("--to", o->to.path, "last motion (.txt) or code (.json)")->required();
+  add_rate(command, {&o->from, &o->to});
+  command->add_option("--start-from", o->from.start, "first 25 Hz frame of the clip in --from");
+  command->add_option("--start-to", o->to.start, "first 25 Hz frame of the clip in --to");
+  command->add_option("--steps", o->steps, "number of motions, both ends included")->capture_default_str();
+  command->add_option("--method", o->method, "linear or spherical")->capture_default_str();
+  command->add_flag_callback("--spherical", [o] { o->method = "spherical"; }, "same as --method spherical");
+  command->add_option("--out-dir", o->out_dir, "folder for the motion files");
+  command->callback([o, &settings, &action] {
+    action = [o, &settings] {
+      require_output(settings, o->out_dir, "--out-dir");
+      v1::InterpolateRequest request;
+      request.set_model(o->model.model);
+      request.set_decoder(o->model.decoder);
+      *request.mutable_from() = motion_or_code(o->from);
+      *request.mutable_to() = motion_or_code(o->to);
+      request.set_steps(o->steps);
+      request.set_method(o->method);
+      const auto reply = connect(settings.connection)->interpolate(request);
+      return finish_motions(settings, reply, "", o->out_dir, "interpolate");
+    };
+  });
+}
+
+void add_analogy(CLI::App& app, const ClientSettings& settings, Action& action) {
+  struct Options {
+    ModelChoice model;
+    MotionSource a, b, c;
+    std::string out;
+  };
+  auto o = std::make_shared<Options>();
+  auto* command = app.add_subcommand(
+      "analogy", std::string("Write the motion of a - b + c (Sec. 5.5): a has a feature b lacks, c receives it. ") +
+                     kMotionInputNote);
+  o->model.add_to(command, true);
+  command->add_option("--a", o->a.path, "motion (.txt) or code (.json) with the feature")->required();
+  command->add_option("--b", o->b.path, "motion or code without it (subtracted)")->required();
+  command->add_option("--c", o->c.path, "motion or code to give it to")->required();
+  add_rate(command, {&o->a, &o->b, &o->c});
+  command->add_option("--start-a", o->a.start, "first 25 Hz frame of the clip in a");
+  command->add_option("--start-b", o->b.start, "first 25 Hz frame of the clip in b");
+  command->add_option("--start-c", o->c.start, "first 25 Hz frame of the clip in c");
+  command->add_option("--out", o->out, "motion file to write (.txt, 25 Hz; - for standard output)");
+  command->callback([o, &settings, &action] {
+    action = [o, &settings] {
+      require_output(settings, o->out, "--out");
+      v1::AnalogyRequest request;
+      request.set_model(o->model.model);
+      request.set_decoder(o->model.decoder);
+      *request.mutable_a() = motion_or_code(o->a);
+      *request.mutable_b() = motion_or_code(o->b);
+      *request.mutable_c() = motion_or_code(o->c);
+      const auto reply = connect(settings.connection)->analogy(request);
+      return finish_motions(settings, reply, o->out, "", "analogy");
+    };
+  });
+}
+
+void add_denoise(CLI::App& app, const ClientSettings& settings, Action& action) {
+  struct Options {
+    ModelChoice model;
+    MotionSource input;
+    bool zeros_are_missing = false, means_are_missing = false, keep_observed = false;
+    int iterations = 0;
+    std::string out;
+  };
+  auto o = std::make_shared<Options>();
+  auto* command = app.add_subcommand(
+      "denoise", std::string("Project a motion onto the manifold and write it decoded (Sec. 5.4); its root "
+                             "translation is kept. ") + kMotionInputNote);
+  o->model.add_to(command, true);
+  command->add_option("--input", o->input.path, "motion file (.txt; - for standard input)")->required();
+  add_rate(command, {&o->input});
+  command->add_option("--start", o->input.start, "first 25 Hz frame of the clip");
+  command->add_flag("--zeros-are-missing", o->zeros_are_missing, "a joint-angle value of exactly 0 is missing");
+  command->add_flag("--means-are-missing", o->means_are_missing, "a value equal to its training mean is missing");
+  command->add_option("--iterations", o->iterations, "with missing values: rounds of projecting (0: four)");
+  command->add_flag("--keep-observed", o->keep_observed, "with missing values: fill only the missing ones");
+  command->add_option("--out", o->out, "denoised motion file (.txt, 25 Hz; - for standard output)");
+  command->callback([o, &settings, &action] {
+    action = [o, &settings] {
+      require_output(settings, o->out, "--out");
+      v1::DenoiseRequest request;
+      request.set_model(o->model.model);
+      request.set_decoder(o->model.decoder);
+      *request.add_motions() = read_motion(o->input);
+      request.set_zeros_are_missing(o->zeros_are_missing);
+      request.set_means_are_missing(o->means_are_missing);
+      request.set_iterations(o->iterations);
+      request.set_keep_observed(o->keep_observed);
+      const auto reply = connect(settings.connection)->denoise(request);
+      return finish_motions(settings, reply, o->out, "", "denoise");
+    };
+  });
+}
+
+}  // namespace
+
+void add_inference_commands(CLI::App& app, const ClientSettings& settings, Action& action) {
+  add_encode(app, settings, action);
+  add_decode(app, settings, action);
+  add_sample(app, settings, action);
+  add_interpolate(app, settings, action);
+  add_analogy(app, settings, action);
+  add_denoise(app, settings, action);
+}
+
+}  // namespace mm::client

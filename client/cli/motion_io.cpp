@@ -1,0 +1,143 @@
+#include "motion_io.h"
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <iterator>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "format/input_error.h"
+
+namespace mm::client {
+namespace {
+
+enum class MotionFormat { kText, kBvh };
+
+std::string extension_of(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (auto& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
+
+// The one place that maps a file name to a format: the BVH library plugs
+// in here (and in the two switch statements below) when it lands.
+MotionFormat format_of(const std::string& path, const std::string& what) {
+  if (path == "-") return MotionFormat::kText;
+  const std::string ext = extension_of(path);
+  if (ext == ".txt") return MotionFormat::kText;
+  if (ext == ".bvh") return MotionFormat::kBvh;
+  throw InputError(what + " " + path + ": unknown motion file type \"" + ext +
+                   "\", expected .txt (H3.6M exponential-map text) or .bvh");
+}
+
+[[noreturn]] void bvh_not_built_in(const std::string& path) {
+  throw InputError(path + ": BVH support is not built in yet; use H3.6M text (.txt)");
+}
+
+std::string read_all(const std::string& path) {
+  if (path == "-") return std::string(std::istreambuf_iterator<char>(std::cin), {});
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot open the file");
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+std::string display_name(const std::string& path) { return path == "-" ? "<stdin>" : path; }
+
+}  // namespace
+
+const char* const kMotionInputNote =
+    "Input motions are H3.6M exponential-map text files (.txt), at 50 Hz (the data set; the default) or at 25 Hz "
+    "(what this client writes): give --rate 25 for the latter. At 50 Hz every second frame is kept. A clip of "
+    "150 frames (6 s at 25 Hz) is taken from --start (in 25 Hz frames). Output motions are text at 25 Hz.";
+
+v1::Motion read_motion(const MotionSource& source, int frames) {
+  const std::string name = display_name(source.path);
+  if (format_of(source.path, "motion") == MotionFormat::kBvh) bvh_not_built_in(name);
+  if (source.rate != 25 && source.rate != 50) {
+    throw InputError(name + ": rate " + std::to_string(source.rate) + " Hz is not supported, expected 25 or 50");
+  }
+  if (source.start < 0) throw InputError(name + ": start frame must be >= 0, found " + std::to_string(source.start));
+  const std::string text = read_all(source.path);
+  const MotionFrames file = parse_motion_text_buffer(text.data(), text.size(), name);
+  // The server would keep every second frame of a 50 Hz motion too; doing it
+  // here lets --start count 25 Hz frames, as in the tool.
+  const MotionFrames motion = source.rate == 50 ? split_phases(file, 2)[0] : file;
+  const int64_t needed = static_cast<int64_t>(source.start) + frames;
+  if (motion.frame_count() < needed) {
+    throw InputError(name + ": too short: " + std::to_string(motion.frame_count()) + " frames at 25 Hz, need " +
+                     std::to_string(needed) + " (" + std::to_string(frames) + " frames from frame " +
+                     std::to_string(source.start) + ")" +
+                     (source.rate == 50 && file.frame_count() >= needed ? "; if the file is at 25 Hz, give --rate 25"
+                                                                        : ""));
+  }
+  v1::Motion message;
+  message.set_frames(frames);
+  message.set_columns(motion.columns);
+  message.set_frame_rate(kModelRate);
+  message.set_layout(kLayout);
+  const float* first = motion.frame(source.start);
+  message.mutable_values()->Add(first, first + static_cast<size_t>(frames) * motion.columns);
+  return message;
+}
+
+bool is_code_file(const std::string& path) { return extension_of(path) == ".json"; }
+
+v1::Code read_code(const std::string& path) {
+  const std::string name = display_name(path);
+  const auto parsed = nlohmann::json::parse(read_all(path), nullptr, false);
+  if (parsed.is_discarded()) throw InputError(name + ": not JSON");
+  const nlohmann::json* values = &parsed;
+  if (parsed.is_object() && parsed.contains("code")) values = &parsed["code"];
+  if (parsed.is_object() && parsed.contains("codes") && parsed["codes"].is_array() && !parsed["codes"].empty()) {
+    values = &parsed["codes"][0];
+  }
+  if (!values->is_array() || values->empty()) {
+    throw InputError(name + ": expected {\"code\": [numbers]} or an array of numbers");
+  }
+  v1::Code code;
+  for (size_t i = 0; i < values->size(); ++i) {
+    if (!(*values)[i].is_number()) {
+      throw InputError(name + ": code[" + std::to_string(i) + "] is " + (*values)[i].dump() + ", not a number");
+    }
+    code.add_values((*values)[i].get<float>());
+  }
+  return code;
+}
+
+void check_motion_output(const std::string& path, const std::string& option) {
+  if (format_of(path, option) == MotionFormat::kBvh) bvh_not_built_in(path);
+}
+
+void write_motion(const v1::Motion& motion, const std::string& path) {
+  check_motion_output(path, "--out");
+  MotionFrames frames;
+  frames.columns = motion.columns();
+  frames.values.assign(motion.values().begin(), motion.values().end());
+  if (path == "-") {
+    write_motion_text(frames, std::cout);
+    std::cout.flush();
+    return;
+  }
+  write_motion_text_file(frames, path);
+}
+
+std::vector<std::string> write_numbered_motions(const google::protobuf::RepeatedPtrField<v1::Motion>& motions,
+                                                const std::string& dir, const std::string& stem) {
+  std::error_code error;
+  std::filesystem::create_directories(dir, error);
+  if (error) throw InputError("--out-dir " + dir + ": cannot create the directory: " + error.message());
+  std::vector<std::string> paths;
+  for (int i = 0; i < motions.size(); ++i) {
+    char number[16];
+    std::snprintf(number, sizeof number, "%03d", i);
+    paths.push_back(dir + "/" + stem + "_" + number + ".txt");
+    write_motion(motions[i], paths.back());
+  }
+  return paths;
+}
+
+}  // namespace mm::client

@@ -1,0 +1,199 @@
+// ServerConnection over REST/JSON (server/rest/README.md): one keep-alive
+// httplib client, the token as `Authorization: Bearer`, refusals from the
+// JSON error body, WatchJob as the job's Server-Sent Events.
+#include <httplib.h>
+
+#include "format/input_error.h"
+#include "server_connection.h"
+#include "server_error.h"
+#include "wire_json.h"
+
+namespace mm::client {
+namespace {
+
+// The gRPC code of an HTTP status, for bodies that are not the server's
+// JSON error (a proxy's page, say).
+std::string code_of_http_status(int status) {
+  switch (status) {
+    case 400: return "INVALID_ARGUMENT";
+    case 401: return "UNAUTHENTICATED";
+    case 403: return "PERMISSION_DENIED";
+    case 404: return "NOT_FOUND";
+    case 409: return "FAILED_PRECONDITION";
+    case 413: case 429: return "RESOURCE_EXHAUSTED";
+    case 502: case 503: case 504: return "UNAVAILABLE";
+    default: return "INTERNAL";
+  }
+}
+
+ServerError error_of_response(int status, const std::string& body) {
+  const auto parsed = json::parse(body, nullptr, false);
+  if (!parsed.is_discarded() && parsed.is_object() && parsed.contains("error") && parsed["error"].is_object()) {
+    const auto& e = parsed["error"];
+    return ServerError(e.value("code", code_of_http_status(status)), e.value("field", ""), e.value("message", ""));
+  }
+  return ServerError(code_of_http_status(status), "", "HTTP " + std::to_string(status) + ": " + body);
+}
+
+// Path parameters never hold '/' or ':' on the server's side; escape what
+// a user typed anyway so that it reaches the server as one segment.
+std::string segment(const std::string& value) {
+  static const char* hex = "0123456789ABCDEF";
+  std::string out;
+  for (unsigned char c : value) {
+    if (std::isalnum(c) || c == '-' || c == '_' || c == '.' || c == '~') {
+      out += static_cast<char>(c);
+    } else {
+      out += '%';
+      out += hex[c >> 4];
+      out += hex[c & 15];
+    }
+  }
+  return out;
+}
+
+class RestConnection : public ServerConnection {
+ public:
+  explicit RestConnection(const ConnectionOptions& options) : options_(options), client_(base_url(options)) {
+    if (!client_.is_valid()) throw InputError("--rest-url " + options.rest_url + ": not a valid http(s) URL");
+    const auto timeout = static_cast<time_t>(options.timeout_seconds);
+    client_.set_connection_timeout(10, 0);
+    client_.set_read_timeout(timeout, 0);
+    client_.set_write_timeout(timeout, 0);
+    client_.set_keep_alive(true);
+    client_.set_tcp_nodelay(true);
+#ifdef CPPHTTPLIB_OPENSSL_SUPPORT
+    if (!options.tls_ca.empty()) client_.set_ca_cert_path(options.tls_ca.c_str());
+#endif
+    if (!options.token.empty()) client_.set_bearer_token_auth(options.token.c_str());
+  }
+
+  v1::EncodeReply encode(const v1::EncodeRequest& r) override {
+    return encode_reply_from_json(post("/v1/encode", to_json(r)));
+  }
+  v1::MotionsReply decode(const v1::DecodeRequest& r) override {
+    return motions_reply_from_json(post("/v1/decode", to_json(r)));
+  }
+  v1::MotionsReply sample(const v1::SampleRequest& r) override {
+    return motions_reply_from_json(post("/v1/sample", to_json(r)));
+  }
+  v1::MotionsReply interpolate(const v1::InterpolateRequest& r) override {
+    return motions_reply_from_json(post("/v1/interpolate", to_json(r)));
+  }
+  v1::MotionsReply analogy(const v1::AnalogyRequest& r) override {
+    return motions_reply_from_json(post("/v1/analogy", to_json(r)));
+  }
+  v1::MotionsReply denoise(const v1::DenoiseRequest& r) override {
+    return motions_reply_from_json(post("/v1/denoise", to_json(r)));
+  }
+
+  v1::ListModelsReply list_models() override { return models_from_json(get("/v1/models")); }
+  v1::ModelInfo describe_model(const std::string& name) override {
+    // REST names the model in the path; the active one is found in the list.
+    if (name.empty()) {
+      for (const auto& model : list_models().models()) {
+        if (model.active()) return model_from_json(get("/v1/models/" + segment(model.name())));
+      }
+      throw ServerError("UNAVAILABLE", "model", "the server has no active model");
+    }
+    return model_from_json(get("/v1/models/" + segment(name)));
+  }
+  v1::ModelInfo activate_model(const std::string& name) override {
+    return model_from_json(post("/v1/models/" + segment(name) + ":activate", json::object()));
+  }
+
+  v1::Job submit_job(const v1::JobSpec& spec) override { return job_from_json(post("/v1/jobs", to_json(spec))); }
+  v1::Job get_job(const std::string& id) override { return job_from_json(get("/v1/jobs/" + segment(id))); }
+  v1::ListJobsReply list_jobs() override { return jobs_from_json(get("/v1/jobs")); }
+  v1::Job cancel_job(const std::string& id) override {
+    return job_from_json(post("/v1/jobs/" + segment(id) + ":cancel", json::object()));
+  }
+
+  void watch_job(const std::string& id, const std::function<void(const v1::Job&)>& on_record) override {
+    int status = 0;
+    std::string pending, error_body;
+    bool final_seen = false;
+    // One event is "event: job\ndata: <JSON>\n\n"; comments (": keep-alive")
+    // only prove the connection alive.
+    const auto on_event = [&](const std::string& event) {
+      std::string data;
+      size_t start = 0;
+      while (start < event.size()) {
+        size_t end = event.find('\n', start);
+        if (end == std::string::npos) end = event.size();
+        const std::string line = event.substr(start, end - start);
+        if (line.rfind("data:", 0) == 0) data += line.substr(line.size() > 5 && line[5] == ' ' ? 6 : 5);
+        start = end + 1;
+      }
+      if (data.empty()) return;
+      const v1::Job job = job_from_json(json::parse(data));
+      on_record(job);
+      if (is_final_state(job.state())) final_seen = true;
+    };
+    httplib::Client stream_client(base_url(options_));
+    stream_client.set_connection_timeout(10, 0);
+    stream_client.set_read_timeout(60, 0);  // the server writes a keep-alive every 2 s
+#ifdef CPPHTTPLIB_OPENSSL_SUPPORT
+    if (!options_.tls_ca.empty()) stream_client.set_ca_cert_path(options_.tls_ca.c_str());
+#endif
+    const auto result = stream_client.Get(
+        ("/v1/jobs/" + segment(id) + "/events").c_str(), httplib::Headers{{"Accept", "text/event-stream"}},
+        [&](const httplib::Response& response) {
+          status = response.status;
+          return true;
+        },
+        [&](const char* data, size_t length) {
+          if (status != 200) {
+            error_body.append(data, length);
+            return true;
+          }
+          pending.append(data, length);
+          for (size_t end; (end = pending.find("\n\n")) != std::string::npos;) {
+            const std::string event = pending.substr(0, end);
+            pending.erase(0, end + 2);
+            on_event(event);
+          }
+          return true;
+        });
+    if (final_seen) return;
+    if (status != 0 && status != 200) throw error_of_response(status, error_body);
+    if (!result) throw unreachable(result.error());
+    throw ServerError("UNAVAILABLE", "", "the job's event stream ended before the job did");
+  }
+
+ private:
+  static std::string base_url(const ConnectionOptions& options) {
+    std::string url = options.rest_url;
+    while (!url.empty() && url.back() == '/') url.pop_back();
+    // --tls turns a bare http URL into https, as it turns TLS on for gRPC.
+    if (uses_tls(options) && url.rfind("http://", 0) == 0) url = "https://" + url.substr(7);
+    if (url.find("://") == std::string::npos) url = (uses_tls(options) ? "https://" : "http://") + url;
+    return url;
+  }
+
+  ServerError unreachable(httplib::Error error) const {
+    return ServerError("UNAVAILABLE", "", options_.rest_url + ": " + httplib::to_string(error));
+  }
+
+  json reply_of(const httplib::Result& result) const {
+    if (!result) throw unreachable(result.error());
+    if (result->status != 200) throw error_of_response(result->status, result->body);
+    return json::parse(result->body);
+  }
+
+  json get(const std::string& path) { return reply_of(client_.Get(path.c_str())); }
+  json post(const std::string& path, const json& body) {
+    return reply_of(client_.Post(path.c_str(), body.dump(), "application/json"));
+  }
+
+  ConnectionOptions options_;
+  httplib::Client client_;
+};
+
+}  // namespace
+
+std::unique_ptr<ServerConnection> rest_connection(const ConnectionOptions& options) {
+  return std::make_unique<RestConnection>(options);
+}
+
+}  // namespace mm::client

@@ -1,0 +1,57 @@
+// A connection to a motion-manifold-server: one method per rpc of
+// proto/motionmanifold/v1/manifold.proto, taking and returning the proto's
+// messages whatever the protocol, so that the commands are written once.
+// Implementations: gRPC (grpc_connection.cpp) and REST (rest_connection.cpp).
+// Every method returns the reply on success and throws ServerError on a
+// refusal or a broken connection. Not thread safe: one per thread.
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <string>
+
+#include "connection_options.h"
+#include "motionmanifold/v1/manifold.pb.h"
+
+namespace mm::client {
+
+namespace v1 = motionmanifold::v1;
+
+class ServerConnection {
+ public:
+  virtual ~ServerConnection() = default;
+
+  virtual v1::EncodeReply encode(const v1::EncodeRequest& request) = 0;
+  virtual v1::MotionsReply decode(const v1::DecodeRequest& request) = 0;
+  virtual v1::MotionsReply sample(const v1::SampleRequest& request) = 0;
+  virtual v1::MotionsReply interpolate(const v1::InterpolateRequest& request) = 0;
+  virtual v1::MotionsReply analogy(const v1::AnalogyRequest& request) = 0;
+  virtual v1::MotionsReply denoise(const v1::DenoiseRequest& request) = 0;
+
+  virtual v1::ListModelsReply list_models() = 0;
+  // Empty name: the active model.
+  virtual v1::ModelInfo describe_model(const std::string& name) = 0;
+  virtual v1::ModelInfo activate_model(const std::string& name) = 0;
+
+  virtual v1::Job submit_job(const v1::JobSpec& spec) = 0;
+  virtual v1::Job get_job(const std::string& id) = 0;
+  virtual v1::ListJobsReply list_jobs() = 0;
+  virtual v1::Job cancel_job(const std::string& id) = 0;
+  // Calls `on_record` with the job's record now and after every change, and
+  // returns when a record in a final state has been passed on. Throws
+  // ServerError when refused, and with code UNAVAILABLE when the stream ends
+  // before the job does (the server stopped): the caller may watch again.
+  virtual void watch_job(const std::string& id, const std::function<void(const v1::Job&)>& on_record) = 0;
+};
+
+// The connection `options` ask for (REST with options.rest, else gRPC).
+// Throws InputError when a local file it needs (the CA) cannot be read.
+std::unique_ptr<ServerConnection> connect(const ConnectionOptions& options);
+
+std::unique_ptr<ServerConnection> grpc_connection(const ConnectionOptions& options);
+std::unique_ptr<ServerConnection> rest_connection(const ConnectionOptions& options);
+
+// Whether a job state is final ("succeeded", "failed", "cancelled").
+bool is_final_state(const std::string& state);
+
+}  // namespace mm::client

@@ -1,0 +1,508 @@
+// motion-manifold-client end to end, as a user runs it: the real client
+// binary against the real server (tests/server/server_process.h) on
+// loopback, every command, its files and its JSON checked against what the
+// server itself answers, and each command's refusal with its exit status
+// (1: the server refused, 2: bad local input) and the server's message.
+#include <gtest/gtest.h>
+#include <httplib.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "server_process.h"
+#include "test_environment.h"
+
+namespace mm {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+const char* const kToken = "client-token";
+
+struct Run {
+  int exit_code;
+  std::string out, err;
+};
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// Runs the client with `arguments` (shell words), stdout and stderr apart.
+Run run_client(const std::string& arguments) {
+  test::ScratchDir streams;
+  const std::string command = std::string(MM_CLIENT_PATH) + " " + arguments + " >" + streams.file("out") + " 2>" +
+                              streams.file("err") + " </dev/null";
+  const int status = std::system(command.c_str());
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, read_text(streams.file("out")), read_text(streams.file("err"))};
+}
+
+std::string s5(const std::string& name) { return (test::h36m_dataset_dir() / "S5" / name).string(); }
+
+// Lines of a motion text file, each split into its values.
+std::vector<std::vector<double>> motion_rows(const std::string& path) {
+  std::vector<std::vector<double>> rows;
+  std::ifstream in(path);
+  for (std::string line; std::getline(in, line);) {
+    if (line.empty()) continue;
+    std::vector<double> row;
+    std::stringstream values(line);
+    for (std::string v; std::getline(values, v, ',');) row.push_back(std::stod(v));
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+// The small H3.6M text tree of tests/server: S1 to train on, S5 to test.
+fs::path small_data_root(const fs::path& scratch) {
+  const fs::path root = scratch / "data";
+  for (const auto& [subject, files] : std::vector<std::pair<std::string, std::vector<std::string>>>{
+           {"S1", {"walking_1.txt", "walking_2.txt", "eating_1.txt"}}, {"S5", {"walking_1.txt"}}}) {
+    fs::create_directories(root / "small" / subject);
+    for (const auto& file : files) {
+      fs::create_symlink(test::h36m_dataset_dir() / subject / file, root / "small" / subject / file);
+    }
+  }
+  return root;
+}
+
+std::vector<std::string> job_server_args(const fs::path& scratch) {
+  return {"--auth-token", kToken, "--state-dir", (scratch / "state").string(), "--data-root",
+          small_data_root(scratch).string(), "--checkpoint-every", "5"};
+}
+
+// One server for the suite: loading the models is the slow part.
+class ClientTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    if (!test::has_h36m()) return;
+    scratch_ = new test::ScratchDir();
+    server_ = new test::ServerProcess(job_server_args(scratch_->path()));
+  }
+  static void TearDownTestSuite() {
+    delete server_;
+    delete scratch_;
+    server_ = nullptr;
+    scratch_ = nullptr;
+  }
+  void SetUp() override {
+    MM_REQUIRE_H36M();
+    ASSERT_NE(server_, nullptr);
+  }
+
+  static std::string grpc() { return "--server " + server_->grpc_target(); }
+  static std::string rest() { return "--rest --rest-url " + server_->rest_url(); }
+  static std::string token() { return std::string("--token ") + kToken; }
+
+  // The server's own answer over REST, for comparing.
+  static json rest_call(const std::string& path, const json& body) {
+    httplib::Client client("127.0.0.1", server_->rest_port());
+    client.set_read_timeout(120, 0);
+    const auto result = client.Post(path.c_str(), body.dump(), "application/json");
+    if (!result) throw std::runtime_error("REST " + path + " failed");
+    return json::parse(result->body);
+  }
+
+  static test::ServerProcess* server_;
+  static test::ScratchDir* scratch_;
+  test::ScratchDir dir_;
+};
+
+test::ServerProcess* ClientTest::server_ = nullptr;
+test::ScratchDir* ClientTest::scratch_ = nullptr;
+
+std::vector<double> code_of(const std::string& out) { return json::parse(out).at("code").get<std::vector<double>>(); }
+
+// The first 300 frames (6 s at 50 Hz) of an H3.6M file, as a REST motion.
+json rest_motion(const std::string& path) {
+  auto rows = motion_rows(path);
+  std::vector<double> values;
+  for (int i = 0; i < 300; ++i) values.insert(values.end(), rows[i].begin(), rows[i].end());
+  return {{"frames", 300}, {"columns", 99}, {"frame_rate", 50}, {"layout", "h36m-expmap-99"}, {"values", values}};
+}
+
+// ---------------------------------------------------------------- encode
+
+TEST_F(ClientTest, EncodeGivesTheServersCodeOverBothProtocols) {
+  const auto expected = rest_call("/v1/encode", {{"motions", {rest_motion(s5("walking_1.txt"))}}});
+  const auto want = expected["codes"][0].get<std::vector<double>>();
+  ASSERT_EQ(want.size(), 64u);
+  for (const auto& protocol : {grpc(), rest()}) {
+    const auto run = run_client(protocol + " encode --input " + s5("walking_1.txt"));
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    const auto code = code_of(run.out);
+    ASSERT_EQ(code.size(), 64u);
+    for (size_t i = 0; i < code.size(); ++i) EXPECT_NEAR(code[i], want[i], 1e-5) << i;
+    EXPECT_EQ(json::parse(run.out)["model"], expected["answered_by"]["model"]);
+  }
+  // --json prints the reply itself, as REST does.
+  const auto run = run_client(grpc() + " --json encode --input " + s5("walking_1.txt"));
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_EQ(json::parse(run.out)["answered_by"], expected["answered_by"]);
+  EXPECT_EQ(json::parse(run.out)["codes"][0].size(), 64u);
+}
+
+TEST_F(ClientTest, EncodeRefusesBadFilesLocallyAndBadModelsAsTheServerSays) {
+  auto run = run_client(grpc() + " encode --input " + dir_.file("missing.txt"));
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_NE(run.err.find("missing.txt: cannot open the file"), std::string::npos) << run.err;
+
+  run = run_client(grpc() + " encode --input " + dir_.write("walk.bvh", "HIERARCHY\n"));
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_NE(run.err.find("BVH support is not built in yet"), std::string::npos) << run.err;
+
+  run = run_client(grpc() + " encode --input " + dir_.write("short.txt", "1,2,3\n"));
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_NE(run.err.find("short.txt:1"), std::string::npos) << run.err;
+
+  for (const auto& protocol : {grpc(), rest()}) {
+    run = run_client(protocol + " encode --model no-such-model --input " + s5("walking_1.txt"));
+    EXPECT_EQ(run.exit_code, 1) << run.err;
+    EXPECT_EQ(run.err.rfind("error: NOT_FOUND: model: ", 0), 0u) << run.err;
+    EXPECT_NE(run.err.find("no-such-model"), std::string::npos) << run.err;
+  }
+}
+
+TEST_F(ClientTest, AnUnreachableServerIsExitOne) {
+  const auto run = run_client("--server 127.0.0.1:1 encode --input " + s5("walking_1.txt"));
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_EQ(run.err.rfind("error: UNAVAILABLE: ", 0), 0u) << run.err;
+}
+
+TEST_F(ClientTest, UsageErrorsAreExitTwo) {
+  EXPECT_EQ(run_client("").exit_code, 2);
+  EXPECT_EQ(run_client("encode").exit_code, 2);  // --input is required
+  EXPECT_EQ(run_client("encode --input x.txt --rate 30").exit_code, 2);
+  EXPECT_EQ(run_client("sample --seed 1").exit_code, 2);  // neither --out-dir nor --json
+}
+
+// ---------------------------------------------------------------- decode
+
+TEST_F(ClientTest, DecodeWritesA150FrameMotionFromAnEncodedCode) {
+  for (const auto& protocol : {grpc(), rest()}) {
+    const auto encoded = run_client(protocol + " encode --input " + s5("walking_1.txt"));
+    ASSERT_EQ(encoded.exit_code, 0) << encoded.err;
+    const auto code_file = dir_.write("code.json", encoded.out);
+    const auto out = dir_.file("decoded.txt");
+    const auto run = run_client(protocol + " decode --code " + code_file + " --out " + out);
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    const auto rows = motion_rows(out);
+    ASSERT_EQ(rows.size(), 150u);
+    for (const auto& row : rows) ASSERT_EQ(row.size(), 99u);
+    // Read back at 25 Hz, the decoded motion encodes again.
+    const auto again = run_client(protocol + " encode --rate 25 --input " + out);
+    EXPECT_EQ(again.exit_code, 0) << again.err;
+  }
+}
+
+TEST_F(ClientTest, DecodeOfACodeOfTheWrongLengthNamesTheField) {
+  const auto code_file = dir_.write("short.json", "[0.1, 0.2, 0.3]");
+  for (const auto& protocol : {grpc(), rest()}) {
+    const auto run = run_client(protocol + " decode --code " + code_file + " --out " + dir_.file("x.txt"));
+    EXPECT_EQ(run.exit_code, 1);
+    EXPECT_EQ(run.err.rfind("error: INVALID_ARGUMENT: codes[0]", 0), 0u) << run.err;
+  }
+  const auto run = run_client(grpc() + " decode --code " + dir_.write("bad.json", "{\"code\": [1, \"a\"]}") +
+                              " --out " + dir_.file("x.txt"));
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_NE(run.err.find("code[1]"), std::string::npos) << run.err;
+}
+
+// ---------------------------------------------------------------- sample
+
+TEST_F(ClientTest, SampleWithASeedIsReproducible) {
+  const auto a = dir_.file("a"), b = dir_.file("b"), c = dir_.file("c");
+  auto run = run_client(grpc() + " sample --count 2 --seed 7 --out-dir " + a);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_EQ(run.out, a + "/sample_000.txt\n" + a + "/sample_001.txt\n");
+  ASSERT_EQ(run_client(rest() + " sample --count 2 --seed 7 --out-dir " + b).exit_code, 0);
+  ASSERT_EQ(run_client(grpc() + " sample --count 2 --seed 8 --out-dir " + c).exit_code, 0);
+  for (const char* file : {"/sample_000.txt", "/sample_001.txt"}) {
+    EXPECT_EQ(motion_rows(a + file).size(), 150u);
+    EXPECT_EQ(read_text(a + file), read_text(b + file)) << file;
+    EXPECT_NE(read_text(a + file), read_text(c + file)) << file;
+  }
+  EXPECT_FALSE(fs::exists(a + "/sample_002.txt"));
+}
+
+TEST_F(ClientTest, SampleRefusesAnUnknownDecoder) {
+  const auto run = run_client(grpc() + " sample --decoder sideways --out-dir " + dir_.file("s"));
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_EQ(run.err.rfind("error: INVALID_ARGUMENT: decoder: ", 0), 0u) << run.err;
+  EXPECT_NE(run.err.find("sideways"), std::string::npos) << run.err;
+}
+
+// ----------------------------------------------------------- interpolate
+
+TEST_F(ClientTest, InterpolateWritesOneFilePerStep) {
+  const auto out = dir_.file("interp");
+  const auto run = run_client(grpc() + " interpolate --from " + s5("walking_1.txt") + " --to " + s5("eating_1.txt") +
+                              " --steps 5 --spherical --out-dir " + out);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  for (int i = 0; i < 5; ++i) {
+    EXPECT_EQ(motion_rows(out + "/interpolate_00" + std::to_string(i) + ".txt").size(), 150u) << i;
+  }
+  EXPECT_FALSE(fs::exists(out + "/interpolate_005.txt"));
+  // A code file is an end too; --json prints the codes.
+  const auto encoded = run_client(grpc() + " encode --input " + s5("walking_1.txt"));
+  const auto code_file = dir_.write("walk.json", encoded.out);
+  const auto json_run = run_client(rest() + " --json interpolate --from " + code_file + " --to " + s5("eating_1.txt") +
+                                   " --steps 3");
+  ASSERT_EQ(json_run.exit_code, 0) << json_run.err;
+  const auto reply = json::parse(json_run.out);
+  ASSERT_EQ(reply["codes"].size(), 3u);
+  const auto first = reply["codes"][0].get<std::vector<double>>();
+  const auto code = code_of(encoded.out);
+  for (size_t i = 0; i < code.size(); ++i) EXPECT_NEAR(first[i], code[i], 1e-5);
+}
+
+TEST_F(ClientTest, InterpolateRefusesAnUnknownMethod) {
+  const auto run = run_client(grpc() + " interpolate --from " + s5("walking_1.txt") + " --to " + s5("walking_1.txt") +
+                              " --method cubic --out-dir " + dir_.file("i"));
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_EQ(run.err.rfind("error: INVALID_ARGUMENT: method: ", 0), 0u) << run.err;
+}
+
+// ---------------------------------------------------------------- analogy
+
+TEST_F(ClientTest, AnalogyWritesOneMotion) {
+  const auto out = dir_.file("analogy.txt");
+  const auto run = run_client(grpc() + " analogy --a " + s5("walkingdog_1.txt") + " --b " + s5("walking_1.txt") +
+                              " --c " + s5("walking_2.txt") + " --out " + out);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_EQ(motion_rows(out).size(), 150u);
+}
+
+TEST_F(ClientTest, AnalogyRefusesAMissingInputBeforeCallingTheServer) {
+  const auto run = run_client(grpc() + " analogy --a " + dir_.file("none.txt") + " --b " + s5("walking_1.txt") +
+                              " --c " + s5("walking_2.txt") + " --out " + dir_.file("x.txt"));
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_NE(run.err.find("none.txt: cannot open the file"), std::string::npos) << run.err;
+  const auto bvh = run_client(grpc() + " analogy --a " + s5("walking_1.txt") + " --b " + s5("walking_1.txt") +
+                              " --c " + s5("walking_2.txt") + " --out " + dir_.file("x.bvh"));
+  EXPECT_EQ(bvh.exit_code, 2);
+  EXPECT_NE(bvh.err.find("BVH support is not built in yet"), std::string::npos) << bvh.err;
+}
+
+// ---------------------------------------------------------------- denoise
+
+TEST_F(ClientTest, DenoiseKeepsTheRootTranslationOfItsInput) {
+  const auto out = dir_.file("denoised.txt");
+  const auto run = run_client(rest() + " denoise --input " + s5("walking_1.txt") + " --out " + out);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const auto rows = motion_rows(out);
+  ASSERT_EQ(rows.size(), 150u);
+  // Frame 0 at 25 Hz is frame 0 of the 50 Hz file.
+  const auto input = motion_rows(s5("walking_1.txt"));
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(rows[0][c], input[0][c], 1e-4);
+}
+
+TEST_F(ClientTest, DenoiseRefusesContradictoryOptions) {
+  const auto run = run_client(grpc() + " denoise --zeros-are-missing --means-are-missing --input " +
+                              s5("walking_1.txt") + " --out " + dir_.file("d.txt"));
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_EQ(run.err.rfind("error: INVALID_ARGUMENT: ", 0), 0u) << run.err;
+}
+
+// ----------------------------------------------------------------- models
+
+TEST_F(ClientTest, ModelsListAndDescribeShowTheStore) {
+  for (const auto& protocol : {grpc(), rest()}) {
+    const auto run = run_client(protocol + " --json models list");
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    std::vector<std::string> names;
+    const auto reply = json::parse(run.out);
+    for (const auto& m : reply["models"]) names.push_back(m["name"]);
+    EXPECT_NE(std::find(names.begin(), names.end(), "h36m-dkgm-cpu"), names.end()) << run.out;
+    EXPECT_NE(std::find(names.begin(), names.end(), "h36m-dkgm-h100"), names.end()) << run.out;
+
+    const auto described = run_client(protocol + " --json models describe h36m-dkgm-cpu");
+    ASSERT_EQ(described.exit_code, 0) << described.err;
+    const auto model = json::parse(described.out);
+    EXPECT_EQ(model["latent"], 64);
+    EXPECT_EQ(model["frames"], 150);
+    EXPECT_TRUE(model["provenance"].is_object());
+  }
+  const auto plain = run_client(grpc() + " models list");
+  EXPECT_NE(plain.out.find("h36m-dkgm-cpu"), std::string::npos) << plain.out;
+  const auto missing = run_client(grpc() + " models describe no-such-model");
+  EXPECT_EQ(missing.exit_code, 1);
+  EXPECT_EQ(missing.err.rfind("error: NOT_FOUND: model: ", 0), 0u) << missing.err;
+}
+
+TEST_F(ClientTest, ActivateChangesTheAnsweringModelAndNeedsTheToken) {
+  const auto before = json::parse(run_client(grpc() + " --json models describe").out);
+  const std::string original = before["name"];
+  const std::string other = original == "h36m-dkgm-cpu" ? "h36m-dkgm-h100" : "h36m-dkgm-cpu";
+
+  auto run = run_client(grpc() + " --token wrong models activate " + other);
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_EQ(run.err.rfind("error: UNAUTHENTICATED: authorization: ", 0), 0u) << run.err;
+  run = run_client(rest() + " models activate " + other);  // no token at all
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_EQ(run.err.rfind("error: UNAUTHENTICATED: ", 0), 0u) << run.err;
+
+  run = run_client(grpc() + " " + token() + " models activate " + other);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.out.find("active model: " + other), std::string::npos) << run.out;
+  const auto sampled = run_client(grpc() + " --json sample --seed 1");
+  ASSERT_EQ(sampled.exit_code, 0) << sampled.err;
+  EXPECT_EQ(json::parse(sampled.out)["answered_by"]["model"], other);
+
+  // Back, over REST.
+  run = run_client(rest() + " " + token() + " models activate " + original);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_EQ(json::parse(run_client(rest() + " --json sample --seed 1").out)["answered_by"]["model"], original);
+  run = run_client(grpc() + " " + token() + " models activate no-such-model");
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_EQ(run.err.rfind("error: NOT_FOUND: ", 0), 0u) << run.err;
+}
+
+// ------------------------------------------------------------------- jobs
+
+const char* const kTinyJob = "jobs submit --dataset small --variant D --hidden 16 --batch 4 --iterations 30 --seed 3";
+
+TEST_F(ClientTest, ASubmittedJobIsWatchedToItsEndListedAndGot) {
+  const auto submitted = run_client(grpc() + " " + token() + " " + kTinyJob + " --model-name client-tiny");
+  ASSERT_EQ(submitted.exit_code, 0) << submitted.err;
+  const std::string id = submitted.out.substr(0, submitted.out.find('\n'));
+  ASSERT_FALSE(id.empty());
+
+  // Not on a terminal: one plain line per change, the last the final state.
+  const auto watched = run_client(grpc() + " jobs watch " + id);
+  ASSERT_EQ(watched.exit_code, 0) << watched.out << watched.err;
+  EXPECT_NE(watched.out.find("job " + id + " running"), std::string::npos) << watched.out;
+  EXPECT_NE(watched.out.find("job " + id + " succeeded 30/30 (100%)"), std::string::npos) << watched.out;
+  EXPECT_NE(watched.out.find("-> model client-tiny"), std::string::npos) << watched.out;
+  EXPECT_NE(watched.out.find("it/s"), std::string::npos) << watched.out;
+
+  // Watching a finished job over REST gives its final record at once.
+  const auto rest_watch = run_client(rest() + " --json jobs watch " + id);
+  ASSERT_EQ(rest_watch.exit_code, 0) << rest_watch.err;
+  const auto last_line = rest_watch.out.substr(rest_watch.out.rfind('\n', rest_watch.out.size() - 2) + 1);
+  EXPECT_EQ(json::parse(last_line)["state"], "succeeded");
+
+  for (const auto& protocol : {grpc(), rest()}) {
+    const auto listed = run_client(protocol + " --json jobs list");
+    ASSERT_EQ(listed.exit_code, 0) << listed.err;
+    bool found = false;
+    const auto reply = json::parse(listed.out);
+    for (const auto& job : reply["jobs"]) found = found || job["id"] == id;
+    EXPECT_TRUE(found) << listed.out;
+    const auto got = run_client(protocol + " --json jobs get " + id);
+    ASSERT_EQ(got.exit_code, 0) << got.err;
+    const auto job = json::parse(got.out);
+    EXPECT_EQ(job["state"], "succeeded");
+    EXPECT_EQ(job["progress"]["iteration"], 30);
+    EXPECT_EQ(job["published_model"], "client-tiny");
+    EXPECT_EQ(job["spec"]["variant"], "D");
+  }
+  // A finished job cannot be cancelled.
+  const auto cancel = run_client(grpc() + " " + token() + " jobs cancel " + id);
+  EXPECT_EQ(cancel.exit_code, 1);
+  EXPECT_EQ(cancel.err.rfind("error: FAILED_PRECONDITION: ", 0), 0u) << cancel.err;
+}
+
+TEST_F(ClientTest, ARunningJobIsCancelledAndItsWatchEndsNonZero) {
+  const auto submitted = run_client(rest() + " " + token() +
+                                    " jobs submit --dataset small --variant D --hidden 16 --batch 4 "
+                                    "--iterations 1000000");
+  ASSERT_EQ(submitted.exit_code, 0) << submitted.err;
+  const std::string id = submitted.out.substr(0, submitted.out.find('\n'));
+  const auto cancelled = run_client(rest() + " " + token() + " --json jobs cancel " + id);
+  ASSERT_EQ(cancelled.exit_code, 0) << cancelled.err;
+  const auto watched = run_client(grpc() + " jobs watch " + id);
+  EXPECT_EQ(watched.exit_code, 1);
+  EXPECT_NE(watched.out.find("cancelled"), std::string::npos) << watched.out;
+  EXPECT_NE(watched.err.find("error: job " + id + " cancelled"), std::string::npos) << watched.err;
+}
+
+TEST_F(ClientTest, JobCommandsReportTheServersRefusals) {
+  auto run = run_client(grpc() + " " + kTinyJob);  // no token
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_EQ(run.err.rfind("error: UNAUTHENTICATED: authorization: ", 0), 0u) << run.err;
+  run = run_client(rest() + " --token wrong " + kTinyJob);
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_EQ(run.err.rfind("error: UNAUTHENTICATED: authorization: ", 0), 0u) << run.err;
+  run = run_client(grpc() + " " + token() + " jobs submit --dataset ../outside --variant D");
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_EQ(run.err.rfind("error: INVALID_ARGUMENT: dataset: ", 0), 0u) << run.err;
+  run = run_client(grpc() + " " + token() + " jobs submit --dataset small --config " + dir_.file("none.json"));
+  EXPECT_EQ(run.exit_code, 2);
+  for (const auto& protocol : {grpc(), rest()}) {
+    for (const std::string command : {"jobs get", "jobs watch", "jobs cancel"}) {
+      run = run_client(protocol + " " + token() + " " + command + " no-such-job");
+      EXPECT_EQ(run.exit_code, 1) << command;
+      EXPECT_EQ(run.err.rfind("error: NOT_FOUND: id: ", 0), 0u) << command << ": " << run.err;
+    }
+  }
+}
+
+// A job watch outlives the server: killed and started again at the same
+// address, it resumes the job from its checkpoint and the watch follows it
+// to the end.
+TEST(ClientJobWatch, SurvivesAServerRestart) {
+  MM_REQUIRE_H36M();
+  test::ScratchDir scratch;
+  test::ServerProcess server(job_server_args(scratch.path()));
+  const std::string connection = "--server " + server.grpc_target() + " --token " + kToken;
+  const auto submitted =
+      run_client(connection + " jobs submit --dataset small --variant D --hidden 16 --batch 4 --iterations 60");
+  ASSERT_EQ(submitted.exit_code, 0) << submitted.err;
+  const std::string id = submitted.out.substr(0, submitted.out.find('\n'));
+
+  // The watch in the background, its streams to files.
+  const std::string out = scratch.file("watch.out"), err = scratch.file("watch.err");
+  const pid_t watcher = fork();
+  ASSERT_GE(watcher, 0);
+  if (watcher == 0) {
+    const std::string command = std::string(MM_CLIENT_PATH) + " " + connection + " jobs watch " + id + " >" + out +
+                                " 2>" + err;
+    execl("/bin/sh", "sh", "-c", command.c_str(), static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  // Killed once the job has checkpointed (every 5 iterations).
+  json job;
+  for (int i = 0; i < 1500; ++i) {
+    const auto got = run_client("--server " + server.grpc_target() + " --json jobs get " + id);
+    if (got.exit_code == 0) job = json::parse(got.out);
+    if (job.value("state", "") != "queued" && job["progress"].value("iteration", 0) >= 12) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  }
+  ASSERT_EQ(job["state"], "running") << job.dump();
+  server.kill();
+  std::this_thread::sleep_for(std::chrono::seconds(1));  // the watch sees the server gone
+  server.restart_on_same_ports();
+
+  int status = -1;
+  for (int i = 0; i < 3000 && waitpid(watcher, &status, WNOHANG) == 0; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  }
+  if (status == -1) {
+    kill(watcher, SIGKILL);
+    waitpid(watcher, &status, 0);
+  }
+  const std::string watch_out = read_text(out), watch_err = read_text(err);
+  ASSERT_TRUE(WIFEXITED(status)) << watch_out << watch_err;
+  EXPECT_EQ(WEXITSTATUS(status), 0) << watch_out << watch_err;
+  EXPECT_NE(watch_err.find("connection lost (UNAVAILABLE"), std::string::npos) << watch_err;
+  EXPECT_NE(watch_out.find("job " + id + " succeeded 60/60"), std::string::npos) << watch_out;
+  EXPECT_NE(watch_out.find("(resumed 1x)"), std::string::npos) << watch_out;
+}
+
+}  // namespace
+}  // namespace mm
