@@ -87,14 +87,16 @@ struct MotionInputs {
   int rate(size_t i) const { return per_input(rates, i, kDataSetRate, "--rate", motions.size()); }
 };
 
-// Writes motions as <dir>/<stem>_000.txt, ...; the folder was made beforehand.
-int write_motions(const std::vector<MotionFrames>& motions, const std::string& dir, const std::string& stem) {
+// Writes motions as <dir>/<stem>_000.<format>, ... (format "txt" or "bvh");
+// the folder was made beforehand.
+int write_motions(const std::vector<MotionFrames>& motions, const std::string& dir, const std::string& stem,
+                  const std::string& format) {
   for (size_t i = 0; i < motions.size(); ++i) {
-    write_motion_text_file(motions[i], numbered_motion_path(dir, stem, static_cast<int>(i)));
+    write_motion_output(motions[i], numbered_motion_path(dir, stem, static_cast<int>(i), format));
   }
   std::printf("wrote %zu motions of %lld frames at 25 Hz: %s ... %s\n", motions.size(),
-              static_cast<long long>(motions.front().frame_count()), numbered_motion_path(dir, stem, 0).c_str(),
-              numbered_motion_path(dir, stem, static_cast<int>(motions.size()) - 1).c_str());
+              static_cast<long long>(motions.front().frame_count()), numbered_motion_path(dir, stem, 0, format).c_str(),
+              numbered_motion_path(dir, stem, static_cast<int>(motions.size()) - 1, format).c_str());
   return kExitSuccess;
 }
 
@@ -203,10 +205,11 @@ void add_sample(CLI::App& app, Action& action) {
     int count = 1;
     uint64_t seed = 0;
     std::string out_dir;
+    std::string format = "txt";
   };
   auto o = std::make_shared<Options>();
   auto* command = app.add_subcommand(
-      "sample", "Decode random codes drawn from the prior (Sec. 5.2) into sample_000.txt, ... (25 Hz). One run "
+      "sample", "Decode random codes drawn from the prior (Sec. 5.2) into sample_000.txt, ... (25 Hz; .bvh with --format bvh). One run "
                 "decodes at most what fits in 1 GiB (about 5000 motions with the shipped model).");
   o->model.add_to(command, true);
   command->add_option("--count", o->count, "number of motions (run again with another --seed for more than fit in 1 GiB)")
@@ -214,13 +217,16 @@ void add_sample(CLI::App& app, Action& action) {
       ->capture_default_str();
   command->add_option("--seed", o->seed, "seed of the codes")->capture_default_str();
   command->add_option("--out-dir", o->out_dir, "folder for the motion files")->required();
+  command->add_option("--format", o->format, "file format of the motions: txt (H3.6M text) or bvh")
+      ->check(CLI::IsMember({"txt", "bvh"}))
+      ->capture_default_str();
   command->callback([o, &action] {
     action = [o] {
       ensure_directory(o->out_dir, "--out-dir");
       const MotionManifold model = load_model(o->model);
       check_decode_count(model, o->count, "--count", "run again with another --seed for more");
       const auto codes = sample_codes(model, o->count, o->seed);
-      return write_motions(decode_codes(model, codes, o->model.kind(model)), o->out_dir, "sample");
+      return write_motions(decode_codes(model, codes, o->model.kind(model)), o->out_dir, "sample", o->format);
     };
   });
 }
@@ -230,6 +236,7 @@ void add_interpolate(CLI::App& app, Action& action) {
     ModelOptions model;
     MotionInputs inputs{{"--from", "--to"}};
     std::string out_dir;
+    std::string format = "txt";
     int steps = 5;
     bool spherical = false;
   };
@@ -237,7 +244,7 @@ void add_interpolate(CLI::App& app, Action& action) {
   auto* command = app.add_subcommand(
       "interpolate",
       std::string("Interpolate two motions on the manifold (Sec. 5.3) into interpolation_000.txt (from) ... "
-                  "interpolation_<steps-1>.txt (to). ") + kMotionRateNote);
+                  "interpolation_<steps-1>.txt (to), or .bvh with --format bvh. ") + kMotionRateNote);
   o->model.add_to(command, true);
   auto& from = o->inputs.motions[0];
   auto& to = o->inputs.motions[1];
@@ -251,6 +258,9 @@ void add_interpolate(CLI::App& app, Action& action) {
   command->add_option("--start-from", from.start, "first 25 Hz frame of the window in --from");
   command->add_option("--start-to", to.start, "first 25 Hz frame of the window in --to");
   command->add_option("--out-dir", o->out_dir, "folder for the motion files")->required();
+  command->add_option("--format", o->format, "file format of the motions: txt (H3.6M text) or bvh")
+      ->check(CLI::IsMember({"txt", "bvh"}))
+      ->capture_default_str();
   command->callback([o, &action] {
     action = [o] {
       o->inputs.read();
@@ -259,7 +269,7 @@ void add_interpolate(CLI::App& app, Action& action) {
       check_decode_count(model, o->steps, "--steps", "fewer steps");
       const auto codes = encode_motions(model, o->inputs.windows(model));
       const auto path = interpolate_codes(codes[0], codes[1], o->steps, o->spherical);
-      return write_motions(decode_codes(model, path, o->model.kind(model)), o->out_dir, "interpolation");
+      return write_motions(decode_codes(model, path, o->model.kind(model)), o->out_dir, "interpolation", o->format);
     };
   });
 }

@@ -1,11 +1,14 @@
 #include "motion_files.h"
 
+#include <cctype>
 #include <cstdio>
 #include <filesystem>
 #include <sstream>
 #include <system_error>
 
 #include "file_arguments.h"
+#include "format/atomic_file.h"
+#include "format/h36m_bvh.h"
 #include "format/input_error.h"
 
 namespace mm::tool {
@@ -14,7 +17,34 @@ const char* const kMotionRateNote =
     "Input motions are H3.6M exponential-map text files, at 50 Hz (the data set; the default) or at 25 Hz (what "
     "decode, sample, interpolate, analogy and denoise write): give --rate 25 for the latter. At 50 Hz every "
     "second frame is kept. A window of the model's clip length (150 frames = 6 s at 25 Hz) is taken from --start "
-    "(in 25 Hz frames). - reads standard input. Output motions are written in the same text layout at 25 Hz.";
+    "(in 25 Hz frames). - reads standard input. BVH files of the H3.6M skeleton (a .bvh name, or text that starts "
+    "with HIERARCHY) are read at their own frame time, nearest frames at 25 Hz, and --rate does not apply. Output "
+    "motions are written in the same text layout at 25 Hz, or as BVH when the file name ends in .bvh.";
+
+bool is_bvh_path(const std::string& path) {
+  if (path.size() < 4) return false;
+  std::string extension = path.substr(path.size() - 4);
+  for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return extension == ".bvh";
+}
+
+bool is_bvh_input(const std::string& path, const std::string& text) {
+  if (is_bvh_path(path)) return true;
+  size_t at = text.compare(0, 3, "\xEF\xBB\xBF") == 0 ? 3 : 0;
+  while (at < text.size() && std::isspace(static_cast<unsigned char>(text[at]))) ++at;
+  return text.compare(at, 9, "HIERARCHY") == 0;
+}
+
+MotionFrames motion_at_model_rate(const std::string& text, const std::string& name, int rate, int columns) {
+  if (is_bvh_input(name, text)) {
+    if (columns != kH36mColumns) {
+      throw InputError(name + ": BVH is read for the H3.6M skeleton (99 columns), the model wants " +
+                       std::to_string(columns));
+    }
+    return h36m_motion_from_bvh_text(text, name);
+  }
+  return at_model_rate(parse_motion_text_buffer(text.data(), text.size(), name, columns), rate, name);
+}
 
 MotionFrames at_model_rate(const MotionFrames& motion, int rate, const std::string& name) {
   if (rate == kModelRate) return motion;
@@ -25,16 +55,19 @@ MotionFrames at_model_rate(const MotionFrames& motion, int rate, const std::stri
 MotionFrames motion_window(const std::string& text, const std::string& name, int frames, int start, int rate,
                            int columns) {
   if (start < 0) throw InputError(name + ": start frame must be >= 0, found " + std::to_string(start));
-  const MotionFrames file = parse_motion_text_buffer(text.data(), text.size(), name, columns);
-  const MotionFrames motion = at_model_rate(file, rate, name);
+  const bool bvh = is_bvh_input(name, text);
+  // For text, the file as read, for the message on a file that is too short.
+  const MotionFrames file =
+      bvh ? MotionFrames{} : parse_motion_text_buffer(text.data(), text.size(), name, columns);
+  const MotionFrames motion = bvh ? motion_at_model_rate(text, name, rate, columns) : at_model_rate(file, rate, name);
   const int64_t needed = static_cast<int64_t>(start) + frames;
   if (motion.frame_count() < needed) {
     std::string found = std::to_string(motion.frame_count()) + " frames at 25 Hz";
-    if (rate != kModelRate) found += " (" + std::to_string(file.frame_count()) + " at " + std::to_string(rate) + " Hz)";
+    if (rate != kModelRate && !bvh) found += " (" + std::to_string(file.frame_count()) + " at " + std::to_string(rate) + " Hz)";
     throw InputError(name + ": too short: " + found + ", need " + std::to_string(needed) + " (" +
                      std::to_string(frames) + " frames from frame " + std::to_string(start) + ")" +
                      // Enough frames read at 25 Hz: most likely a file the tool wrote.
-                     (rate != kModelRate && file.frame_count() >= needed ? "; if the file is at 25 Hz, give --rate 25"
+                     (rate != kModelRate && !bvh && file.frame_count() >= needed ? "; if the file is at 25 Hz, give --rate 25"
                                                                           : ""));
   }
   MotionFrames window;
@@ -44,6 +77,10 @@ MotionFrames motion_window(const std::string& text, const std::string& name, int
 }
 
 void write_motion_output(const MotionFrames& motion, const std::string& path) {
+  if (is_bvh_path(path)) {
+    write_file_atomically(path, h36m_motion_to_bvh_text(motion, kModelRate));
+    return;
+  }
   if (!is_standard_stream(path)) {
     write_motion_text_file(motion, path);
     return;
@@ -59,10 +96,11 @@ void ensure_directory(const std::string& dir, const std::string& option) {
   if (error) throw InputError(option + " " + dir + ": cannot create the directory: " + error.message());
 }
 
-std::string numbered_motion_path(const std::string& dir, const std::string& stem, int index) {
+std::string numbered_motion_path(const std::string& dir, const std::string& stem, int index,
+                                 const std::string& extension) {
   char number[16];
   std::snprintf(number, sizeof number, "%03d", index);
-  return dir + "/" + stem + "_" + number + ".txt";
+  return dir + "/" + stem + "_" + number + "." + extension;
 }
 
 }  // namespace mm::tool

@@ -1,7 +1,8 @@
 // Motion files as the tool reads and writes them: inputs are H3.6M text at
-// 50 Hz (the data set) or 25 Hz (what the tool writes), from which a window
+// 50 Hz (the data set) or 25 Hz (what the tool writes), or BVH files of the
+// H3.6M skeleton at any frame rate (format/h36m_bvh.h), from which a window
 // of the model's clip length is taken at 25 Hz; outputs are written at
-// 25 Hz. Torch-free.
+// 25 Hz, as BVH when the path ends in ".bvh", else as text. Torch-free.
 #pragma once
 
 #include <string>
@@ -20,23 +21,39 @@ constexpr int kDataSetRate = 50;
 // InputError naming `name` for any other rate.
 MotionFrames at_model_rate(const MotionFrames& motion, int rate, const std::string& name);
 
+// Whether `path` names a BVH file: it ends in ".bvh" (any case).
+bool is_bvh_path(const std::string& path);
+
+// Whether an input is BVH: its path ends in ".bvh", or (for standard input
+// and other names) its first word is HIERARCHY, which no motion text holds.
+bool is_bvh_input(const std::string& path, const std::string& text);
+
+// The whole motion of an input at 25 Hz: BVH is converted and resampled to
+// 25 Hz (its frame time decides; `rate` is ignored), text at `rate` as
+// at_model_rate. Throws InputError naming `name`.
+MotionFrames motion_at_model_rate(const std::string& text, const std::string& name, int rate,
+                                  int columns = kH36mColumns);
+
 // Parses `text` (motion text at `rate` Hz, 25 or 50, with `columns` values a
-// frame; `name` is the file's name in messages), brings it to 25 Hz and
+// frame, or BVH as is_bvh_input(name, text) tells; `name` is the file's name
+// in messages), brings it to 25 Hz and
 // returns `frames` frames starting at 25 Hz frame `start`. Throws InputError
 // naming the file, the frames found and the frames needed when it is too
 // short, and for a negative start or a malformed file.
 MotionFrames motion_window(const std::string& text, const std::string& name, int frames, int start, int rate,
                            int columns = kH36mColumns);
 
-// Writes a motion as text to `path`, or to standard output for "-".
+// Writes a motion (at 25 Hz) to `path`: BVH for a path ending in ".bvh"
+// (frame time 0.04 s), else text; standard output ("-") gets text.
 void write_motion_output(const MotionFrames& motion, const std::string& path);
 
 // Creates `dir` (and its parents) if needed. Throws InputError naming the
 // option and the system's reason when it cannot.
 void ensure_directory(const std::string& dir, const std::string& option);
 
-// "<dir>/<stem>_<index, 3 digits>.txt".
-std::string numbered_motion_path(const std::string& dir, const std::string& stem, int index);
+// "<dir>/<stem>_<index, 3 digits>.<extension>".
+std::string numbered_motion_path(const std::string& dir, const std::string& stem, int index,
+                                 const std::string& extension = "txt");
 
 // The help text's note on rates, shared by the commands that read motions.
 extern const char* const kMotionRateNote;

@@ -43,8 +43,7 @@ MotionFrames read_row_motion(const RenderOptions& o, size_t i) {
   const int start = per_input(o.starts, i, 0, "--start", o.inputs.size());
   const int length = per_input(o.lengths, i, -1, "--length", o.inputs.size());
   const std::string text = read_input_file(o.inputs[i], "--input");
-  const MotionFrames file = parse_motion_text_buffer(text.data(), text.size(), path);
-  const MotionFrames motion = at_model_rate(file, rate, path);
+  const MotionFrames motion = motion_at_model_rate(text, path, rate);
   const int64_t available = motion.frame_count();
   if (start >= available) {
     throw InputError(path + ": --start " + std::to_string(start) + " is past the end: the file has " +

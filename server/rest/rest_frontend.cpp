@@ -12,6 +12,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "rest/bvh_translation.h"
 #include "rest/http_errors.h"
 #include "rest/json_translation.h"
 #include "rest/openapi_document.h"
@@ -47,6 +48,28 @@ void send_json(httplib::Response& response, int status, const std::string& body)
   response.status = status;
   response.set_content(body, kJsonType);
 }
+
+// A reply of motions as JSON, or as BVH when the client's Accept names
+// application/x-bvh; BVH holds one motion, so a reply of several is 406.
+void send_motions(httplib::Response& response, const httplib::Request& request, const MotionsReply& reply) {
+  if (!rest::names_bvh(request.get_header_value("Accept"))) {
+    response.status = 200;
+    return response.set_content(rest::motions_reply_to_json(reply), kJsonType);
+  }
+  if (reply.motions.size() != 1) {
+    const ApiError error(ErrorCode::kInvalidArgument, "",
+                         "Accept: application/x-bvh holds one motion and this reply has " +
+                             std::to_string(reply.motions.size()) + "; ask for application/json");
+    response.status = 406;
+    return response.set_content(rest::error_body(error), kJsonType);
+  }
+  response.status = 200;
+  response.set_content(rest::motions_reply_to_bvh(reply), rest::kBvhType);
+}
+
+// An encode or denoise body: JSON, or one BVH motion (Content-Type
+// application/x-bvh; denoise then takes its defaults).
+bool is_bvh_body(const httplib::Request& request) { return rest::names_bvh(request.get_header_value("Content-Type")); }
 
 void send_error(httplib::Response& response, const ApiError& error) {
   response.status = rest::http_status(error);
@@ -133,24 +156,30 @@ void RestFrontend::State::handle(RouteId route, const httplib::Request& request,
   try {
     switch (route) {
       case RouteId::kEncode:
+        if (is_bvh_body(request)) {
+          EncodeRequest encode;
+          encode.model = request.get_param_value("model");
+          encode.motions.push_back(rest::motion_from_bvh_body(body));
+          return send_json(response, 200, rest::encode_reply_to_json(core.encode(context, encode)));
+        }
         return send_json(response, 200,
                          rest::encode_reply_to_json(core.encode(context, rest::encode_request_from_json(body))));
       case RouteId::kDecode:
-        return send_json(response, 200,
-                         rest::motions_reply_to_json(core.decode(context, rest::decode_request_from_json(body))));
+        return send_motions(response, request, core.decode(context, rest::decode_request_from_json(body)));
       case RouteId::kSample:
-        return send_json(response, 200,
-                         rest::motions_reply_to_json(core.sample(context, rest::sample_request_from_json(body))));
+        return send_motions(response, request, core.sample(context, rest::sample_request_from_json(body)));
       case RouteId::kInterpolate:
-        return send_json(
-            response, 200,
-            rest::motions_reply_to_json(core.interpolate(context, rest::interpolate_request_from_json(body))));
+        return send_motions(response, request, core.interpolate(context, rest::interpolate_request_from_json(body)));
       case RouteId::kAnalogy:
-        return send_json(response, 200,
-                         rest::motions_reply_to_json(core.analogy(context, rest::analogy_request_from_json(body))));
+        return send_motions(response, request, core.analogy(context, rest::analogy_request_from_json(body)));
       case RouteId::kDenoise:
-        return send_json(response, 200,
-                         rest::motions_reply_to_json(core.denoise(context, rest::denoise_request_from_json(body))));
+        if (is_bvh_body(request)) {
+          DenoiseRequest denoise;
+          denoise.model = request.get_param_value("model");
+          denoise.motions.push_back(rest::motion_from_bvh_body(body));
+          return send_motions(response, request, core.denoise(context, denoise));
+        }
+        return send_motions(response, request, core.denoise(context, rest::denoise_request_from_json(body)));
       case RouteId::kListModels:
         return send_json(response, 200, rest::model_list_to_json(core.list_models(context)));
       case RouteId::kDescribeModel:

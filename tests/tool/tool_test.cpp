@@ -464,3 +464,70 @@ TEST(Tool, ResumeWithoutADatasetIsAUsageError) {
 
 }  // namespace
 }  // namespace mm
+
+namespace mm {
+namespace {
+
+// decode writes BVH for a .bvh path; encode reads it back (by its name, or
+// by its HIERARCHY from standard input) to the code of the same motion as
+// text, up to the Euler conversion's rounding.
+TEST(ToolBvh, DecodedBvhEncodesLikeTheSameMotionAsText) {
+  test::ScratchDir dir;
+  auto r = run_tool_split("encode " + kModel + " --rate 25 --input " + dir.write("still.txt", synthetic_motion(150)));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string code_file = dir.write("code.json", r.out);
+  r = run_tool_split("decode " + kModel + " --code " + code_file + " --out " + dir.file("decoded.txt"));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = run_tool_split("decode " + kModel + " --code " + code_file + " --out " + dir.file("decoded.bvh"));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string bvh = read_text(dir.file("decoded.bvh"));
+  EXPECT_EQ(bvh.rfind("HIERARCHY\nROOT Hips\n", 0), 0u) << bvh.substr(0, 100);
+  EXPECT_NE(bvh.find("Frames: 150\nFrame Time: 0.04\n"), std::string::npos);
+
+  const auto text_code = run_tool_split("encode " + kModel + " --rate 25 --input " + dir.file("decoded.txt"));
+  const auto bvh_code = run_tool_split("encode " + kModel + " --input " + dir.file("decoded.bvh"));
+  const auto stdin_code = run_tool_split("encode " + kModel + " --input -", dir.file("decoded.bvh"));
+  ASSERT_EQ(text_code.exit_code, 0) << text_code.err;
+  ASSERT_EQ(bvh_code.exit_code, 0) << bvh_code.err;
+  ASSERT_EQ(stdin_code.exit_code, 0) << stdin_code.err;
+  EXPECT_LT(distance(code_of(text_code.out), code_of(bvh_code.out)), 1e-3);
+  EXPECT_EQ(code_of(bvh_code.out), code_of(stdin_code.out));
+}
+
+TEST(ToolBvh, DenoiseAnalogySampleAndInterpolateWriteBvh) {
+  test::ScratchDir dir;
+  const std::string still = dir.write("still.txt", synthetic_motion(150));
+  auto r = run_tool_split("denoise " + kModel + " --rate 25 --input " + still + " --out " + dir.file("d.bvh"));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(read_text(dir.file("d.bvh")).rfind("HIERARCHY", 0), 0u);
+  // The BVH written feeds the next command.
+  r = run_tool_split("analogy " + kModel + " --a " + dir.file("d.bvh") + " --b " + still + " --c " + still +
+                     " --rate 25 --out " + dir.file("a.bvh"));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(read_text(dir.file("a.bvh")).find("Frames: 150"), std::string::npos);
+  r = run_tool_split("sample " + kModel + " --count 2 --format bvh --out-dir " + dir.file("samples"));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(std::filesystem::exists(dir.file("samples/sample_001.bvh")));
+  r = run_tool_split("interpolate " + kModel + " --rate 25 --steps 2 --from " + dir.file("d.bvh") + " --to " + still +
+                     " --format bvh --out-dir " + dir.file("path"));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(read_text(dir.file("path/interpolation_000.bvh")).rfind("HIERARCHY", 0), 0u);
+}
+
+TEST(ToolBvh, AnotherSkeletonOrABrokenBvhIsExitTwoNamingTheFile) {
+  test::ScratchDir dir;
+  const std::string other = dir.write(
+      "other.bvh",
+      "HIERARCHY\nROOT hip\n{\n OFFSET 0 0 0\n CHANNELS 3 Zrotation Yrotation Xrotation\n End Site\n {\n  OFFSET 0 1 0\n }\n}\n"
+      "MOTION\nFrames: 1\nFrame Time: 0.04\n0 0 0\n");
+  auto r = run_tool_split("encode " + kModel + " --input " + other);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("other.bvh: not the H3.6M skeleton"), std::string::npos) << r.err;
+  const std::string broken = dir.write("broken.bvh", "HIERARCHY\nROOT hip\n{\n OFFSET 0 0 nan\n");
+  r = run_tool_split("encode " + kModel + " --input " + broken);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("broken.bvh:4:"), std::string::npos) << r.err;
+}
+
+}  // namespace
+}  // namespace mm

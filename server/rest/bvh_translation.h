@@ -1,0 +1,34 @@
+// BVH <-> the core's motions for the REST frontend: a request body of
+// Content-Type application/x-bvh on /v1/encode and /v1/denoise is one motion
+// (a BVH of the H3.6M skeleton, format/h36m_bvh.h: any rotation order and
+// frame time, taken to 25 Hz by nearest frames), and a reply with one motion
+// is written as BVH (frame time 0.04 s, offsets in mm) when the request's
+// Accept header names application/x-bvh.
+//
+// Torch-free (mm_format). Thread safety: pure functions.
+#pragma once
+
+#include <string>
+
+#include "core/api_types.h"
+
+namespace mm::service::rest {
+
+constexpr const char* kBvhType = "application/x-bvh";
+
+// Whether a Content-Type or Accept header value names application/x-bvh
+// (parameters and case ignored).
+bool names_bvh(const std::string& header_value);
+
+// The motion in a BVH body, in the h36m-expmap-99 layout at 25 Hz. Throws
+// ApiError INVALID_ARGUMENT with field "" and the parser's message
+// ("request body:<line>: ...", or what differs from the H3.6M skeleton).
+Motion motion_from_bvh_body(const std::string& body);
+
+// The single motion of `reply` as BVH text. Throws ApiError
+// INVALID_ARGUMENT when the reply holds another number of motions (the
+// frontend answers 406 Not Acceptable for it) or a motion not in the H3.6M
+// layout.
+std::string motions_reply_to_bvh(const MotionsReply& reply);
+
+}  // namespace mm::service::rest
