@@ -8,6 +8,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "format/atomic_file.h"
+#include "format/h36m_bvh.h"
 #include "format/input_error.h"
 
 namespace mm::client {
@@ -21,8 +23,7 @@ std::string extension_of(const std::string& path) {
   return ext;
 }
 
-// The one place that maps a file name to a format: the BVH library plugs
-// in here (and in the two switch statements below) when it lands.
+// The one place that maps a file name to a format.
 MotionFormat format_of(const std::string& path, const std::string& what) {
   if (path == "-") return MotionFormat::kText;
   const std::string ext = extension_of(path);
@@ -30,10 +31,6 @@ MotionFormat format_of(const std::string& path, const std::string& what) {
   if (ext == ".bvh") return MotionFormat::kBvh;
   throw InputError(what + " " + path + ": unknown motion file type \"" + ext +
                    "\", expected .txt (H3.6M exponential-map text) or .bvh");
-}
-
-[[noreturn]] void bvh_not_built_in(const std::string& path) {
-  throw InputError(path + ": BVH support is not built in yet; use H3.6M text (.txt)");
 }
 
 std::string read_all(const std::string& path) {
@@ -52,26 +49,29 @@ std::string display_name(const std::string& path) { return path == "-" ? "<stdin
 const char* const kMotionInputNote =
     "Input motions are H3.6M exponential-map text files (.txt), at 50 Hz (the data set; the default) or at 25 Hz "
     "(what this client writes): give --rate 25 for the latter. At 50 Hz every second frame is kept. A clip of "
-    "150 frames (6 s at 25 Hz) is taken from --start (in 25 Hz frames). Output motions are text at 25 Hz.";
+    "150 frames (6 s at 25 Hz) is taken from --start (in 25 Hz frames). BVH files (.bvh) of the H3.6M skeleton are "
+    "read at their own frame time and resampled to 25 Hz. Output motions are text, or BVH for a .bvh name, at 25 Hz.";
 
 v1::Motion read_motion(const MotionSource& source, int frames) {
   const std::string name = display_name(source.path);
-  if (format_of(source.path, "motion") == MotionFormat::kBvh) bvh_not_built_in(name);
-  if (source.rate != 25 && source.rate != 50) {
+  const bool bvh = format_of(source.path, "motion") == MotionFormat::kBvh;
+  if (!bvh && source.rate != 25 && source.rate != 50) {
     throw InputError(name + ": rate " + std::to_string(source.rate) + " Hz is not supported, expected 25 or 50");
   }
   if (source.start < 0) throw InputError(name + ": start frame must be >= 0, found " + std::to_string(source.start));
   const std::string text = read_all(source.path);
-  const MotionFrames file = parse_motion_text_buffer(text.data(), text.size(), name);
+  // A BVH file states its own frame time and comes back at 25 Hz.
+  const MotionFrames file =
+      bvh ? h36m_motion_from_bvh_text(text, name) : parse_motion_text_buffer(text.data(), text.size(), name);
   // The server would keep every second frame of a 50 Hz motion too; doing it
   // here lets --start count 25 Hz frames, as in the tool.
-  const MotionFrames motion = source.rate == 50 ? split_phases(file, 2)[0] : file;
+  const MotionFrames motion = !bvh && source.rate == 50 ? split_phases(file, 2)[0] : file;
   const int64_t needed = static_cast<int64_t>(source.start) + frames;
   if (motion.frame_count() < needed) {
     throw InputError(name + ": too short: " + std::to_string(motion.frame_count()) + " frames at 25 Hz, need " +
                      std::to_string(needed) + " (" + std::to_string(frames) + " frames from frame " +
                      std::to_string(source.start) + ")" +
-                     (source.rate == 50 && file.frame_count() >= needed ? "; if the file is at 25 Hz, give --rate 25"
+                     (!bvh && source.rate == 50 && file.frame_count() >= needed ? "; if the file is at 25 Hz, give --rate 25"
                                                                         : ""));
   }
   v1::Motion message;
@@ -108,15 +108,16 @@ v1::Code read_code(const std::string& path) {
   return code;
 }
 
-void check_motion_output(const std::string& path, const std::string& option) {
-  if (format_of(path, option) == MotionFormat::kBvh) bvh_not_built_in(path);
-}
+void check_motion_output(const std::string& path, const std::string& option) { format_of(path, option); }
 
 void write_motion(const v1::Motion& motion, const std::string& path) {
-  check_motion_output(path, "--out");
   MotionFrames frames;
   frames.columns = motion.columns();
   frames.values.assign(motion.values().begin(), motion.values().end());
+  if (format_of(path, "--out") == MotionFormat::kBvh) {
+    write_file_atomically(path, h36m_motion_to_bvh_text(frames, motion.frame_rate()));
+    return;
+  }
   if (path == "-") {
     write_motion_text(frames, std::cout);
     std::cout.flush();

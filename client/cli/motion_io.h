@@ -1,7 +1,7 @@
 // Motion files on the client's side, the reader and writer picked by the
 // file's extension: ".txt" is H3.6M exponential-map text (model/format's
-// motion_text); ".bvh" is reserved for the BVH library that model/format
-// will gain (refused until then); "-" is text on standard input or output.
+// motion_text); ".bvh" a BVH of the H3.6M skeleton (model/format's
+// h36m_bvh); "-" is text on standard input or output.
 // Inputs are brought to the models' 25 Hz and cut to one clip, as the
 // motion-manifold tool does (model/tool/motion_files.h). Torch-free.
 #pragma once
@@ -31,7 +31,7 @@ struct MotionSource {
 // Reads `source`, brings it to 25 Hz (every second frame at 50 Hz) and
 // returns its `frames` frames from `start` as a Motion message (25 Hz,
 // h36m-expmap-99). Throws InputError naming the file when it cannot be read,
-// is malformed or too short, or is of a format not built in (BVH).
+// is malformed or too short (a BVH of another skeleton names what differs).
 v1::Motion read_motion(const MotionSource& source, int frames = kClipFrames);
 
 // Reads a code file: JSON {"code": [...]} as `encode` prints it, a reply of
@@ -43,8 +43,7 @@ v1::Code read_code(const std::string& path);
 bool is_code_file(const std::string& path);
 
 // Writes a motion (as the server returns it) to `path`, the writer picked
-// by extension as above. Throws InputError for an unwritable path or a
-// format not built in.
+// by extension as above. Throws InputError for an unwritable path.
 void write_motion(const v1::Motion& motion, const std::string& path);
 
 // Writes the motions to "<dir>/<stem>_000.txt", "_001", ... (the tool's
