@@ -76,7 +76,7 @@ void add_encode(CLI::App& app, const ClientSettings& settings, Action& action) {
       "encode", std::string("Print the code of a motion: {\"code\": [...], ...} on stdout, a code file for decode, "
                             "interpolate and analogy. ") + kMotionInputNote);
   o->model.add_to(command, false);
-  command->add_option("--input", o->input.path, "motion file (.txt; - for standard input)")->required();
+  command->add_option("--input", o->input.path, "motion file (.txt or .bvh; - for standard input)")->required();
   add_rate(command, {&o->input});
   command->add_option("--start", o->input.start, "first 25 Hz frame of the clip");
   command->callback([o, &settings, &action] {
@@ -214,7 +214,7 @@ void add_analogy(CLI::App& app, const ClientSettings& settings, Action& action) 
   command->add_option("--start-a", o->a.start, "first 25 Hz frame of the clip in a");
   command->add_option("--start-b", o->b.start, "first 25 Hz frame of the clip in b");
   command->add_option("--start-c", o->c.start, "first 25 Hz frame of the clip in c");
-  command->add_option("--out", o->out, "motion file to write (.txt, 25 Hz; - for standard output)");
+  command->add_option("--out", o->out, "motion file to write (.txt or .bvh, 25 Hz; - for standard output)");
   command->callback([o, &settings, &action] {
     action = [o, &settings] {
       require_output(settings, o->out, "--out");
@@ -243,14 +243,14 @@ void add_denoise(CLI::App& app, const ClientSettings& settings, Action& action) 
       "denoise", std::string("Project a motion onto the manifold and write it decoded (Sec. 5.4); its root "
                              "translation is kept. ") + kMotionInputNote);
   o->model.add_to(command, true);
-  command->add_option("--input", o->input.path, "motion file (.txt; - for standard input)")->required();
+  command->add_option("--input", o->input.path, "motion file (.txt or .bvh; - for standard input)")->required();
   add_rate(command, {&o->input});
   command->add_option("--start", o->input.start, "first 25 Hz frame of the clip");
   command->add_flag("--zeros-are-missing", o->zeros_are_missing, "a joint-angle value of exactly 0 is missing");
   command->add_flag("--means-are-missing", o->means_are_missing, "a value equal to its training mean is missing");
   command->add_option("--iterations", o->iterations, "with missing values: rounds of projecting (0: four)");
   command->add_flag("--keep-observed", o->keep_observed, "with missing values: fill only the missing ones");
-  command->add_option("--out", o->out, "denoised motion file (.txt, 25 Hz; - for standard output)");
+  command->add_option("--out", o->out, "denoised motion file (.txt or .bvh, 25 Hz; - for standard output)");
   command->callback([o, &settings, &action] {
     action = [o, &settings] {
       require_output(settings, o->out, "--out");
