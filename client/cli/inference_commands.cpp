@@ -111,7 +111,7 @@ void add_decode(CLI::App& app, const ClientSettings& settings, Action& action) {
                 "back with --rate 25.");
   o->model.add_to(command, true);
   command->add_option("--code", o->codes, "code file(s) (.json; - for standard input)")->required();
-  command->add_option("--out", o->out, "motion file of the first code (.txt; - for standard output)");
+  command->add_option("--out", o->out, "motion file of the first code (.txt or .bvh; - for standard output)");
   command->add_option("--out-dir", o->out_dir, "folder for every code's motion: decode_000.txt, ...");
   command->callback([o, &settings, &action] {
     action = [o, &settings] {
