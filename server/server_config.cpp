@@ -29,7 +29,7 @@ std::string default_tool_path() {
 int parse_server_config(int argc, char** argv, ServerConfig& config) {
   CLI::App app{"motion-manifold-server " MM_VERSION
                ": serves trained motion manifolds (Jang & Lee, CGF 2020) over gRPC and REST and runs training jobs.\n"
-               "Every option can also be set by the environment variable in brackets or in the --config file."};
+               "Every option can also be set in the --config file or by the environment variable in brackets (a flag wins over the file, the file over the environment)."};
   app.set_config("--config", "", "configuration file (TOML or INI: key = value, keys as the long options)");
   app.set_version_flag("--version", "motion-manifold-server " MM_VERSION);
   app.get_formatter()->column_width(40);

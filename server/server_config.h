@@ -1,6 +1,6 @@
 // The server's configuration: every setting has a command-line flag, an
-// environment variable (MM_<NAME>) and a key in the configuration file
-// (--config FILE, TOML or INI), in that order of precedence, with defaults
+// key in the configuration file (--config FILE, TOML or INI) and an
+// environment variable (MM_<NAME>), in that order of precedence, with defaults
 // that run the shipped model on one machine.
 #pragma once
 

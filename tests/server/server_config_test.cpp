@@ -1,0 +1,62 @@
+// The server's configuration as an operator gives it: a flag, a key of the
+// --config file and an environment variable MM_<NAME>, in that order of
+// precedence (CLI11's: an option the file sets is not read from the
+// environment).
+#include <gtest/gtest.h>
+#include <httplib.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "server_process.h"
+
+namespace mm::test {
+namespace {
+
+// The limit the server states when refusing a Sample of `count`.
+std::string sample_refusal(const ServerProcess& server, int count) {
+  httplib::Client client("127.0.0.1", server.rest_port());
+  const auto result = client.Post("/v1/sample", nlohmann::json{{"count", count}}.dump(), "application/json");
+  if (!result) return "no answer";
+  return result->status == 200 ? "accepted" : result->body;
+}
+
+TEST(ServerConfig, TheEnvironmentSetsALimitAFileOverridesItAndAFlagOverridesBoth) {
+  const auto file = std::filesystem::temp_directory_path() / ("mm-config-" + std::to_string(getpid()) + ".toml");
+  std::ofstream(file) << "# limits\nmax-sample-count = 3\nmax-steps = 7\n";
+  setenv("MM_MAX_SAMPLE_COUNT", "2", 1);
+  {
+    ServerProcess server;
+    EXPECT_NE(sample_refusal(server, 3).find("at most 2 allowed (the server's max_sample_count)"), std::string::npos);
+    EXPECT_EQ(sample_refusal(server, 2), "accepted");
+  }
+  {
+    ServerProcess server({"--config", file.string()});
+    EXPECT_NE(sample_refusal(server, 4).find("at most 3 allowed"), std::string::npos);
+    EXPECT_EQ(sample_refusal(server, 3), "accepted");
+  }
+  {
+    ServerProcess server({"--config", file.string(), "--max-sample-count", "5"});
+    EXPECT_EQ(sample_refusal(server, 5), "accepted");
+    EXPECT_NE(sample_refusal(server, 6).find("at most 5 allowed"), std::string::npos);
+  }
+  unsetenv("MM_MAX_SAMPLE_COUNT");
+  std::filesystem::remove(file);
+}
+
+TEST(ServerConfig, AnUnknownKeyOrABadValueStopsTheServerNamingIt) {
+  const auto file = std::filesystem::temp_directory_path() / ("mm-config-bad-" + std::to_string(getpid()) + ".toml");
+  std::ofstream(file) << "max-sample-count = -1\n";
+  try {
+    ServerProcess server({"--config", file.string()}, std::chrono::seconds(30));
+    ADD_FAILURE() << "the server started with max-sample-count = -1";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("max-sample-count"), std::string::npos) << e.what();
+  }
+  std::filesystem::remove(file);
+}
+
+}  // namespace
+}  // namespace mm::test
