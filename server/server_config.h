@@ -1,4 +1,4 @@
-// The server's configuration: every setting has a command-line flag, an
+// The server's configuration: every setting has a command-line flag, a
 // key in the configuration file (--config FILE, TOML or INI) and an
 // environment variable (MM_<NAME>), in that order of precedence, with defaults
 // that run the shipped model on one machine.
