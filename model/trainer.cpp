@@ -218,6 +218,9 @@ TrainOutcome Trainer::run(const ProgressCallback& progress, const std::atomic<bo
     if (has_output) append_log(losses);
     report();
   }
+  // A run resumed from a checkpoint of its last iteration steps no more, but
+  // still says where it stands (the service's record of a job depends on it).
+  if (iteration_ == first) report();
   if (has_output) save_checkpoint(checkpoint);
   return outcome;
 }

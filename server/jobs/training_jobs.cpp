@@ -84,8 +84,10 @@ bool parse_progress(const std::string& line, JobProgress& progress) {
   progress.total = j.value("total", progress.total);
   progress.iterations_per_second = j.value("iterations_per_second", 0.0);
   progress.eta_seconds = j.value("eta_seconds", 0.0);
-  progress.losses.clear();
-  if (j.contains("losses") && j["losses"].is_object()) {
+  // A report without losses (a resumed run with nothing left to do) keeps
+  // those of the last iteration that had them.
+  if (j.contains("losses") && j["losses"].is_object() && !j["losses"].empty()) {
+    progress.losses.clear();
     for (const auto& [name, value] : j["losses"].items()) {
       progress.losses[name] = value.is_number() ? value.get<double>() : std::numeric_limits<double>::quiet_NaN();
     }

@@ -158,9 +158,11 @@ TEST_F(ReplicasTest, AKilledReplicasJobIsTakenOverFromItsCheckpointAndMatchesAnU
   const std::string id = call(a, "POST", "/v1/jobs", small_job("taken-over", 40))["id"];
   const json running = wait_for(a, id, [](const json& j) { return j["progress"].value("iteration", 0) >= 12; });
   ASSERT_EQ(running["state"], "running") << running.dump();
-  ServerProcess& b = start_replica();
   ASSERT_TRUE(fs::exists(job_dir(id) / "run" / "checkpoint.pt"));
+  // Killed at once: starting b first took long enough on an idle machine
+  // for a to finish the job itself.
   a.kill();
+  ServerProcess& b = start_replica();
 
   const json done = wait_for(b, id, finished);
   ASSERT_EQ(done["state"], "succeeded") << done.dump() << "\n" << b.log();
