@@ -479,7 +479,7 @@ TEST(ClientJobWatch, SurvivesAServerRestart) {
   test::ServerProcess server(job_server_args(scratch.path()));
   const std::string connection = "--server " + server.grpc_target() + " --token " + kToken;
   const auto submitted =
-      run_client(connection + " jobs submit --dataset small --variant D --hidden 16 --batch 4 --iterations 60");
+      run_client(connection + " jobs submit --dataset small --variant D --hidden 16 --batch 4 --iterations 300");
   ASSERT_EQ(submitted.exit_code, 0) << submitted.err;
   const std::string id = submitted.out.substr(0, submitted.out.find('\n'));
 
@@ -518,7 +518,7 @@ TEST(ClientJobWatch, SurvivesAServerRestart) {
   ASSERT_TRUE(WIFEXITED(status)) << watch_out << watch_err;
   EXPECT_EQ(WEXITSTATUS(status), 0) << watch_out << watch_err;
   EXPECT_NE(watch_err.find("connection lost (UNAVAILABLE"), std::string::npos) << watch_err;
-  EXPECT_NE(watch_out.find("job " + id + " succeeded 60/60"), std::string::npos) << watch_out;
+  EXPECT_NE(watch_out.find("job " + id + " succeeded 300/300"), std::string::npos) << watch_out;
   EXPECT_NE(watch_out.find("(resumed 1x)"), std::string::npos) << watch_out;
 }
 

@@ -151,11 +151,11 @@ TEST_F(ReplicasTest, TenJobsSubmittedToTwoReplicasEachRunExactlyOnce) {
 TEST_F(ReplicasTest, AKilledReplicasJobIsTakenOverFromItsCheckpointAndMatchesAnUninterruptedRun) {
   ServerProcess& a = start_replica();
   // Uninterrupted, for reference.
-  const std::string reference = call(a, "POST", "/v1/jobs", small_job("reference", 40))["id"];
+  const std::string reference = call(a, "POST", "/v1/jobs", small_job("reference", 200))["id"];
   ASSERT_EQ(wait_for(a, reference, finished)["state"], "succeeded");
 
   // Only replica a is up when the job is claimed, so a runs it.
-  const std::string id = call(a, "POST", "/v1/jobs", small_job("taken-over", 40))["id"];
+  const std::string id = call(a, "POST", "/v1/jobs", small_job("taken-over", 200))["id"];
   const json running = wait_for(a, id, [](const json& j) { return j["progress"].value("iteration", 0) >= 12; });
   ASSERT_EQ(running["state"], "running") << running.dump();
   ASSERT_TRUE(fs::exists(job_dir(id) / "run" / "checkpoint.pt"));
@@ -167,7 +167,7 @@ TEST_F(ReplicasTest, AKilledReplicasJobIsTakenOverFromItsCheckpointAndMatchesAnU
   const json done = wait_for(b, id, finished);
   ASSERT_EQ(done["state"], "succeeded") << done.dump() << "\n" << b.log();
   EXPECT_EQ(done["resumes"], 1);
-  EXPECT_EQ(done["progress"]["iteration"], 40);
+  EXPECT_EQ(done["progress"]["iteration"], 200);
   EXPECT_EQ(occurrences(b.log(), "training job " + id + " started"), 1) << b.log();
   EXPECT_EQ(occurrences(file_text(job_dir(id) / "train.log"), "== resume ("), 1);
   for (const char* file : {"encoder.pt", "velocity_decoder.pt"}) {

@@ -68,7 +68,7 @@ class Service {
 };
 
 json small_job(const std::string& model_name) {
-  return {{"dataset", "small"}, {"variant", "D"}, {"iterations", 40}, {"hidden", 16},
+  return {{"dataset", "small"}, {"variant", "D"}, {"iterations", 200}, {"hidden", 16},
           {"batch", 4},         {"seed", 5},      {"model_name", model_name}};
 }
 
@@ -107,7 +107,7 @@ TEST(ServiceJobs, AJobSurvivesAKilledServerAndPublishesTheUninterruptedModel) {
   const auto done = again.wait_for(id, finished);
   ASSERT_EQ(done["state"], "succeeded") << done.dump();
   EXPECT_EQ(done["resumes"], 1);
-  EXPECT_EQ(done["progress"]["iteration"], 40);
+  EXPECT_EQ(done["progress"]["iteration"], 200);
   EXPECT_EQ(done["published_model"], "small-resumed");
   for (const char* file : {"encoder.pt", "velocity_decoder.pt"}) {
     EXPECT_EQ(file_bytes(fs::path(server.model_store()) / "small-resumed" / file),
@@ -133,7 +133,7 @@ TEST(ServiceJobs, SigtermCheckpointsTheRunningJobExitsZeroAndTheJobResumes) {
                         "--checkpoint-every", "1000", "--auth-token", kToken});
   Service service(server);
   auto spec = small_job("small-term");
-  spec["iterations"] = 400;
+  spec["iterations"] = 2000;
   const std::string id = service.call("POST", "/v1/jobs", spec)["id"];
   service.wait_for(id, [](const json& j) { return j["progress"].value("iteration", 0) >= 3; });
   EXPECT_EQ(server.terminate(), 0) << server.log();
