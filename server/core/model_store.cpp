@@ -31,15 +31,30 @@ std::string read_text(const fs::path& path) {
   return text.str();
 }
 
-// FNV-1a over the manifest and the weight files, in name order: a model whose
-// files are copied elsewhere keeps its version, one retrained gets another.
-std::string content_version(const fs::path& dir) {
+// The manifest and the weight files of a model folder, in name order.
+std::vector<fs::path> versioned_files(const fs::path& dir) {
   std::vector<fs::path> files;
   for (const auto& entry : fs::directory_iterator(dir)) {
     const auto name = entry.path().filename().string();
     if (entry.is_regular_file() && (name == kManifest || entry.path().extension() == ".pt")) files.push_back(entry.path());
   }
   std::sort(files.begin(), files.end());
+  return files;
+}
+
+// Names, sizes and modification times: what tells that the files changed.
+std::string file_stamp(const std::vector<fs::path>& files) {
+  std::string stamp;
+  for (const auto& file : files) {
+    stamp += file.filename().string() + ":" + std::to_string(fs::file_size(file)) + ":" +
+             std::to_string(fs::last_write_time(file).time_since_epoch().count()) + ";";
+  }
+  return stamp;
+}
+
+// FNV-1a over the manifest and the weight files, in name order: a model whose
+// files are copied elsewhere keeps its version, one retrained gets another.
+std::string content_version(const std::vector<fs::path>& files) {
   uint64_t hash = 1469598103934665603ull;
   std::vector<char> buffer(1 << 16);
   for (const auto& file : files) {
@@ -62,6 +77,20 @@ ApiError not_loadable(const std::string& name, const std::string& reason) {
 }
 
 }  // namespace
+
+std::string ModelStore::version_of(const std::string& dir) const {
+  const auto files = versioned_files(dir);
+  const std::string stamp = file_stamp(files);
+  {
+    std::lock_guard<std::mutex> lock(versions_mutex_);
+    const auto known = versions_.find(dir);
+    if (known != versions_.end() && known->second.first == stamp) return known->second.second;
+  }
+  const std::string version = content_version(files);
+  std::lock_guard<std::mutex> lock(versions_mutex_);
+  versions_[dir] = {stamp, version};
+  return version;
+}
 
 ModelStore::ModelStore(std::string root, ServiceMetrics& metrics, int max_loaded)
     : root_(std::move(root)), metrics_(metrics), max_loaded_(std::max(1, max_loaded)) {}
@@ -111,7 +140,7 @@ void ModelStore::remember(std::shared_ptr<const LoadedModel> model) {
 std::shared_ptr<const LoadedModel> ModelStore::load(const std::string& name) {
   const std::string dir = folder(name);
   std::lock_guard<std::mutex> one_load(load_mutex_);
-  const std::string version = content_version(dir);
+  const std::string version = version_of(dir);
   if (auto model = cached(name, version)) return model;
   const auto started = std::chrono::steady_clock::now();
   try {
@@ -167,7 +196,7 @@ ModelInfo ModelStore::info(const std::string& name, bool details) const {
   const fs::path dir = folder(name);
   ModelInfo info;
   info.name = name;
-  info.version = content_version(dir);
+  info.version = version_of(dir);
   std::shared_ptr<const LoadedModel> loaded = cached(name, info.version);
   {
     std::lock_guard<std::mutex> lock(mutex_);

@@ -12,6 +12,7 @@
 // Thread safety: every method may be called concurrently.
 #pragma once
 
+#include <map>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -62,6 +63,9 @@ class ModelStore {
   std::shared_ptr<const LoadedModel> cached(const std::string& name, const std::string& version) const;
   void remember(std::shared_ptr<const LoadedModel> model);
   ModelInfo info(const std::string& name, bool details) const;
+  // content_version of `dir`, hashed again only when a file's size or
+  // modification time changed: a listing must not read every model's weights.
+  std::string version_of(const std::string& dir) const;
 
   const std::string root_;
   ServiceMetrics& metrics_;
@@ -70,6 +74,8 @@ class ModelStore {
   std::shared_ptr<const LoadedModel> active_;
   std::vector<std::shared_ptr<const LoadedModel>> loaded_;  // most recently used last
   std::mutex load_mutex_;  // one load at a time: loads are large
+  mutable std::mutex versions_mutex_;
+  mutable std::map<std::string, std::pair<std::string, std::string>> versions_;  // dir -> (file stamp, version)
 };
 
 }  // namespace mm::service
