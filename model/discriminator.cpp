@@ -19,13 +19,15 @@ DiscriminatorImpl::DiscriminatorImpl(int pose_dims)
       norm2_(register_module("norm2", torch::nn::BatchNorm1d(64))),
       norm3_(register_module("norm3", torch::nn::BatchNorm1d(128))) {}
 
-at::Tensor DiscriminatorImpl::forward(const at::Tensor& motion) {
+at::Tensor DiscriminatorImpl::forward(const at::Tensor& motion) { return step_scores(motion).mean(1); }
+
+at::Tensor DiscriminatorImpl::step_scores(const at::Tensor& motion) {
   auto x = motion.transpose(1, 2);  // convolve over time: (B, dims, T)
   x = at::leaky_relu(conv1_->forward(x), 0.2);
   x = at::leaky_relu(norm2_->forward(conv2_->forward(x)), 0.2);
   x = at::leaky_relu(norm3_->forward(conv3_->forward(x)), 0.2);
   x = at::relu(conv4_->forward(x));
-  return x.mean(at::IntArrayRef{1, 2});
+  return x.squeeze(1);
 }
 
 }  // namespace mm

@@ -22,6 +22,11 @@ class DiscriminatorImpl : public torch::nn::Module {
   // motion (Eq. 13).
   at::Tensor forward(const at::Tensor& motion);
 
+  // The last layer's output at each of its time steps, (B, T / 8): what
+  // forward() averages, and what the reference implementation's loss squares
+  // before averaging.
+  at::Tensor step_scores(const at::Tensor& motion);
+
  private:
   torch::nn::Conv1d conv1_{nullptr}, conv2_{nullptr}, conv3_{nullptr}, conv4_{nullptr};
   torch::nn::BatchNorm1d norm2_{nullptr}, norm3_{nullptr};

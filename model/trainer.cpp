@@ -16,6 +16,7 @@
 #include "clip_sampler.h"
 #include "format/input_error.h"
 #include "losses.h"
+#include "paper_units.h"
 
 namespace mm {
 
@@ -95,6 +96,15 @@ Trainer::Trainer(const TrainConfig& config, const PreparedDataset& data, at::Dev
   optimizers_.reset(new Optimizers{torch::optim::Adam(model_->generator_parameters(), adam),
                                    torch::optim::Adam(model_->discriminator()->parameters(), adam)});
   sampler_ = std::make_unique<ClipSampler>(data.subset(data.train_subjects), config_.model.frames, config_.seed);
+  if (config_.weights.position > 0 && config_.losses.position == PositionReduction::kStandardizedTripletMean) {
+    // The statistics follow from the dataset, so a resumed run fits the same.
+    const auto standardization = fit_position_standardization(*model_, data.subset(data.train_subjects));
+    const auto kept = standardization.kept.reshape({-1, 3});
+    position_inverse_std_ = at::where(kept, 1.0 / standardization.stddev.reshape({-1, 3}), at::zeros_like(kept, at::kDouble))
+                                .to(at::kFloat)
+                                .to(device_);
+    position_counted_joints_ = kept.any(-1).nonzero().flatten().to(device_);
+  }
 }
 
 double Trainer::learning_rate() const {
@@ -123,7 +133,12 @@ LossValues Trainer::step() {
   if (w.adversarial > 0) {
     auto& d = model_->discriminator();
     auto fake = at::cat(decoded, 0).detach();
-    auto loss_d = lsgan_discriminator_loss(d->forward(motion), d->forward(fake));
+    // The reference runs one discriminator loss per decoder, each with the
+    // real clips; the paper's Eq. 16 counts the real clips once.
+    const double real_weight =
+        config_.losses.adversarial == AdversarialReduction::kBatchSum ? static_cast<double>(decoded.size()) : 1.0;
+    auto loss_d = lsgan_discriminator_loss(d->step_scores(motion), d->step_scores(fake), config_.losses.adversarial,
+                                           real_weight);
     optimizers_->discriminator.zero_grad();
     (w.adversarial * loss_d).backward();
     optimizers_->discriminator.step();
@@ -133,14 +148,22 @@ LossValues Trainer::step() {
   // Generator (Eq. 15): every term summed over the decoders.
   auto zero = at::zeros({}, motion.options());
   auto l_ang = zero, l_pos = zero, l_m = zero, l_g = zero, l_w = zero;
-  for (const auto& q_hat : decoded) l_ang = l_ang + angle_loss(q_hat, motion);
+  for (const auto& q_hat : decoded) l_ang = l_ang + angle_loss(q_hat, motion, config_.losses.angle);
   if (w.position > 0) {
     // The truth and every decoder's output through FK as one batch: FK is
     // 32 dependent joint steps, so one pass instead of three saves launches.
     std::vector<at::Tensor> clips{motion};
     clips.insert(clips.end(), decoded.begin(), decoded.end());
-    const auto positions = model_->positions_scaled(at::cat(clips, 0)).split(config_.batch, 0);
-    for (size_t i = 1; i < positions.size(); ++i) l_pos = l_pos + position_loss(positions[i], positions[0]);
+    if (config_.losses.position == PositionReduction::kStandardizedTripletMean) {
+      const auto positions = model_->positions_mm(at::cat(clips, 0)).split(config_.batch, 0);
+      for (size_t i = 1; i < positions.size(); ++i) {
+        l_pos = l_pos + position_loss_standardized(positions[i], positions[0], position_inverse_std_,
+                                                   position_counted_joints_);
+      }
+    } else {
+      const auto positions = model_->positions_scaled(at::cat(clips, 0)).split(config_.batch, 0);
+      for (size_t i = 1; i < positions.size(); ++i) l_pos = l_pos + position_loss(positions[i], positions[0]);
+    }
   }
   // Both decoders' outputs go through the encoder and the discriminator as
   // one batch: one recurrence instead of two, and the discriminator sees the
@@ -151,12 +174,17 @@ LossValues Trainer::step() {
     l_m = decoder_count * manifold_loss(recoded, code.repeat({static_cast<int64_t>(decoded.size()), 1}));
   }
   if (w.adversarial > 0) {
-    l_g = decoder_count * lsgan_generator_loss(model_->discriminator()->forward(at::cat(decoded, 0)));
+    const auto scores = model_->discriminator()->step_scores(at::cat(decoded, 0));
+    // Half-mean is a mean over the concatenated clips: times the decoder
+    // count it is each decoder's term summed, as Eq. 15 sums them.
+    l_g = config_.losses.adversarial == AdversarialReduction::kBatchSum
+              ? lsgan_generator_loss(scores, config_.losses.adversarial)
+              : decoder_count * lsgan_generator_loss(scores, config_.losses.adversarial);
   }
   if (w.wasserstein > 0) {
     auto prior = at::randn({config_.batch, config_.model.latent}, prior_generator_).to(device_) *
                  std::sqrt(w.prior_variance);
-    l_w = mmd_inverse_multiquadratic(code, prior, w.prior_variance);
+    l_w = mmd(code, prior, w.prior_variance, config_.losses.mmd);
   }
   auto l_r = l_ang + w.position * l_pos;  // Eq. 8
   auto total = l_r + w.manifold * l_m + w.wasserstein * l_w + w.adversarial * l_g;

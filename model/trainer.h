@@ -89,6 +89,9 @@ class Trainer {
   std::unique_ptr<Optimizers> optimizers_;
   std::unique_ptr<ClipSampler> sampler_;
   at::Generator prior_generator_;
+  // For PositionReduction::kStandardizedTripletMean: 1/std per coordinate
+  // (J, 3), 0 where dropped, and the joints with a kept coordinate.
+  at::Tensor position_inverse_std_, position_counted_joints_;
   int64_t iteration_ = 0;
 };
 

@@ -30,6 +30,30 @@ json weights_to_json(const LossWeights& w) {
           {"prior_variance", w.prior_variance}};
 }
 
+json losses_to_json(const LossForms& f) {
+  return {{"preset", loss_preset_name(f)},
+          {"angle", loss_form_name(f.angle)},
+          {"position", loss_form_name(f.position)},
+          {"mmd", loss_form_name(f.mmd)},
+          {"adversarial", loss_form_name(f.adversarial)}};
+}
+
+// One parser for the four enumerations: the names in declaration order.
+template <typename Enum, size_t N>
+Enum parse_named(const std::string& name, const std::string& field, const char* const (&names)[N]) {
+  std::string accepted;
+  for (size_t i = 0; i < N; ++i) {
+    if (name == names[i]) return static_cast<Enum>(i);
+    accepted += std::string(i ? ", " : "") + "\"" + names[i] + "\"";
+  }
+  throw InputError(field + ": unknown value \"" + name + "\", expected one of " + accepted);
+}
+
+constexpr const char* kAngleNames[] = {"frame-norm", "triplet-mean"};
+constexpr const char* kPositionNames[] = {"frame-norm", "standardized-triplet-mean"};
+constexpr const char* kMmdNames[] = {"single-scale", "seven-scales"};
+constexpr const char* kAdversarialNames[] = {"half-mean", "batch-sum"};
+
 // Reads the fields of one JSON object into a struct, rejecting unknown keys
 // and wrong types with the full field path in the message.
 class FieldReader {
@@ -110,6 +134,43 @@ json parse(const std::string& text, const std::string& source) {
 
 }  // namespace
 
+bool LossForms::operator==(const LossForms& o) const {
+  return angle == o.angle && position == o.position && mmd == o.mmd && adversarial == o.adversarial;
+}
+
+const char* loss_form_name(AngleReduction v) { return kAngleNames[static_cast<int>(v)]; }
+const char* loss_form_name(PositionReduction v) { return kPositionNames[static_cast<int>(v)]; }
+const char* loss_form_name(MmdForm v) { return kMmdNames[static_cast<int>(v)]; }
+const char* loss_form_name(AdversarialReduction v) { return kAdversarialNames[static_cast<int>(v)]; }
+
+AngleReduction parse_angle_reduction(const std::string& name, const std::string& field) {
+  return parse_named<AngleReduction>(name, field, kAngleNames);
+}
+PositionReduction parse_position_reduction(const std::string& name, const std::string& field) {
+  return parse_named<PositionReduction>(name, field, kPositionNames);
+}
+MmdForm parse_mmd_form(const std::string& name, const std::string& field) {
+  return parse_named<MmdForm>(name, field, kMmdNames);
+}
+AdversarialReduction parse_adversarial_reduction(const std::string& name, const std::string& field) {
+  return parse_named<AdversarialReduction>(name, field, kAdversarialNames);
+}
+
+LossForms loss_preset(const std::string& name, const std::string& field) {
+  if (name == "paper") return LossForms{};
+  if (name == "reference") {
+    return LossForms{AngleReduction::kTripletMean, PositionReduction::kStandardizedTripletMean, MmdForm::kSevenScales,
+                     AdversarialReduction::kBatchSum};
+  }
+  throw InputError(field + ": unknown value \"" + name + "\", expected one of \"paper\", \"reference\"");
+}
+
+std::string loss_preset_name(const LossForms& forms) {
+  if (forms == loss_preset("paper", "")) return "paper";
+  if (forms == loss_preset("reference", "")) return "reference";
+  return "custom";
+}
+
 const std::vector<std::string>& variant_names() {
   static const std::vector<std::string> names{"S", "D", "DK", "DKG", "DKGM", "DKGMZ", "Seq2seq"};
   return names;
@@ -157,6 +218,7 @@ std::string to_json_text(const TrainConfig& c) {
   json j = {{"variant", c.variant},
             {"model", model_to_json(c.model)},
             {"weights", weights_to_json(c.weights)},
+            {"losses", losses_to_json(c.losses)},
             {"batch", c.batch},
             {"iterations", c.iterations},
             {"learning_rate", c.learning_rate},
@@ -190,6 +252,22 @@ TrainConfig train_config_from_json_text(const std::string& text, const std::stri
     wr.read("wasserstein", c.weights.wasserstein, 0, 1e6);
     wr.read("adversarial", c.weights.adversarial, 0, 1e6);
     wr.read("prior_variance", c.weights.prior_variance, 1e-6, 1e6);
+  }
+  if (const json* l = r.child("losses")) {
+    // The preset first, then any form named beside it overrides its part.
+    FieldReader lr(*l, "losses.", source_name);
+    std::string preset, angle, position, mmd, adversarial;
+    lr.read("preset", preset);
+    lr.read("angle", angle);
+    lr.read("position", position);
+    lr.read("mmd", mmd);
+    lr.read("adversarial", adversarial);
+    const std::string at = source_name + ": losses.";
+    if (!preset.empty() && preset != "custom") c.losses = loss_preset(preset, at + "preset");
+    if (!angle.empty()) c.losses.angle = parse_angle_reduction(angle, at + "angle");
+    if (!position.empty()) c.losses.position = parse_position_reduction(position, at + "position");
+    if (!mmd.empty()) c.losses.mmd = parse_mmd_form(mmd, at + "mmd");
+    if (!adversarial.empty()) c.losses.adversarial = parse_adversarial_reduction(adversarial, at + "adversarial");
   }
   r.read("batch", c.batch, 2, 100000);  // the MMD estimate needs two samples
   r.read("iterations", c.iterations, 0, 1e12);

@@ -31,10 +31,57 @@ struct LossWeights {
   double prior_variance = 1.0;  // sigma_z^2 of the prior N(0, sigma_z^2 I)
 };
 
+// How each loss term is reduced. The paper's text and its public reference
+// implementation (DK-Jang/human_motion_manifold) differ here; each choice is
+// separate so that its effect can be measured alone.
+enum class AngleReduction {
+  kFrameNorm,    // "frame-norm": Eq. 9, one norm over all D values of a frame
+  kTripletMean,  // "triplet-mean": the reference, the mean of the norms of D/3 consecutive triplets
+};
+enum class PositionReduction {
+  kFrameNorm,                // "frame-norm": Eq. 10, one norm over all joints, mm / position_scale_mm
+  kStandardizedTripletMean,  // "standardized-triplet-mean": the reference, coordinates standardised by the
+                             // training frames' per-coordinate std, the mean of the joints' norms
+};
+enum class MmdForm {
+  kSingleScale,  // "single-scale": Eq. 12, C = 2 * latent * sigma_z^2, diagonal left out
+  kSevenScales,  // "seven-scales": the reference, summed over C x {0.1, 0.2, 0.5, 1, 2, 5, 10},
+                 // the within-set diagonal kept (still divided by n(n-1))
+};
+enum class AdversarialReduction {
+  kHalfMean,  // "half-mean": Eq. 13/14, 1/2 x the mean over clips of the squared error of a clip's mean score
+  kBatchSum,  // "batch-sum": the reference, the sum over clips of the mean over the discriminator's time steps
+              // of the squared error, one discriminator loss per decoder, each with the real clips
+};
+
+struct LossForms {
+  AngleReduction angle = AngleReduction::kFrameNorm;
+  PositionReduction position = PositionReduction::kFrameNorm;
+  MmdForm mmd = MmdForm::kSingleScale;
+  AdversarialReduction adversarial = AdversarialReduction::kHalfMean;
+  bool operator==(const LossForms& other) const;
+};
+
+// The names above, and the two presets: "paper" (the defaults above) and
+// "reference" (all four of the reference's forms). Parsers throw InputError
+// naming `field`, the value and the accepted names.
+const char* loss_form_name(AngleReduction value);
+const char* loss_form_name(PositionReduction value);
+const char* loss_form_name(MmdForm value);
+const char* loss_form_name(AdversarialReduction value);
+AngleReduction parse_angle_reduction(const std::string& name, const std::string& field);
+PositionReduction parse_position_reduction(const std::string& name, const std::string& field);
+MmdForm parse_mmd_form(const std::string& name, const std::string& field);
+AdversarialReduction parse_adversarial_reduction(const std::string& name, const std::string& field);
+LossForms loss_preset(const std::string& name, const std::string& field);
+// "paper" or "reference" when the forms are one of the presets, else "custom".
+std::string loss_preset_name(const LossForms& forms);
+
 struct TrainConfig {
   std::string variant = "DKGM";
   ModelConfig model;
   LossWeights weights;
+  LossForms losses;
   int batch = 30;
   int64_t iterations = 60000;
   double learning_rate = 1e-3;  // Adam, both networks

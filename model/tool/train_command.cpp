@@ -66,6 +66,8 @@ class CancelOnSignal {
 
 struct TrainOptions {
   std::string config_path, variant, dataset, out, resume, init_from, device = "auto";
+  // Loss forms (training_config.h): the preset first, then each form given.
+  std::string losses, loss_angle, loss_position, loss_mmd, loss_adversarial;
   int64_t iterations = 0;
   bool progress_json = false;
   int batch = 0, hidden = 0;
@@ -108,8 +110,9 @@ int train_and_export(Trainer& trainer, c10::Device device, const std::string& da
   const TrainConfig& config = trainer.config();
   ensure_directory(config.output_dir, "--out");
   write_file_atomically(config.output_dir + "/config.json", to_json_text(config));
-  std::fprintf(stderr, "training %s (hidden %d, batch %d) on %s: iterations %lld to %lld, output in %s\n",
-               config.variant.c_str(), config.model.hidden, config.batch, device.str().c_str(),
+  std::fprintf(stderr, "training %s (hidden %d, batch %d, %s losses) on %s: iterations %lld to %lld, output in %s\n",
+               config.variant.c_str(), config.model.hidden, config.batch, loss_preset_name(config.losses).c_str(),
+               device.str().c_str(),
                static_cast<long long>(trainer.iteration()), static_cast<long long>(config.iterations),
                config.output_dir.c_str());
 
@@ -200,6 +203,13 @@ int run_train(const TrainOptions& o, const std::string& command_line) {
   if (o.batch > 0) config.batch = o.batch;
   if (o.hidden > 0) config.model.hidden = o.hidden;
   if (o.seed_option->count() > 0) config.seed = o.seed;
+  if (!o.losses.empty()) config.losses = loss_preset(o.losses, "--losses");
+  if (!o.loss_angle.empty()) config.losses.angle = parse_angle_reduction(o.loss_angle, "--loss-angle");
+  if (!o.loss_position.empty()) config.losses.position = parse_position_reduction(o.loss_position, "--loss-position");
+  if (!o.loss_mmd.empty()) config.losses.mmd = parse_mmd_form(o.loss_mmd, "--loss-mmd");
+  if (!o.loss_adversarial.empty()) {
+    config.losses.adversarial = parse_adversarial_reduction(o.loss_adversarial, "--loss-adversarial");
+  }
   if (config.dataset.empty()) throw InputError("train: no dataset: give --dataset or \"dataset\" in the configuration");
   if (config.output_dir.empty()) {
     throw InputError("train: no output folder: give --out or \"output_dir\" in the configuration");
@@ -246,11 +256,23 @@ void add_train_commands(CLI::App& app, Action& action, const std::string& comman
   auto* batch = train->add_option("--batch", o->batch, "clips per batch (overrides)")->check(at_least(1));
   auto* hidden = train->add_option("--hidden", o->hidden, "GRU hidden size (overrides)")->check(at_least(1));
   o->seed_option = train->add_option("--seed", o->seed, "random seed (overrides)");
+  auto* losses = train->add_option("--losses", o->losses,
+                                   "loss forms: paper (the paper's text, default) or reference (the public reference "
+                                   "implementation's four forms); overrides the configuration");
+  auto* loss_angle = train->add_option("--loss-angle", o->loss_angle, "angle loss: frame-norm or triplet-mean");
+  auto* loss_position = train->add_option("--loss-position", o->loss_position,
+                                          "position loss: frame-norm or standardized-triplet-mean");
+  auto* loss_mmd = train->add_option("--loss-mmd", o->loss_mmd, "MMD: single-scale or seven-scales");
+  auto* loss_adversarial =
+      train->add_option("--loss-adversarial", o->loss_adversarial, "LSGAN reduction: half-mean or batch-sum");
   train->add_option("--device", o->device, "cpu, cuda or auto (CUDA when available)")->capture_default_str();
   auto* resume = train->add_option("--resume", o->resume,
                                    "continue the run saved in this checkpoint (needs --dataset; the output folder "
                                    "and configuration are the checkpoint's)");
-  for (auto* excluded : {config, variant, out, batch, hidden, o->seed_option}) resume->excludes(excluded);
+  for (auto* excluded : {config, variant, out, batch, hidden, o->seed_option, losses, loss_angle, loss_position,
+                         loss_mmd, loss_adversarial}) {
+    resume->excludes(excluded);
+  }
   auto* init_from = train->add_option(
       "--init-from", o->init_from,
       "start from the weights of this exported model (same shape and dataset) at the iteration its manifest "

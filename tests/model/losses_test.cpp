@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include "format/input_error.h"
+
 namespace mm {
 namespace {
 
@@ -57,6 +59,66 @@ TEST(Losses, ManifoldLossIsMeanAbsoluteDifference) {
   auto z = at::zeros({2, 4});
   auto z_hat = at::full({2, 4}, -0.5);
   EXPECT_NEAR(manifold_loss(z_hat, z).item<float>(), 0.5f, 1e-6);
+}
+
+// The reference implementation's forms (training_config.h, LossForms).
+
+TEST(ReferenceLosses, AngleTripletMeanAveragesTheTripletNorms) {
+  auto q = at::zeros({1, 2, 6});
+  auto q_hat = q.clone();
+  q_hat[0][0][0] = 3.0;
+  q_hat[0][0][1] = 4.0;  // frame 0: first triplet off by (3, 4, 0), norm 5; everything else exact
+  // Mean over 2 frames x 2 triplets: 5 / 4.
+  EXPECT_NEAR(angle_loss_triplet_mean(q_hat, q).item<float>(), 1.25f, 1e-5);
+  EXPECT_NEAR(angle_loss(q_hat, q, AngleReduction::kTripletMean).item<float>(), 1.25f, 1e-5);
+  // The paper's form on the same error: one norm per frame, mean over 2 frames.
+  EXPECT_NEAR(angle_loss(q_hat, q, AngleReduction::kFrameNorm).item<float>(), 2.5f, 1e-5);
+  EXPECT_THROW(angle_loss_triplet_mean(at::zeros({1, 1, 4}), at::zeros({1, 1, 4})), InputError);
+}
+
+TEST(ReferenceLosses, PositionLossStandardizesEachCoordinateAndSkipsDroppedJoints) {
+  auto p = at::zeros({1, 1, 3, 3});
+  auto p_hat = p.clone();
+  p_hat[0][0][0][0] = 100.0;  // joint 0 is dropped: its error must not count
+  p_hat[0][0][1][0] = 3.0;
+  p_hat[0][0][1][1] = 8.0;  // joint 1: (3, 8, 0) mm over std (1, 2, 1) mm -> (3, 4, 0), norm 5
+  auto inverse_std = at::tensor({0.0f, 0.0f, 0.0f, 1.0f, 0.5f, 1.0f, 1.0f, 1.0f, 1.0f}).reshape({3, 3});
+  auto counted = at::tensor({int64_t{1}, int64_t{2}});
+  // Joints 1 and 2 counted: (5 + 0) / 2.
+  EXPECT_NEAR(position_loss_standardized(p_hat, p, inverse_std, counted).item<float>(), 2.5f, 1e-5);
+}
+
+TEST(ReferenceLosses, SevenScaleMmdKeepsTheDiagonalAndSumsTheScales) {
+  // latent 1, sigma_z^2 1: C = 2 x scale. Codes {0, 1}, prior {0, 2}; per
+  // scale (k(0) + k(1)) + (k(0) + k(4)) - (k(0) + k(4) + 2 k(1)) / 2 with
+  // k(d^2) = C / (C + d^2), summed over the seven scales (computed by hand).
+  auto codes = at::tensor({0.0f, 1.0f}).reshape({2, 1}), prior = at::tensor({0.0f, 2.0f}).reshape({2, 1});
+  EXPECT_NEAR(mmd_inverse_multiquadratic_seven_scales(codes, prior, 1.0).item<float>(), 11.85974026f, 1e-5);
+  EXPECT_NEAR(mmd(codes, prior, 1.0, MmdForm::kSevenScales).item<float>(), 11.85974026f, 1e-5);
+}
+
+TEST(ReferenceLosses, SevenScaleMmdDiffersFromTheUnbiasedSumOnlyByTheDiagonal) {
+  at::manual_seed(5);
+  auto codes = at::randn({30, 64}), prior = at::randn({30, 64});
+  double unbiased = 0;
+  for (double scale : {0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0}) {
+    unbiased += mmd_inverse_multiquadratic(codes, prior, scale).item<double>();  // C scales with sigma_z^2
+  }
+  // Two within-set sums per scale, each n / (n (n - 1)) = 1/29 higher.
+  EXPECT_NEAR(mmd_inverse_multiquadratic_seven_scales(codes, prior, 1.0).item<double>() - unbiased, 14.0 / 29.0, 1e-4);
+}
+
+TEST(ReferenceLosses, BatchSumLsganSumsClipsOfPerStepSquares) {
+  auto fake = at::tensor({0.0f, 2.0f, 1.0f, 1.0f}).reshape({2, 2});  // clip means 1 and 1
+  // Generator: clip 0 mean((0-1)^2, (2-1)^2) = 1, clip 1 0: sum 1. On the
+  // clip means (the paper's form) the same scores are perfect.
+  EXPECT_NEAR(lsgan_generator_loss(fake, AdversarialReduction::kBatchSum).item<float>(), 1.0f, 1e-6);
+  EXPECT_NEAR(lsgan_generator_loss(fake, AdversarialReduction::kHalfMean).item<float>(), 0.0f, 1e-6);
+  auto real = at::tensor({1.0f, 1.0f, 1.0f, 3.0f}).reshape({2, 2});
+  // Discriminator: fake 2 + 1, real 0 + mean(0, 4) = 2 counted twice: 7.
+  EXPECT_NEAR(lsgan_discriminator_loss(real, fake, AdversarialReduction::kBatchSum, 2.0).item<float>(), 7.0f, 1e-6);
+  // Paper: 0.5 mean(1, 1) + 0.5 mean((1-1)^2, (2-1)^2) = 0.75.
+  EXPECT_NEAR(lsgan_discriminator_loss(real, fake, AdversarialReduction::kHalfMean, 1.0).item<float>(), 0.75f, 1e-6);
 }
 
 }  // namespace

@@ -198,6 +198,26 @@ TEST(Trainer, ShortTrainingOnRealClipsHalvesReconstructionLoss) {
   EXPECT_LT(end, 0.5 * start) << "L_R went from " << start << " to " << end;
 }
 
+TEST(Trainer, ReferenceLossFormsReachTheStep) {
+  MM_REQUIRE_H36M();
+  // Same seed: the first step decodes the same clips with the same untrained
+  // networks, and the discriminator is scored before its update, so the
+  // forms' values stand in known relations (Cauchy-Schwarz and Jensen).
+  TrainConfig paper = tiny_config("DKGM"), reference = tiny_config("DKGM");
+  reference.losses = loss_preset("reference", "losses");
+  Trainer a(paper, small_h36m(), at::kCPU), b(reference, small_h36m(), at::kCPU);
+  const LossValues p = a.step(), r = b.step();
+  for (const auto& [term, value] : r) EXPECT_TRUE(std::isfinite(value)) << term;
+  // Two decoders; each triplet mean is at most its frame norm / sqrt(17).
+  EXPECT_GT(r.at("L_ang"), 0.0);
+  EXPECT_LE(r.at("L_ang"), p.at("L_ang") / std::sqrt(17.0) * (1 + 1e-5));
+  // Batch sum of per-step squares >= 2 x batch x half-mean of clip means,
+  // with the real clips counted once per decoder: >= 4 x batch x L_D.
+  EXPECT_GE(r.at("L_D"), 4.0 * reference.batch * p.at("L_D") * (1 - 1e-5));
+  EXPECT_GT(r.at("L_pos"), 0.0);
+  EXPECT_NE(r.at("L_pos"), p.at("L_pos"));
+}
+
 TEST(PositionScale, IsAFewHundredMillimetresForH36m) {
   MM_REQUIRE_H36M();
   const double scale = small_h36m().normalization.position_scale_mm;

@@ -67,5 +67,29 @@ TEST(TrainingConfig, ErrorsNameTheFieldAndValue) {
   EXPECT_NE(error_of("{not json").find("config.json: not valid JSON"), std::string::npos);
 }
 
+TEST(TrainingConfig, LossFormsDefaultToThePaperAndTheReferencePresetSetsAllFour) {
+  EXPECT_EQ(loss_preset_name(variant_config("DKGM").losses), "paper");
+  const LossForms reference = loss_preset("reference", "losses");
+  EXPECT_EQ(reference.angle, AngleReduction::kTripletMean);
+  EXPECT_EQ(reference.position, PositionReduction::kStandardizedTripletMean);
+  EXPECT_EQ(reference.mmd, MmdForm::kSevenScales);
+  EXPECT_EQ(reference.adversarial, AdversarialReduction::kBatchSum);
+}
+
+TEST(TrainingConfig, LossFormsReadFromJsonPresetFirstThenEachForm) {
+  const TrainConfig c =
+      train_config_from_json_text(R"({"losses": {"preset": "reference", "mmd": "single-scale"}})", "c");
+  EXPECT_EQ(c.losses.angle, AngleReduction::kTripletMean);
+  EXPECT_EQ(c.losses.mmd, MmdForm::kSingleScale);
+  EXPECT_EQ(loss_preset_name(c.losses), "custom");
+  const TrainConfig back = train_config_from_json_text(to_json_text(c), "x");
+  EXPECT_TRUE(back.losses == c.losses);
+  EXPECT_NE(error_of(R"({"losses": {"adversarial": "sum"}})").find("losses.adversarial: unknown value \"sum\""),
+            std::string::npos);
+  EXPECT_NE(error_of(R"({"losses": {"preset": "paperish"}})").find("losses.preset"), std::string::npos);
+  EXPECT_NE(error_of(R"({"losses": {"angles": "frame-norm"}})").find("losses.angles: unknown field"),
+            std::string::npos);
+}
+
 }  // namespace
 }  // namespace mm
