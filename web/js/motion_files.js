@@ -45,7 +45,8 @@ export function bvhToModelRateMotion(text) {
   const tracks = new Map(clip.tracks.map((track) => [track.name, track]));
   const anyTrack = clip.tracks[0];
   const fileFrames = anyTrack.times.length;
-  const frameTime = fileFrames > 1 ? anyTrack.times[1] - anyTrack.times[0] : 1 / MODEL_RATE;
+  // From the text: the loader's times are float32, whose rounding can lose a frame here.
+  const frameTime = Number(/Frame Time:\s*(\S+)/i.exec(text)?.[1] ?? 1 / MODEL_RATE);
   const outFrames = Math.floor((fileFrames - 1) * frameTime * MODEL_RATE + 1e-6) + 1;
   const values = new Array(outFrames * H36M_COLUMNS).fill(0);
   for (let k = 0; k < outFrames; ++k) {

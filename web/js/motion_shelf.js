@@ -22,12 +22,16 @@ export function operand(entry) {
   return entry.code ? { code: entry.code } : { motion: entry.motion };
 }
 
-// Keeps <select> `menu` listing the shelf, newest first, keeping its choice.
+// Keeps <select> `menu` listing the shelf, newest first. Until the user
+// picks one, it follows the newest motions: the entry
+// `preferredIndexFromNewest` places from the newest (so that "from" and
+// "to" start on two different motions).
 export function bindMenu(menu, preferredIndexFromNewest = 0) {
+  menu.addEventListener('change', () => (menu.dataset.chosen = 'true'));
   const refresh = () => {
     const chosen = menu.value;
     menu.replaceChildren(...entries.slice().reverse().map((entry) => new Option(entry.name, String(entry.id))));
-    if (chosen !== '' && entries[Number(chosen)]) menu.value = chosen;
+    if (menu.dataset.chosen && entries[Number(chosen)]) menu.value = chosen;
     else if (entries.length) menu.value = String(Math.max(0, entries.length - 1 - preferredIndexFromNewest));
   };
   listeners.push(refresh);
