@@ -17,8 +17,8 @@ import { createRequire } from 'node:module';
 import os from 'node:os';
 import path from 'node:path';
 import { pathToFileURL } from 'node:url';
-import { exportBvh, largestDistanceMm, referencePositions, s5Clip, writeMotionText } from './fk_reference.mjs';
-import { TOKEN, environment, h36mDatasetDir, startServer } from './server_harness.mjs';
+import { largestDistanceMm, referencePositions, writeMotionText } from './fk_reference.mjs';
+import { TOKEN, environment, startServer } from './server_harness.mjs';
 
 const TOLERANCE_MM = 0.1;
 const nodeModules = process.argv[2];
@@ -54,8 +54,15 @@ try {
     input.value = String(v);
     input.dispatchEvent(new Event('input'));
   }, value);
-  const waitForFigure = (label) => page.waitForFunction(
-    (l) => window.motionManifoldPage?.view.describe().figures.some((f) => f.label.startsWith(l)), { timeout: 60000 }, label);
+  // Waits for a figure whose label starts with `label`; fails with the
+  // page's error banner when that shows instead.
+  const waitForFigure = async (label) => {
+    await page.waitForFunction((l) => !document.getElementById('error').hidden ||
+                                      window.motionManifoldPage?.view.describe().figures.some((f) => f.label.startsWith(l)),
+                               { timeout: 120000 }, label);
+    const banner = await page.$eval('#error', (e) => (e.hidden ? '' : e.textContent));
+    assert.equal(banner, '', `waiting for "${label}", the page shows an error`);
+  };
 
   step(`load ${server.pageUrl}`);
   await page.goto(server.pageUrl, { waitUntil: 'load' });
@@ -80,9 +87,10 @@ try {
     assert.equal(figure.frames, 150);
   }
   assert.equal(view.playing, true);
-  const frameBefore = view.frame;
-  await new Promise((resolve) => setTimeout(resolve, 600));
-  assert.notEqual((await describe()).frame, frameBefore, 'the animation does not advance');
+  // Playing: the frame shown moves on by itself (software WebGL on a busy
+  // machine may draw only a few times a second, hence the patience).
+  await page.waitForFunction((before) => window.motionManifoldPage.view.describe().frame !== before,
+                             { timeout: 10000 }, view.frame);
   await page.screenshot({ path: path.join(screenshotDir, 'web-sample.png') });
 
   step('the drawn joints are the server FK of the decoded motion, within 0.1 mm');
@@ -117,17 +125,24 @@ try {
   await setRange('#interpolate-slider', 3);
   await page.screenshot({ path: path.join(screenshotDir, 'web-interpolate.png') });
 
-  step('an uploaded BVH plays, drawn as the FK of the motion exported');
-  const clipFile = path.join(scratch, 'S5_walking_1.txt');
-  writeMotionText(clipFile, s5Clip(h36mDatasetDir(), 'walking_1.txt'));
-  const bvhFile = path.join(scratch, 'S5_walking_1.bvh');
-  exportBvh(clipFile, bvhFile);
+  step('an uploaded BVH plays, drawn as the FK of the motion in it');
+  // A motion of the model's (screenshots go into docs/, which H3.6M must
+  // never reach), as BVH from the server's own export.
+  const { codes: bvhCodes } = await server.call('POST', 'v1/sample', { count: 1, seed: 21 });
+  const { motions: [bvhMotion] } = await server.call('POST', 'v1/decode', { codes: bvhCodes });
+  const clipFile = path.join(scratch, 'sample_seed21.txt');
+  writeMotionText(clipFile, bvhMotion);
   const clipReference = referencePositions(clipFile);
+  const bvhFile = path.join(scratch, 'sample_seed21.bvh');
+  const bvhReply = await fetch(`${server.direct}/v1/decode`, { method: 'POST', body: JSON.stringify({ codes: bvhCodes }),
+    headers: { Accept: 'application/x-bvh', 'Content-Type': 'application/json' } });
+  assert.equal(bvhReply.status, 200);
+  fs.writeFileSync(bvhFile, await bvhReply.text());
   await (await page.$('#upload-file')).uploadFile(bvhFile);
   await page.click('#upload-button');
   await waitForFigure('reconstruction');
   view = await describe();
-  assert.equal(view.figures[0].label, 'S5_walking_1.bvh');
+  assert.equal(view.figures[0].label, 'sample_seed21.bvh');
   assert.equal(view.figures[0].frames, 150);
   assert.equal(view.playing, true);
   assert.match(view.figures[1].label, /reconstruction \(\d+\.\d mm\)/);
@@ -139,6 +154,28 @@ try {
   }
   await page.click('#play');
   await page.screenshot({ path: path.join(screenshotDir, 'web-reconstruction.png') });
+
+  step('analogy a - b + c, and denoising: the filled motion is nearer the original than the corrupted one');
+  const selectByText = (selector, text) => page.$eval(selector, (menu, t) => {
+    menu.value = [...menu.options].find((o) => o.text === t).value;
+    menu.dispatchEvent(new Event('change'));
+  }, text);
+  await page.$$eval('#panels details', (sections) => sections.forEach((d) => (d.open = true)));
+  await selectByText('#analogy-a', 'sample_seed21.bvh');
+  await selectByText('#analogy-b', 'sample 1 (seed 7)');
+  await selectByText('#analogy-c', 'sample 2 (seed 7)');
+  await page.click('#analogy-button');
+  await waitForFigure('a − b + c');
+  view = await describe();
+  assert.deepEqual(view.figures.map((f) => f.frames), [150, 150, 150, 150]);
+  await selectByText('#denoise-source', 'sample_seed21.bvh');
+  await page.click('#denoise-button');
+  await waitForFigure('filled');
+  const labels = (await describe()).figures.map((f) => f.label);
+  const millimetres = (prefix) => Number(labels.find((l) => l.startsWith(prefix)).match(/\((\d+\.\d) mm\)/)[1]);
+  console.log(`   ${labels.join(', ')}`);
+  assert.ok(millimetres('filled') < millimetres('corrupted'), labels.join(', '));
+  await page.screenshot({ path: path.join(screenshotDir, 'web-denoise.png') });
 
   step("a bad upload shows the server's message");
   const badBvh = path.join(scratch, 'two_joints.bvh');
@@ -169,7 +206,7 @@ try {
   await page.waitForFunction(() => document.querySelector('#jobs tr[data-job]')?.dataset.state === 'succeeded', { timeout: 300000 });
   const jobRow = await page.$eval('#jobs tr[data-job]', (row) => row.textContent);
   assert.match(jobRow, /40 \/ 40/);
-  await page.$eval('#panels details:nth-of-type(6)', (e) => e.scrollIntoView());
+  await page.$eval('#jobs', (e) => e.scrollIntoView());
   await page.screenshot({ path: path.join(screenshotDir, 'web-jobs.png') });
 
   // The only console errors since loading are the browser's own notes of the 400 and 401 replies.

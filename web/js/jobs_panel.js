@@ -38,6 +38,7 @@ function jobRow(job) {
     if (event.target.tagName !== 'BUTTON') selectChart(job.id);
   });
   $('jobs').append(row);
+  $('jobs-status').textContent = `${$('jobs').rows.length} jobs`;
   return row;
 }
 
@@ -93,7 +94,6 @@ async function refresh() {
     update(job);
     watch(job);
   });
-  $('jobs-status').textContent = `${jobs.length} jobs`;
 }
 
 async function submit() {

@@ -40,10 +40,9 @@ async function refresh() {
   for (const model of models) {
     const row = list.insertRow();
     row.dataset.model = model.name;
-    row.insertCell().textContent = `${model.name}${model.active ? ' (active)' : ''}`;
-    row.insertCell().textContent = `${model.variant}, hidden ${model.hidden}, latent ${model.latent}, v ${model.version}`;
+    const nameCell = row.insertCell();
+    nameCell.textContent = `${model.name}: ${model.variant}, hidden ${model.hidden}, latent ${model.latent}, version ${model.version} `;
     const evaluationCell = row.insertCell();
-    const buttonCell = row.insertCell();
     const button = document.createElement('button');
     button.textContent = model.active ? 'Active' : 'Activate';
     button.disabled = model.active;
@@ -51,7 +50,7 @@ async function refresh() {
       await callWithToken('POST', `v1/models/${encodeURIComponent(model.name)}:activate`);
       await refresh();
     }));
-    buttonCell.append(button);
+    nameCell.append(button);
     await describe(model.name, evaluationCell);
   }
 }
