@@ -13,6 +13,7 @@
 //   node page_test.mjs NODE_MODULES   (ctest: web_page_in_chromium)
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
+import http from 'node:http';
 import { createRequire } from 'node:module';
 import os from 'node:os';
 import path from 'node:path';
@@ -63,6 +64,16 @@ try {
     const banner = await page.$eval('#error', (e) => (e.hidden ? '' : e.textContent));
     assert.equal(banner, '', `waiting for "${label}", the page shows an error`);
   };
+
+  step('the static mount serves web/ and nothing above it');
+  const rawGet = (rawPath) => new Promise((resolve, reject) => {
+    http.get({ host: '127.0.0.1', port: new URL(server.direct).port, path: rawPath }, (reply) => {
+      reply.resume();
+      resolve(reply.statusCode);
+    }).on('error', reject);
+  });
+  assert.equal(await rawGet('/js/main.js'), 200);
+  for (const outside of ['/../README.md', '/..%2fREADME.md', '/js/../../README.md']) assert.equal(await rawGet(outside), 404, outside);
 
   step(`load ${server.pageUrl}`);
   await page.goto(server.pageUrl, { waitUntil: 'load' });
