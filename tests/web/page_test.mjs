@@ -166,6 +166,22 @@ try {
   await page.click('#play');
   await page.screenshot({ path: path.join(screenshotDir, 'web-reconstruction.png') });
 
+  step('an uploaded text file plays from its window start');
+  const clipRows = fs.readFileSync(clipFile, 'utf8').trim().split('\n');
+  const paddedFile = path.join(scratch, 'padded.txt');
+  fs.writeFileSync(paddedFile, `${[...clipRows.slice(140), ...clipRows].join('\n')}\n`);  // 10 rows before the window
+  await page.select('#upload-rate', '25');
+  await page.$eval('#upload-start', (e) => (e.value = '10'));
+  await (await page.$('#upload-file')).uploadFile(paddedFile);
+  await page.click('#upload-button');
+  await waitForFigure('padded.txt @10');
+  await page.click('#play');
+  for (const frame of [0, 149]) {
+    await setRange('#frame', frame);
+    const distance = largestDistanceMm((await describe()).figures[0].drawnPositionsMm, clipReference[frame]);
+    assert.ok(distance < TOLERANCE_MM, `uploaded text, frame ${frame}: a drawn joint lies ${distance} mm from the FK`);
+  }
+
   step('analogy a - b + c, and denoising: the filled motion is nearer the original than the corrupted one');
   const selectByText = (selector, text) => page.$eval(selector, (menu, t) => {
     menu.value = [...menu.options].find((o) => o.text === t).value;
