@@ -236,6 +236,21 @@ try {
   await page.$eval('#jobs', (e) => e.scrollIntoView());
   await page.screenshot({ path: path.join(screenshotDir, 'web-jobs.png') });
 
+  step('cancel a job from the page, and activate another model');
+  await page.$eval('#job-iterations', (e) => (e.value = '100000'));
+  await page.click('#job-submit');
+  await page.waitForFunction(() => document.querySelectorAll('#jobs tr[data-job]').length === 2, { timeout: 60000 });
+  const longJob = await page.$eval('#jobs tr[data-job]:last-child', (row) => row.dataset.job);
+  await page.click(`#jobs tr[data-job="${longJob}"] .cancel`);
+  await page.waitForFunction((id) => document.querySelector(`#jobs tr[data-job="${id}"]`).dataset.state === 'cancelled',
+                             { timeout: 60000 }, longJob);
+  assert.equal((await server.call('GET', `v1/jobs/${longJob}`)).state, 'cancelled');
+  await page.click('#models tr[data-model="h36m-dkgm-h100"] button');
+  await page.waitForFunction(() => document.querySelector('#models tr[data-model="h36m-dkgm-h100"] button')?.textContent === 'Active',
+                             { timeout: 120000 });
+  assert.ok((await server.call('GET', 'v1/models')).models.find((m) => m.name === 'h36m-dkgm-h100').active);
+  assert.equal(promptsAnswered, 1, 'the page asked for the token again');
+
   // The only console errors since loading are the browser's own notes of the 400 and 401 replies.
   const unexpected = consoleErrors.filter((e) => !/status of (400|401)/.test(e));
   assert.deepEqual(unexpected, [], 'unexpected console errors');
