@@ -16,6 +16,8 @@ packages=(
 # Node.js and npm run the OpenAPI validator of the tests; a machine that
 # already has them (a newer Node.js) keeps its own.
 command -v npm > /dev/null || packages+=(nodejs npm)
+# The web page's browser test drives Debian's Chromium headless.
+packages+=(chromium)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

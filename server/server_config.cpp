@@ -36,6 +36,7 @@ int parse_server_config(int argc, char** argv, ServerConfig& config) {
 
   config.core.model_store = MM_SOURCE_DIR "/models";
   config.jobs.tool_path = default_tool_path();
+  config.rest.web_root = MM_SOURCE_DIR "/web";
   std::string address = "0.0.0.0", token_file;
 
   app.add_option("--model-store", config.core.model_store, "folder of model folders")
@@ -84,6 +85,9 @@ int parse_server_config(int argc, char** argv, ServerConfig& config) {
   app.add_option("--rest-threads", config.rest.threads,
                  "REST worker threads: keep-alive connections served at once")
       ->envname("MM_REST_THREADS")->capture_default_str()->check(CLI::Range(1, 4096));
+  auto* web_root = app.add_option("--web-root", config.rest.web_root,
+                 "folder of the web page served at / over REST (empty: no page)")
+      ->envname("MM_WEB_ROOT")->capture_default_str();
   app.add_option("--grpc-threads", config.grpc.max_threads, "gRPC threads: calls served at once")
       ->envname("MM_GRPC_THREADS")->capture_default_str()->check(CLI::Range(2, 4096));
   app.add_option("--max-loaded-models", config.core.max_loaded_models, "models kept in memory")
@@ -143,6 +147,9 @@ int parse_server_config(int argc, char** argv, ServerConfig& config) {
   config.rest.tls_cert_file = config.grpc.tls_cert_file;
   config.rest.tls_key_file = config.grpc.tls_key_file;
   config.jobs.model_store = config.core.model_store;
+  // An installation without the source tree has no page unless it names one;
+  // a --web-root given that is not a folder stops the server at start.
+  if (web_root->count() == 0 && !std::filesystem::is_directory(config.rest.web_root)) config.rest.web_root.clear();
   return -1;
 }
 

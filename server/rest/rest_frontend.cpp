@@ -356,6 +356,10 @@ void RestFrontend::start() {
   // algorithm the body then waits for the client's delayed ACK (40 ms).
   server.set_tcp_nodelay(true);
   s.install_error_handlers();
+  if (!s.options.web_root.empty() && !server.set_mount_point("/", s.options.web_root))
+    throw std::runtime_error("the web root " + s.options.web_root + " is not a folder (--web-root)");
+  // ES modules load only with a JavaScript MIME type; say it rather than rely on httplib's table.
+  server.set_file_extension_and_mimetype_mapping("js", "text/javascript");
   for (const rest::RestRoute& route : rest::rest_routes()) {
     const RouteId id = route.id;
     const std::string pattern = rest::route_regex(route.path_template);

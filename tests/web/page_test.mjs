@@ -1,0 +1,265 @@
+// The web page (web/) in a real browser: Debian's Chromium, headless,
+// driven by puppeteer-core, against the real server on loopback behind a
+// path prefix (server_harness.mjs). It checks what a person would see:
+// the page loads without console errors; Sample plays a 32-joint, 150-frame
+// animation whose drawn joints are the server's FK within 0.1 mm; the
+// interpolation slider changes the pose; an uploaded BVH plays (its drawn
+// joints the FK of the motion exported); a bad upload shows the server's
+// own message; a job submitted from the page (token asked for on the 401)
+// shows progress from its event stream; the models show their Table 1 mm.
+// Screenshots go to MM_WEB_SCREENSHOT_DIR (docs/ for the README) or the
+// build tree.
+//
+//   node page_test.mjs NODE_MODULES   (ctest: web_page_in_chromium)
+import assert from 'node:assert/strict';
+import fs from 'node:fs';
+import http from 'node:http';
+import { createRequire } from 'node:module';
+import os from 'node:os';
+import path from 'node:path';
+import { pathToFileURL } from 'node:url';
+import { largestDistanceMm, referencePositions, writeMotionText } from './fk_reference.mjs';
+import { TOKEN, environment, startServer } from './server_harness.mjs';
+
+const TOLERANCE_MM = 0.1;
+const nodeModules = process.argv[2];
+const puppeteer = createRequire(pathToFileURL(`${nodeModules}/`))('puppeteer-core');
+const screenshotDir = process.env.MM_WEB_SCREENSHOT_DIR || path.join(nodeModules, '..', 'screenshots');
+fs.mkdirSync(screenshotDir, { recursive: true });
+const scratch = fs.mkdtempSync(path.join(os.tmpdir(), 'mm-web-page-'));
+
+function step(text) {
+  console.log(`-- ${text}`);
+}
+
+const server = await startServer();
+const browser = await puppeteer.launch({
+  executablePath: environment('MM_CHROMIUM'),
+  headless: true,
+  // WebGL on the CPU (no GPU here); --no-sandbox because ctest may run as root.
+  args: ['--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--window-size=1500,1000'],
+  defaultViewport: { width: 1500, height: 1000 },
+});
+try {
+  const page = await browser.newPage();
+  const consoleErrors = [];
+  page.on('console', (message) => message.type() === 'error' && consoleErrors.push(message.text()));
+  page.on('pageerror', (error) => consoleErrors.push(`uncaught: ${error.message}`));
+  let promptsAnswered = 0;
+  page.on('dialog', async (dialog) => {
+    promptsAnswered += 1;
+    await dialog.accept(TOKEN);
+  });
+  const describe = () => page.evaluate(() => window.motionManifoldPage.view.describe());
+  const setRange = (selector, value) => page.$eval(selector, (input, v) => {
+    input.value = String(v);
+    input.dispatchEvent(new Event('input'));
+  }, value);
+  // Waits for a figure whose label starts with `label`; fails with the
+  // page's error banner when that shows instead.
+  const waitForFigure = async (label) => {
+    await page.waitForFunction((l) => !document.getElementById('error').hidden ||
+                                      window.motionManifoldPage?.view.describe().figures.some((f) => f.label.startsWith(l)),
+                               { timeout: 120000 }, label);
+    const banner = await page.$eval('#error', (e) => (e.hidden ? '' : e.textContent));
+    assert.equal(banner, '', `waiting for "${label}", the page shows an error`);
+  };
+
+  step('the static mount serves web/ and nothing above it');
+  const rawGet = (rawPath) => new Promise((resolve, reject) => {
+    http.get({ host: '127.0.0.1', port: new URL(server.direct).port, path: rawPath }, (reply) => {
+      reply.resume();
+      resolve(reply.statusCode);
+    }).on('error', reject);
+  });
+  assert.equal(await rawGet('/js/main.js'), 200);
+  for (const outside of ['/../README.md', '/..%2fREADME.md', '/js/../../README.md']) assert.equal(await rawGet(outside), 404, outside);
+
+  step(`load ${server.pageUrl}`);
+  await page.goto(server.pageUrl, { waitUntil: 'load' });
+  await page.waitForSelector('body[data-loaded=true]', { timeout: 60000 });
+  assert.deepEqual(consoleErrors, [], 'console errors while loading');
+  assert.equal(await page.$eval('#error', (e) => e.hidden), true, `error banner on load: ${await page.$eval('#error', (e) => e.textContent)}`);
+
+  step('models with their Table 1 errors in mm');
+  const evaluation = JSON.parse(fs.readFileSync(path.join(environment('MM_SOURCE_DIR'), 'models/h36m-dkgm-cpu/evaluation.json'), 'utf8'));
+  const modelRow = await page.$eval('#models tr[data-model="h36m-dkgm-cpu"]', (row) => row.textContent);
+  assert.ok(modelRow.includes(evaluation.decoders.rotation.mpjpe_mm[0].toFixed(1)), `models table: ${modelRow}`);
+
+  step('sample: a playing animation of 32 joints and 150 frames');
+  await page.$eval('#sample-count', (e) => (e.value = '2'));
+  await page.$eval('#sample-seed', (e) => (e.value = '7'));
+  await page.click('#sample-button');
+  await waitForFigure('sample 2 (seed 7)');
+  let view = await describe();
+  assert.equal(view.figures.length, 2);
+  for (const figure of view.figures) {
+    assert.equal(figure.joints, 32);
+    assert.equal(figure.frames, 150);
+  }
+  assert.equal(view.playing, true);
+  // Playing: the frame shown moves on by itself (software WebGL on a busy
+  // machine may draw only a few times a second, hence the patience).
+  await page.waitForFunction((before) => window.motionManifoldPage.view.describe().frame !== before,
+                             { timeout: 10000 }, view.frame);
+  await page.screenshot({ path: path.join(screenshotDir, 'web-sample.png') });
+
+  step('the drawn joints are the server FK of the decoded motion, within 0.1 mm');
+  const sampled = await server.call('POST', 'v1/sample', { count: 2, seed: 7 });
+  const sampleFile = path.join(scratch, 'sample.txt');
+  writeMotionText(sampleFile, sampled.motions[0]);
+  const reference = referencePositions(sampleFile);
+  await page.click('#play');  // pause
+  for (const frame of [0, 49, 149]) {
+    await setRange('#frame', frame);
+    view = await describe();
+    assert.equal(view.frame, frame);
+    const distance = largestDistanceMm(view.figures[0].drawnPositionsMm, reference[frame]);
+    console.log(`   frame ${frame}: largest distance ${distance.toExponential(2)} mm`);
+    assert.ok(distance < TOLERANCE_MM, `frame ${frame}: a drawn joint lies ${distance} mm from the server's FK`);
+  }
+
+  step('interpolation: the slider changes the pose');
+  await page.$eval('#interpolate-steps', (e) => (e.value = '7'));
+  await page.click('#interpolate-button');
+  await waitForFigure('linear step');
+  await page.click('#play');  // pause, to compare poses at one frame
+  await setRange('#frame', 60);
+  await setRange('#interpolate-slider', 0);
+  const atStart = (await describe()).figures[1];
+  await setRange('#interpolate-slider', 6);
+  const atEnd = (await describe()).figures[1];
+  assert.match(atStart.label, /step 1 of 7/);
+  assert.match(atEnd.label, /step 7 of 7/);
+  const moved = largestDistanceMm(atStart.drawnPositionsMm, atEnd.drawnPositionsMm);
+  assert.ok(moved > 10, `the pose moved only ${moved} mm along the interpolation`);
+  await setRange('#interpolate-slider', 3);
+  await page.screenshot({ path: path.join(screenshotDir, 'web-interpolate.png') });
+
+  step('an uploaded BVH plays, drawn as the FK of the motion in it');
+  // A motion of the model's (screenshots go into docs/, which H3.6M must
+  // never reach), as BVH from the server's own export.
+  const { codes: bvhCodes } = await server.call('POST', 'v1/sample', { count: 1, seed: 21 });
+  const { motions: [bvhMotion] } = await server.call('POST', 'v1/decode', { codes: bvhCodes });
+  const clipFile = path.join(scratch, 'sample_seed21.txt');
+  writeMotionText(clipFile, bvhMotion);
+  const clipReference = referencePositions(clipFile);
+  const bvhFile = path.join(scratch, 'sample_seed21.bvh');
+  const bvhReply = await fetch(`${server.direct}/v1/decode`, { method: 'POST', body: JSON.stringify({ codes: bvhCodes }),
+    headers: { Accept: 'application/x-bvh', 'Content-Type': 'application/json' } });
+  assert.equal(bvhReply.status, 200);
+  fs.writeFileSync(bvhFile, await bvhReply.text());
+  await (await page.$('#upload-file')).uploadFile(bvhFile);
+  await page.click('#upload-button');
+  await waitForFigure('reconstruction');
+  view = await describe();
+  assert.equal(view.figures[0].label, 'sample_seed21.bvh');
+  assert.equal(view.figures[0].frames, 150);
+  assert.equal(view.playing, true);
+  assert.match(view.figures[1].label, /reconstruction \(\d+\.\d mm\)/);
+  await page.click('#play');
+  for (const frame of [0, 75, 149]) {
+    await setRange('#frame', frame);
+    const distance = largestDistanceMm((await describe()).figures[0].drawnPositionsMm, clipReference[frame]);
+    assert.ok(distance < TOLERANCE_MM, `uploaded BVH, frame ${frame}: a drawn joint lies ${distance} mm from the FK`);
+  }
+  await page.click('#play');
+  await page.screenshot({ path: path.join(screenshotDir, 'web-reconstruction.png') });
+
+  step('an uploaded text file plays from its window start');
+  const clipRows = fs.readFileSync(clipFile, 'utf8').trim().split('\n');
+  const paddedFile = path.join(scratch, 'padded.txt');
+  fs.writeFileSync(paddedFile, `${[...clipRows.slice(140), ...clipRows].join('\n')}\n`);  // 10 rows before the window
+  await page.select('#upload-rate', '25');
+  await page.$eval('#upload-start', (e) => (e.value = '10'));
+  await (await page.$('#upload-file')).uploadFile(paddedFile);
+  await page.click('#upload-button');
+  await waitForFigure('padded.txt @10');
+  await page.click('#play');
+  for (const frame of [0, 149]) {
+    await setRange('#frame', frame);
+    const distance = largestDistanceMm((await describe()).figures[0].drawnPositionsMm, clipReference[frame]);
+    assert.ok(distance < TOLERANCE_MM, `uploaded text, frame ${frame}: a drawn joint lies ${distance} mm from the FK`);
+  }
+
+  step('analogy a - b + c, and denoising: the filled motion is nearer the original than the corrupted one');
+  const selectByText = (selector, text) => page.$eval(selector, (menu, t) => {
+    menu.value = [...menu.options].find((o) => o.text === t).value;
+    menu.dispatchEvent(new Event('change'));
+  }, text);
+  await page.$$eval('#panels details', (sections) => sections.forEach((d) => (d.open = true)));
+  await selectByText('#analogy-a', 'sample_seed21.bvh');
+  await selectByText('#analogy-b', 'sample 1 (seed 7)');
+  await selectByText('#analogy-c', 'sample 2 (seed 7)');
+  await page.click('#analogy-button');
+  await waitForFigure('a − b + c');
+  view = await describe();
+  assert.deepEqual(view.figures.map((f) => f.frames), [150, 150, 150, 150]);
+  await selectByText('#denoise-source', 'sample_seed21.bvh');
+  await page.click('#denoise-button');
+  await waitForFigure('filled');
+  const labels = (await describe()).figures.map((f) => f.label);
+  const millimetres = (prefix) => Number(labels.find((l) => l.startsWith(prefix)).match(/\((\d+\.\d) mm\)/)[1]);
+  console.log(`   ${labels.join(', ')}`);
+  assert.ok(millimetres('filled') < millimetres('corrupted'), labels.join(', '));
+  await page.screenshot({ path: path.join(screenshotDir, 'web-denoise.png') });
+
+  step("a bad upload shows the server's message");
+  const badBvh = path.join(scratch, 'two_joints.bvh');
+  fs.writeFileSync(badBvh, 'HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 3 Zrotation Yrotation Xrotation\n' +
+                   ' JOINT Knee\n {\n  OFFSET 0 -400 0\n  CHANNELS 3 Zrotation Yrotation Xrotation\n' +
+                   '  End Site\n  {\n   OFFSET 0 -400 0\n  }\n }\n}\nMOTION\nFrames: 1\nFrame Time: 0.04\n0 0 0 0 0 0\n');
+  const direct = await fetch(`${server.direct}/v1/encode`, { method: 'POST', headers: { 'Content-Type': 'application/x-bvh' },
+                                                              body: fs.readFileSync(badBvh) });
+  const serverMessage = (await direct.json()).error.message;
+  await (await page.$('#upload-file')).uploadFile(badBvh);
+  await page.click('#upload-button');
+  await page.waitForSelector('#error:not([hidden])', { timeout: 30000 });
+  const banner = await page.$eval('#error', (e) => e.textContent);
+  assert.ok(banner.includes(serverMessage), `banner "${banner}" lacks the server's message "${serverMessage}"`);
+  assert.match(banner, /400/);
+
+  step('a job submitted from the page shows progress (the token asked for)');
+  await page.$eval('#job-dataset', (e) => (e.value = 'small'));
+  await page.select('#job-variant', 'D');
+  await page.$eval('#job-iterations', (e) => (e.value = '40'));
+  await page.$eval('#job-hidden', (e) => (e.value = '16'));
+  await page.click('#job-submit');
+  await page.waitForFunction(() => {
+    const row = document.querySelector('#jobs tr[data-job]');
+    return row && /^[1-9]\d* \/ 40/.test(row.querySelector('.progress').textContent);
+  }, { timeout: 300000 });
+  assert.equal(promptsAnswered, 1, 'the page did not ask for the token once');
+  await page.waitForFunction(() => document.querySelector('#jobs tr[data-job]')?.dataset.state === 'succeeded', { timeout: 300000 });
+  const jobRow = await page.$eval('#jobs tr[data-job]', (row) => row.textContent);
+  assert.match(jobRow, /40 \/ 40/);
+  await page.$eval('#jobs', (e) => e.scrollIntoView());
+  await page.screenshot({ path: path.join(screenshotDir, 'web-jobs.png') });
+
+  step('cancel a job from the page, and activate another model');
+  await page.$eval('#job-iterations', (e) => (e.value = '100000'));
+  await page.click('#job-submit');
+  await page.waitForFunction(() => document.querySelectorAll('#jobs tr[data-job]').length === 2, { timeout: 60000 });
+  const longJob = await page.$eval('#jobs tr[data-job]:last-child', (row) => row.dataset.job);
+  await page.click(`#jobs tr[data-job="${longJob}"] .cancel`);
+  await page.waitForFunction((id) => document.querySelector(`#jobs tr[data-job="${id}"]`).dataset.state === 'cancelled',
+                             { timeout: 60000 }, longJob);
+  assert.equal((await server.call('GET', `v1/jobs/${longJob}`)).state, 'cancelled');
+  await page.click('#models tr[data-model="h36m-dkgm-h100"] button');
+  await page.waitForFunction(() => document.querySelector('#models tr[data-model="h36m-dkgm-h100"] button')?.textContent === 'Active',
+                             { timeout: 120000 });
+  assert.ok((await server.call('GET', 'v1/models')).models.find((m) => m.name === 'h36m-dkgm-h100').active);
+  assert.equal(promptsAnswered, 1, 'the page asked for the token again');
+
+  // The only console errors since loading are the browser's own notes of the 400 and 401 replies.
+  const unexpected = consoleErrors.filter((e) => !/status of (400|401)/.test(e));
+  assert.deepEqual(unexpected, [], 'unexpected console errors');
+  console.log('the page passed every check');
+} catch (error) {
+  console.error(`server log:\n${server.log().slice(-4000)}`);
+  throw error;
+} finally {
+  await browser.close();
+  await server.stop();
+  fs.rmSync(scratch, { recursive: true, force: true });
+}

@@ -1,0 +1,27 @@
+// The page's entry: the 3D view, then the three panels, each of which talks
+// to the server only through the REST API (api_client.js).
+import { SkeletonView } from './skeleton_view.js';
+import { setUpManifoldPanel } from './manifold_panel.js';
+import { setUpJobsPanel } from './jobs_panel.js';
+import { setUpModelsPanel } from './models_panel.js';
+import { runAction, showError } from './call_log.js';
+import { callApi } from './api_client.js';
+
+const $ = (id) => document.getElementById(id);
+
+try {
+  const view = new SkeletonView({ container: $('view'), playButton: $('play'), slider: $('frame'),
+                                  frameLabel: $('frame-label'), legend: $('legend'), overlayBox: $('overlay') });
+  setUpManifoldPanel(view);
+  // Read by the browser test: what the view draws.
+  window.motionManifoldPage = { view };
+} catch (error) {
+  // No WebGL, say: the jobs and models still work.
+  showError(`the 3D view cannot start: ${error.message}`);
+}
+await runAction(async () => {
+  const ready = await callApi('GET', 'readyz');
+  $('server-status').textContent = `server ${ready.status}`;
+});
+await Promise.all([setUpModelsPanel(), setUpJobsPanel()]);
+document.body.dataset.loaded = 'true';

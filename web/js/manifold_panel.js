@@ -1,0 +1,127 @@
+// The manifold at work: each button is one operation of the REST API
+// (encode and decode for a reconstruction, two denoise calls for projected
+// and filled), its result drawn in the view and kept on the shelf.
+import { callApi } from './api_client.js';
+import { runAction } from './call_log.js';
+import { meanJointErrorMm, motionPositions } from './forward_kinematics.js';
+import { H36M_PARENTS } from './h36m_skeleton.js';
+import { corruptZeroed } from './paper_corruption.js';
+import { atModelRate, bvhToModelRateMotion, textWindow } from './motion_files.js';
+import { bindMenu, operand, shelfEntry, shelve } from './motion_shelf.js';
+
+const $ = (id) => document.getElementById(id);
+const decoder = () => $('decoder').value;  // '' is the model's default
+
+function figure(label, motion) {
+  return { label, positions: motionPositions(atModelRate(motion)), parents: H36M_PARENTS, frameRate: 25 };
+}
+
+function say(text) {
+  $('result').textContent = text;
+}
+
+function answeredBy(reply) {
+  return `answered by ${reply.answered_by.model} (${reply.answered_by.version})`;
+}
+
+async function decodeCode(code) {
+  const reply = await callApi('POST', 'v1/decode', { body: { codes: [code], decoder: decoder() } });
+  return reply.motions[0];
+}
+
+// Upload: the file goes to the server as it is (JSON for text, the BVH
+// itself for .bvh); its code is decoded back, and both are drawn.
+async function reconstructUpload(view) {
+  const file = $('upload-file').files[0];
+  if (!file) throw new Error('choose an H3.6M text file or a BVH file first');
+  const text = await file.text();
+  const isBvh = file.name.toLowerCase().endsWith('.bvh');
+  let encoded, original;
+  if (isBvh) {
+    encoded = await callApi('POST', 'v1/encode', { body: text, contentType: 'application/x-bvh', summary: file.name });
+    original = bvhToModelRateMotion(text);
+  } else {
+    original = textWindow(text, Number($('upload-rate').value), Number($('upload-start').value));
+    encoded = await callApi('POST', 'v1/encode', { body: { motions: [original] }, summary: file.name });
+    original = atModelRate(original);
+  }
+  const code = encoded.codes[0];
+  const reconstruction = await decodeCode(code);
+  const name = `${file.name}${isBvh ? '' : ` @${$('upload-start').value}`}`;
+  shelve(name, original, code);
+  shelve(`${name} reconstructed`, reconstruction, code);
+  const error = meanJointErrorMm(motionPositions(original), motionPositions(reconstruction));
+  view.show([figure(name, original), figure(`reconstruction (${error.toFixed(1)} mm)`, reconstruction)]);
+  say(`reconstruction error ${error.toFixed(1)} mm (mean per-joint position error); ${answeredBy(encoded)}`);
+}
+
+async function sample(view) {
+  const seed = $('sample-seed').value;
+  const reply = await callApi('POST', 'v1/sample', {
+    body: { count: Number($('sample-count').value), seed, decoder: decoder() } });
+  const figures = reply.motions.map((motion, i) => {
+    const name = `sample ${i + 1} (seed ${seed})`;
+    shelve(name, motion, reply.codes[i]);
+    return figure(name, motion);
+  });
+  view.show(figures);
+  say(`${reply.motions.length} samples; ${answeredBy(reply)}`);
+}
+
+async function interpolate(view) {
+  const from = shelfEntry($('interpolate-from').value), to = shelfEntry($('interpolate-to').value);
+  if (!from || !to) throw new Error('interpolation needs two motions: sample or upload some first');
+  const method = $('interpolate-method').value;
+  const reply = await callApi('POST', 'v1/interpolate', {
+    body: { from: operand(from), to: operand(to), steps: Number($('interpolate-steps').value), method, decoder: decoder() } });
+  const steps = reply.motions.map((motion) => motionPositions(motion));
+  const slider = $('interpolate-slider');
+  slider.max = String(steps.length - 1);
+  slider.value = String(Math.floor((steps.length - 1) / 2));
+  const stepLabel = () => `${method} step ${Number(slider.value) + 1} of ${steps.length}`;
+  view.show([figure(from.name, from.motion),
+             { label: stepLabel(), positions: steps[Number(slider.value)], parents: H36M_PARENTS, frameRate: 25 },
+             figure(to.name, to.motion)]);
+  slider.disabled = false;
+  slider.oninput = () => view.replacePositions(1, steps[Number(slider.value)], stepLabel());
+  reply.motions.forEach((motion, i) => shelve(`${from.name} → ${to.name} ${method} ${i + 1}/${steps.length}`, motion, reply.codes[i]));
+  say(`${steps.length} steps; move the slider to walk along the path; ${answeredBy(reply)}`);
+}
+
+async function analogy(view) {
+  const [a, b, c] = ['a', 'b', 'c'].map((k) => shelfEntry($(`analogy-${k}`).value));
+  if (!a || !b || !c) throw new Error('analogy needs three motions: sample or upload some first');
+  const reply = await callApi('POST', 'v1/analogy', { body: { a: operand(a), b: operand(b), c: operand(c), decoder: decoder() } });
+  const name = `${a.name} − ${b.name} + ${c.name}`;
+  shelve(name, reply.motions[0], reply.codes[0]);
+  view.show([figure(`a: ${a.name}`, a.motion), figure(`b: ${b.name}`, b.motion), figure(`c: ${c.name}`, c.motion),
+             figure('a − b + c', reply.motions[0])]);
+  say(`analogy; ${answeredBy(reply)}`);
+}
+
+// Sec. 5.4: corrupt, then project onto the manifold (the decoded motion) and
+// fill (the observed values kept, the missing ones from the manifold).
+async function denoise(view) {
+  const source = shelfEntry($('denoise-source').value);
+  if (!source) throw new Error('denoising needs a motion: sample or upload one first');
+  const probability = Number($('denoise-probability').value);
+  const corrupted = corruptZeroed(source.motion, probability, Number($('denoise-seed').value));
+  const request = { motions: [corrupted], decoder: decoder(), zeros_are_missing: true };
+  const projected = (await callApi('POST', 'v1/denoise', { body: request, summary: 'projected' })).motions[0];
+  const filled = (await callApi('POST', 'v1/denoise', { body: { ...request, keep_observed: true }, summary: 'filled' })).motions[0];
+  const truth = motionPositions(source.motion);
+  const error = (motion) => meanJointErrorMm(truth, motionPositions(motion)).toFixed(1);
+  view.show([figure(source.name, source.motion), figure(`corrupted (${error(corrupted)} mm)`, corrupted),
+             figure(`projected (${error(projected)} mm)`, projected), figure(`filled (${error(filled)} mm)`, filled)]);
+  shelve(`${source.name} denoised`, projected);
+  say(`values dropped with probability ${probability} (set to zero, the paper's corruption); errors against the original`);
+}
+
+export function setUpManifoldPanel(view) {
+  ['interpolate-to', 'analogy-b', 'denoise-source'].forEach((id) => bindMenu($(id), 0));
+  ['interpolate-from', 'analogy-a'].forEach((id) => bindMenu($(id), 1));
+  bindMenu($('analogy-c'), 2);
+  const actions = { 'upload-button': reconstructUpload, 'sample-button': sample, 'interpolate-button': interpolate,
+                    'analogy-button': analogy, 'denoise-button': denoise };
+  for (const [id, action] of Object.entries(actions)) $(id).addEventListener('click', () => runAction(() => action(view)));
+}

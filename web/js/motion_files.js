@@ -1,0 +1,66 @@
+// Motions read from files the user picks: H3.6M text (comma-separated
+// values, a frame a line) and BVH of the H3.6M skeleton. The page never
+// judges a file itself: what it reads goes to the server, whose error (a
+// wrong column count, too few frames, another skeleton) is the one shown.
+import { BVHLoader } from 'three/addons/loaders/BVHLoader.js';
+import { H36M_COLUMNS, H36M_JOINT_NAMES } from './h36m_skeleton.js';
+
+export const MODEL_RATE = 25;
+export const MODEL_FRAMES = 150;
+export const H36M_LAYOUT = 'h36m-expmap-99';
+
+// The wire motion of the model's window of a text file: 150 frames at 25 Hz,
+// or 300 at 50 Hz (the data set's rate; the server keeps every second
+// frame), from frame `start` of the file. A short or malformed file gives
+// whatever it holds, for the server to refuse.
+export function textWindow(text, rate, start) {
+  const rows = text.split(/\r?\n/).filter((line) => line.trim() !== '');
+  const wanted = rate === 50 ? 2 * MODEL_FRAMES : MODEL_FRAMES;
+  const window = rows.slice(start, start + wanted).map((line) => line.split(',').map(Number));
+  const columns = window.length ? window[0].length : 0;
+  return { frames: window.length, columns, frame_rate: rate, layout: H36M_LAYOUT, values: window.flat() };
+}
+
+// A wire motion at the model's 25 Hz, as the server takes a 50 Hz one:
+// every second frame, from the first.
+export function atModelRate(motion) {
+  if (motion.frame_rate === MODEL_RATE) return motion;
+  const step = Math.round(motion.frame_rate / MODEL_RATE);
+  const frames = Math.ceil(motion.frames / step);
+  const values = [];
+  for (let f = 0; f < motion.frames; f += step)
+    values.push(...motion.values.slice(f * motion.columns, (f + 1) * motion.columns));
+  return { ...motion, frames, frame_rate: MODEL_RATE, values };
+}
+
+// A BVH of the H3.6M skeleton as a 25 Hz wire motion, through three.js's
+// BVHLoader: the inverse of model/format/h36m_bvh.h. A joint's local
+// rotation in the row-vector convention is the transpose of the BVH's
+// (column-vector) rotation, so its exponential map is minus the axis-angle
+// of the BVH quaternion. Frames are resampled to 25 Hz by taking the file's
+// frame nearest in time (ties to the later), as the server does. Joints
+// absent from the file (the leaves written as End Sites) are unrotated.
+export function bvhToModelRateMotion(text) {
+  const { clip } = new BVHLoader().parse(text);
+  const tracks = new Map(clip.tracks.map((track) => [track.name, track]));
+  const anyTrack = clip.tracks[0];
+  const fileFrames = anyTrack.times.length;
+  // From the text: the loader's times are float32, whose rounding can lose a frame here.
+  const frameTime = Number(/Frame Time:\s*(\S+)/i.exec(text)?.[1] ?? 1 / MODEL_RATE);
+  const outFrames = Math.floor((fileFrames - 1) * frameTime * MODEL_RATE + 1e-6) + 1;
+  const values = new Array(outFrames * H36M_COLUMNS).fill(0);
+  for (let k = 0; k < outFrames; ++k) {
+    const source = Math.min(fileFrames - 1, Math.floor(k / MODEL_RATE / frameTime + 0.5));
+    H36M_JOINT_NAMES.forEach((name, j) => {
+      const track = tracks.get(`${name}.quaternion`);
+      if (!track) return;
+      const [x, y, z, w] = track.values.slice(4 * source, 4 * source + 4);
+      const s = Math.hypot(x, y, z);
+      // Angle in [0, pi]: q and -q are the same rotation.
+      const angle = 2 * Math.atan2(s, Math.abs(w));
+      const scale = s < 1e-12 ? 0 : -Math.sign(w || 1) * angle / s;
+      values.splice(k * H36M_COLUMNS + 3 + 3 * j, 3, scale * x, scale * y, scale * z);
+    });
+  }
+  return { frames: outFrames, columns: H36M_COLUMNS, frame_rate: MODEL_RATE, layout: H36M_LAYOUT, values };
+}
