@@ -65,6 +65,21 @@ std::vector<bool> test_selection(const std::vector<std::string>& files, const Bv
   return test;
 }
 
+// Whether `text` is UTF-8: the skeleton travels as JSON (dataset header,
+// model manifest), which holds nothing else.
+bool is_utf8(const std::string& text) {
+  for (size_t i = 0; i < text.size();) {
+    const unsigned char c = static_cast<unsigned char>(text[i]);
+    const size_t length = c < 0x80 ? 1 : (c >> 5) == 0x6 ? 2 : (c >> 4) == 0xE ? 3 : (c >> 3) == 0x1E ? 4 : 0;
+    if (length == 0 || i + length > text.size()) return false;
+    for (size_t k = 1; k < length; ++k) {
+      if ((static_cast<unsigned char>(text[i + k]) >> 6) != 0x2) return false;
+    }
+    i += length;
+  }
+  return true;
+}
+
 }  // namespace
 
 std::vector<std::string> list_bvh_files(const std::string& folder) {
@@ -131,6 +146,10 @@ PreparedDataset prepare_bvh_folder(const std::string& folder, const BvhFolderOpt
       if (name.empty()) name = "bvh-skeleton";
       const double unit = options.millimetres_per_unit > 0 ? options.millimetres_per_unit
                                                           : detect_bvh_millimetres_per_unit(file, path);
+      for (const BvhJoint& joint : file.joints) {
+        if (!is_utf8(joint.name)) throw InputError(path + ": a joint name that is not UTF-8 text, expected one");
+      }
+      if (!is_utf8(name)) throw InputError("skeleton name: not UTF-8 text, expected one (give --name)");
       data.skeleton = bvh_skeleton(file, name, unit);
     }
     motions.push_back(skeleton_motion_from_bvh(data.skeleton, file, path));
