@@ -89,7 +89,7 @@ Trainer::Trainer(const TrainConfig& config, const PreparedDataset& data, at::Dev
                      std::to_string(data.normalization.dims()) + " pose dimensions");
   }
   if (seed_init) torch::manual_seed(config_.seed);
-  model_ = std::make_unique<MotionManifold>(config_.model, data.normalization, Skeleton::h36m());
+  model_ = std::make_unique<MotionManifold>(config_.model, data.normalization, data.skeleton);
   model_->to(device_);
   model_->train(true);
   const auto adam = torch::optim::AdamOptions(config_.learning_rate);

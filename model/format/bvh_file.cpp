@@ -25,6 +25,18 @@ const char* bvh_channel_name(BvhChannel channel) {
   return "?";
 }
 
+bool parse_bvh_channel(const std::string& text, BvhChannel* channel) {
+  static const BvhChannel all[] = {BvhChannel::kXposition, BvhChannel::kYposition, BvhChannel::kZposition,
+                                   BvhChannel::kXrotation, BvhChannel::kYrotation, BvhChannel::kZrotation};
+  for (BvhChannel candidate : all) {
+    if (text == bvh_channel_name(candidate)) {
+      *channel = candidate;
+      return true;
+    }
+  }
+  return false;
+}
+
 int bvh_channel_axis(BvhChannel channel) { return static_cast<int>(channel) % 3; }
 bool bvh_channel_is_position(BvhChannel channel) { return static_cast<int>(channel) < 3; }
 
@@ -162,18 +174,6 @@ void expect_word(Tokenizer& tokens, const char* word) {
   if (token.text != word) tokens.fail(token.line, "found " + quoted(token.text) + ", expected " + quoted(word));
 }
 
-bool parse_channel(const std::string& text, BvhChannel* channel) {
-  static const BvhChannel all[] = {BvhChannel::kXposition, BvhChannel::kYposition, BvhChannel::kZposition,
-                                   BvhChannel::kXrotation, BvhChannel::kYrotation, BvhChannel::kZrotation};
-  for (BvhChannel candidate : all) {
-    if (text == bvh_channel_name(candidate)) {
-      *channel = candidate;
-      return true;
-    }
-  }
-  return false;
-}
-
 // The body of a joint after its "{": OFFSET, then CHANNELS unless it is an
 // End Site.
 void parse_joint_header(Tokenizer& tokens, BvhJoint& joint) {
@@ -192,7 +192,7 @@ void parse_joint_header(Tokenizer& tokens, BvhJoint& joint) {
   for (int c = 0; c < static_cast<int>(count); ++c) {
     const Token name = tokens.next("a channel name");
     BvhChannel channel;
-    if (!parse_channel(name.text, &channel)) {
+    if (!parse_bvh_channel(name.text, &channel)) {
       tokens.fail(name.line, "channel " + quoted(name.text) + " of joint " + joint.name +
                                  ", expected one of Xposition Yposition Zposition Xrotation Yrotation Zrotation "
                                  "(the CHANNELS count is " + count_token.text + ")");
@@ -459,6 +459,15 @@ Skeleton bvh_skeleton(const BvhFile& file, const std::string& name, double milli
     }
     skeleton.joints.push_back(std::move(out));
   }
+  BvhLayout layout;
+  layout.millimetres_per_unit = millimetres_per_unit;
+  for (const auto& joint : file.joints) {
+    std::vector<std::string> channels;
+    for (BvhChannel channel : joint.channels) channels.push_back(bvh_channel_name(channel));
+    layout.channels.push_back(std::move(channels));
+    layout.end_site.push_back(joint.end_site);
+  }
+  skeleton.bvh = std::move(layout);
   return skeleton;
 }
 

@@ -41,6 +41,8 @@ enum class BvhChannel { kXposition, kYposition, kZposition, kXrotation, kYrotati
 
 // "Xposition", ... as the file spells them.
 const char* bvh_channel_name(BvhChannel channel);
+// The channel a name spells ("Xposition", ...); false for any other text.
+bool parse_bvh_channel(const std::string& name, BvhChannel* channel);
 // Axis 0..2 of a channel; is_position tells the kind.
 int bvh_channel_axis(BvhChannel channel);
 bool bvh_channel_is_position(BvhChannel channel);
@@ -98,7 +100,10 @@ std::vector<Vec3> bvh_world_positions(const BvhFile& file, int64_t frame);
 // The hierarchy as a Skeleton named `name`, one joint per BVH joint or End
 // Site in file order, offsets times `millimetres_per_unit` (10 for a file in
 // cm). End Sites are named "<parent>_End" (with "_2", "_3", ... appended
-// when that name is taken). For training a manifold of one's own skeleton.
+// when that name is taken). Its `bvh` layout records every joint's channels,
+// which were End Sites and the unit, so that motions of it are written back
+// as BVH of the same rig (skeleton_bvh.h). For training a manifold of one's
+// own skeleton.
 Skeleton bvh_skeleton(const BvhFile& file, const std::string& name, double millimetres_per_unit = 1.0);
 
 }  // namespace mm

@@ -20,7 +20,9 @@
 // reader sees the usual 25 joints with channels and 7 end sites; they read
 // back as zero rotations.
 //
-// All functions are reentrant. Bad input throws InputError naming the source.
+// These are skeleton_bvh.h's conversions for Skeleton::h36m() with its
+// default BVH layout. All functions are reentrant. Bad input throws
+// InputError naming the source.
 #pragma once
 
 #include <string>
@@ -28,14 +30,15 @@
 #include "format/bvh_file.h"
 #include "format/motion_text.h"
 #include "format/rotation_matrix.h"
+#include "format/skeleton_bvh.h"
 
 namespace mm {
 
 // The rate every imported motion is brought to, that of the model.
-constexpr double kH36mBvhImportRate = 25.0;
+constexpr double kH36mBvhImportRate = kBvhImportRate;
 // Imports that would be longer than this at 25 Hz are refused (about 11 h),
 // bounding memory for a file with a long frame time.
-constexpr int64_t kMaxH36mBvhImportFrames = 1000000;
+constexpr int64_t kMaxH36mBvhImportFrames = kMaxBvhImportFrames;
 
 struct H36mBvhExportOptions {
   // The rotation channel order of every joint (default Zrotation Yrotation

@@ -160,6 +160,7 @@ void save_prepared_dataset(const PreparedDataset& data, const std::string& path)
   header["frame_rate"] = data.frame_rate;
   header["dims"] = dims;
   header["levels_per_std"] = kLevelsPerStd;
+  header["skeleton"] = json::parse(data.skeleton.to_json_text());
   json sequences = json::array();
   for (const PreparedSequence& sequence : data.sequences) {
     sequences.push_back({{"subject", sequence.subject},
@@ -273,6 +274,15 @@ PreparedDataset load_prepared_dataset(const std::string& path) {
   if (dims != data.normalization.dims()) {
     throw InputError(path + ": header field \"dims\" is " + std::to_string(dims) + ", expected " +
                      std::to_string(data.normalization.dims()) + " (the normalization's kept columns)");
+  }
+  if (header.contains("skeleton")) {
+    data.skeleton = Skeleton::from_json_text(header["skeleton"].dump(), path + " skeleton");
+  }
+  if (3 + 3 * data.skeleton.joint_count() != data.normalization.input_columns()) {
+    throw InputError(path + ": the skeleton \"" + data.skeleton.name + "\" has " +
+                     std::to_string(data.skeleton.joint_count()) + " joints, so motions of " +
+                     std::to_string(3 + 3 * data.skeleton.joint_count()) + " columns, but the normalization has " +
+                     std::to_string(data.normalization.input_columns()));
   }
   if (!header.contains("levels_per_std") || !header["levels_per_std"].is_number() ||
       header["levels_per_std"].get<double>() != kLevelsPerStd) {

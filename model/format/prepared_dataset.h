@@ -10,6 +10,8 @@
 //                          {"normalization": <PoseNormalization JSON object>,
 //                           "train_subjects": [...], "test_subjects": [...],
 //                           "frame_rate": 25, "dims": D, "levels_per_std": 8192,
+//                           "skeleton": <Skeleton JSON object> (absent in
+//                             files of H3.6M written before it: H3.6M's),
 //                           "sequences": [{"subject", "action", "take", "phase",
 //                                          "frames"}, ...]}
 //     20 + H   uint64    R = payload length before compression (bytes)
@@ -32,6 +34,7 @@
 
 #include "format/motion_text.h"
 #include "format/pose_normalization.h"
+#include "format/skeleton.h"
 
 namespace mm {
 
@@ -46,6 +49,9 @@ struct PreparedDataset {
   PoseNormalization normalization;  // fitted on train subjects only
   std::vector<std::string> train_subjects, test_subjects;
   int frame_rate = 25;              // Hz of every sequence
+  // The skeleton the frames are motions of (its exp-map layout, skeleton_bvh.h):
+  // H3.6M's, or a user's own from prepare_bvh_folder (bvh_corpus.h).
+  Skeleton skeleton = Skeleton::h36m();
   std::vector<PreparedSequence> sequences;  // train and test subjects, sorted as load_h36m_corpus
 
   // The sequences of the listed subjects, in stored order. Pointers are valid

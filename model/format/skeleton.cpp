@@ -1,5 +1,6 @@
 #include "format/skeleton.h"
 
+#include <algorithm>
 #include <cmath>
 #include <set>
 
@@ -32,6 +33,66 @@ int integer_field(const json& entry, const char* field, const std::string& label
                      ", expected an integer");
   }
   return value.get<int>();
+}
+
+bool is_bvh_channel_name(const std::string& name) {
+  static const char* const kNames[] = {"Xposition", "Yposition", "Zposition", "Xrotation", "Yrotation", "Zrotation"};
+  for (const char* known : kNames) {
+    if (name == known) return true;
+  }
+  return false;
+}
+
+// The "bvh" object of a skeleton's JSON, checked against its joints.
+BvhLayout parse_bvh_layout(const json& object, const Skeleton& skeleton, const std::string& source) {
+  const std::string label = source + ": field \"bvh\"";
+  if (!object.is_object()) throw InputError(label + " is " + object.dump() + ", expected a JSON object");
+  BvhLayout layout;
+  if (!object.contains("millimetres_per_unit") || !object["millimetres_per_unit"].is_number() ||
+      !std::isfinite(object["millimetres_per_unit"].get<double>()) ||
+      object["millimetres_per_unit"].get<double>() <= 0 || object["millimetres_per_unit"].get<double>() > 1e6) {
+    throw InputError(label + ": \"millimetres_per_unit\" is " +
+                     (object.contains("millimetres_per_unit") ? object["millimetres_per_unit"].dump() : "missing") +
+                     ", expected a number in (0, 1e6]");
+  }
+  layout.millimetres_per_unit = object["millimetres_per_unit"].get<double>();
+  if (!object.contains("joints") || !object["joints"].is_array() ||
+      object["joints"].size() != skeleton.joints.size()) {
+    throw InputError(label + ": \"joints\" is missing or not an array of " + std::to_string(skeleton.joints.size()) +
+                     " entries, one a joint");
+  }
+  std::vector<bool> has_child(skeleton.joints.size(), false);
+  for (const Joint& joint : skeleton.joints) {
+    if (joint.parent >= 0) has_child[joint.parent] = true;
+  }
+  for (size_t j = 0; j < skeleton.joints.size(); ++j) {
+    const json& entry = object["joints"][j];
+    const std::string at = label + " joint " + std::to_string(j) + " (\"" + skeleton.joints[j].name + "\")";
+    if (!entry.is_object() || !entry.contains("channels") || !entry["channels"].is_array() ||
+        !entry.contains("end_site") || !entry["end_site"].is_boolean()) {
+      throw InputError(at + " is " + entry.dump() + ", expected {\"channels\": [...], \"end_site\": true or false}");
+    }
+    std::vector<std::string> channels;
+    for (const json& channel : entry["channels"]) {
+      if (!channel.is_string() || !is_bvh_channel_name(channel.get<std::string>())) {
+        throw InputError(at + ": channel " + channel.dump() +
+                         ", expected one of Xposition Yposition Zposition Xrotation Yrotation Zrotation");
+      }
+      if (std::find(channels.begin(), channels.end(), channel.get<std::string>()) != channels.end()) {
+        throw InputError(at + ": channel " + channel.dump() + " appears twice");
+      }
+      channels.push_back(channel.get<std::string>());
+    }
+    if (channels.size() > 6) throw InputError(at + ": " + std::to_string(channels.size()) + " channels, expected 0 to 6");
+    const bool end_site = entry["end_site"].get<bool>();
+    if (end_site && (!channels.empty() || has_child[j])) {
+      throw InputError(at + ": an End Site with " + (has_child[j] ? "children" : "channels") +
+                       ", expected a leaf without channels");
+    }
+    layout.channels.push_back(std::move(channels));
+    layout.end_site.push_back(end_site);
+  }
+  return layout;
 }
 
 }  // namespace
@@ -100,6 +161,7 @@ Skeleton Skeleton::from_json_text(const std::string& text, const std::string& so
     }
     skeleton.joints.push_back(std::move(joint));
   }
+  if (document.contains("bvh")) skeleton.bvh = parse_bvh_layout(document["bvh"], skeleton, source_name);
   return skeleton;
 }
 
@@ -116,6 +178,13 @@ std::string Skeleton::to_json_text() const {
                        {"offset", {joint.offset_mm[0], joint.offset_mm[1], joint.offset_mm[2]}}});
   }
   document["joints"] = std::move(entries);
+  if (bvh) {
+    json layout_joints = json::array();
+    for (size_t j = 0; j < bvh->channels.size(); ++j) {
+      layout_joints.push_back({{"channels", bvh->channels[j]}, {"end_site", static_cast<bool>(bvh->end_site[j])}});
+    }
+    document["bvh"] = {{"millimetres_per_unit", bvh->millimetres_per_unit}, {"joints", std::move(layout_joints)}};
+  }
   return document.dump(1);
 }
 

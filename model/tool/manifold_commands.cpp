@@ -79,7 +79,7 @@ struct MotionInputs {
     std::vector<MotionFrames> result;
     for (size_t i = 0; i < motions.size(); ++i) {
       result.push_back(motion_window(motions[i].text, input_name(motions[i].path), model.config().frames,
-                                     motions[i].start, rate(i), model.normalization().input_columns()));
+                                     motions[i].start, rate(i), model.skeleton()));
     }
     return result;
   }
@@ -90,9 +90,9 @@ struct MotionInputs {
 // Writes motions as <dir>/<stem>_000.<format>, ... (format "txt" or "bvh");
 // the folder was made beforehand.
 int write_motions(const std::vector<MotionFrames>& motions, const std::string& dir, const std::string& stem,
-                  const std::string& format) {
+                  const std::string& format, const Skeleton& skeleton) {
   for (size_t i = 0; i < motions.size(); ++i) {
-    write_motion_output(motions[i], numbered_motion_path(dir, stem, static_cast<int>(i), format));
+    write_motion_output(motions[i], numbered_motion_path(dir, stem, static_cast<int>(i), format), skeleton);
   }
   std::printf("wrote %zu motions of %lld frames at 25 Hz: %s ... %s\n", motions.size(),
               static_cast<long long>(motions.front().frame_count()), numbered_motion_path(dir, stem, 0, format).c_str(),
@@ -102,8 +102,8 @@ int write_motions(const std::vector<MotionFrames>& motions, const std::string& d
 
 // Writes one decoded motion to --out (a file or - for standard output) and
 // says so where it does not mix with the data.
-int write_motion(const MotionFrames& motion, const std::string& out) {
-  write_motion_output(motion, out);
+int write_motion(const MotionFrames& motion, const std::string& out, const Skeleton& skeleton) {
+  write_motion_output(motion, out, skeleton);
   std::fprintf(message_stream({out}), "wrote %s (%lld frames at 25 Hz)\n",
                is_standard_stream(out) ? "standard output" : out.c_str(),
                static_cast<long long>(motion.frame_count()));
@@ -226,7 +226,7 @@ void add_sample(CLI::App& app, Action& action) {
       const MotionManifold model = load_model(o->model);
       check_decode_count(model, o->count, "--count", "run again with another --seed for more");
       const auto codes = sample_codes(model, o->count, o->seed);
-      return write_motions(decode_codes(model, codes, o->model.kind(model)), o->out_dir, "sample", o->format);
+      return write_motions(decode_codes(model, codes, o->model.kind(model)), o->out_dir, "sample", o->format, model.skeleton());
     };
   });
 }
@@ -269,7 +269,7 @@ void add_interpolate(CLI::App& app, Action& action) {
       check_decode_count(model, o->steps, "--steps", "fewer steps");
       const auto codes = encode_motions(model, o->inputs.windows(model));
       const auto path = interpolate_codes(codes[0], codes[1], o->steps, o->spherical);
-      return write_motions(decode_codes(model, path, o->model.kind(model)), o->out_dir, "interpolation", o->format);
+      return write_motions(decode_codes(model, path, o->model.kind(model)), o->out_dir, "interpolation", o->format, model.skeleton());
     };
   });
 }
@@ -300,7 +300,7 @@ void add_analogy(CLI::App& app, Action& action) {
       const MotionManifold model = load_model(o->model);
       const auto codes = encode_motions(model, o->inputs.windows(model));
       const auto code = analogy_code(codes[0], codes[1], codes[2]).unsqueeze(0);
-      return write_motion(decode_codes(model, code, o->model.kind(model))[0], o->out);
+      return write_motion(decode_codes(model, code, o->model.kind(model))[0], o->out, model.skeleton());
     };
   });
 }
@@ -374,9 +374,9 @@ void add_denoise(CLI::App& app, Action& action) {
       const MotionFrames noisy = o->probability > 0 ? corrupt_motion(clean, model.normalization(), o->probability,
                                                                      o->seed, parse_corruption(o->corruption))
                                                     : clean;
-      if (!o->corrupted_out.empty()) write_motion_output(noisy, o->corrupted_out);
+      if (!o->corrupted_out.empty()) write_motion_output(noisy, o->corrupted_out, model.skeleton());
       const MotionFrames denoised = denoise_motions(model, {noisy}, o->model.kind(model), o->denoise)[0];
-      write_motion_output(denoised, o->out);
+      write_motion_output(denoised, o->out, model.skeleton());
       const nlohmann::json report = {
           {"input", input_name(o->inputs.motions[0].path)},
           {"rate", o->inputs.rate(0)},
@@ -450,7 +450,7 @@ void add_decode(CLI::App& app, Action& action) {
       check_output_file(o->out, "--out");
       const MotionManifold model = load_model(o->model);
       const auto code = parse_code(text, input_name(o->code), model.config().latent);
-      return write_motion(decode_codes(model, code, o->model.kind(model))[0], o->out);
+      return write_motion(decode_codes(model, code, o->model.kind(model))[0], o->out, model.skeleton());
     };
   });
 }

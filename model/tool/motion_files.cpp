@@ -8,7 +8,7 @@
 
 #include "file_arguments.h"
 #include "format/atomic_file.h"
-#include "format/h36m_bvh.h"
+#include "format/skeleton_bvh.h"
 #include "format/input_error.h"
 
 namespace mm::tool {
@@ -17,7 +17,7 @@ const char* const kMotionRateNote =
     "Input motions are H3.6M exponential-map text files, at 50 Hz (the data set; the default) or at 25 Hz (what "
     "decode, sample, interpolate, analogy and denoise write): give --rate 25 for the latter. At 50 Hz every "
     "second frame is kept. A window of the model's clip length (150 frames = 6 s at 25 Hz) is taken from --start "
-    "(in 25 Hz frames). - reads standard input. BVH files of the H3.6M skeleton (a .bvh name, or text that starts "
+    "(in 25 Hz frames). - reads standard input. BVH files of the model's skeleton (a .bvh name, or text that starts "
     "with HIERARCHY) are read at their own frame time, nearest frames at 25 Hz, and --rate does not apply. Output "
     "motions are written in the same text layout at 25 Hz, or as BVH when the file name ends in .bvh.";
 
@@ -35,15 +35,11 @@ bool is_bvh_input(const std::string& path, const std::string& text) {
   return text.compare(at, 9, "HIERARCHY") == 0;
 }
 
-MotionFrames motion_at_model_rate(const std::string& text, const std::string& name, int rate, int columns) {
-  if (is_bvh_input(name, text)) {
-    if (columns != kH36mColumns) {
-      throw InputError(name + ": BVH is read for the H3.6M skeleton (99 columns), the model wants " +
-                       std::to_string(columns));
-    }
-    return h36m_motion_from_bvh_text(text, name);
-  }
-  return at_model_rate(parse_motion_text_buffer(text.data(), text.size(), name, columns), rate, name);
+MotionFrames motion_at_model_rate(const std::string& text, const std::string& name, int rate,
+                                  const Skeleton& skeleton) {
+  if (is_bvh_input(name, text)) return skeleton_motion_from_bvh(skeleton, parse_bvh_text(text, name), name);
+  return at_model_rate(parse_motion_text_buffer(text.data(), text.size(), name, skeleton_motion_columns(skeleton)),
+                       rate, name);
 }
 
 MotionFrames at_model_rate(const MotionFrames& motion, int rate, const std::string& name) {
@@ -53,13 +49,14 @@ MotionFrames at_model_rate(const MotionFrames& motion, int rate, const std::stri
 }
 
 MotionFrames motion_window(const std::string& text, const std::string& name, int frames, int start, int rate,
-                           int columns) {
+                           const Skeleton& skeleton) {
+  const int columns = skeleton_motion_columns(skeleton);
   if (start < 0) throw InputError(name + ": start frame must be >= 0, found " + std::to_string(start));
   const bool bvh = is_bvh_input(name, text);
   // For text, the file as read, for the message on a file that is too short.
   const MotionFrames file =
       bvh ? MotionFrames{} : parse_motion_text_buffer(text.data(), text.size(), name, columns);
-  const MotionFrames motion = bvh ? motion_at_model_rate(text, name, rate, columns) : at_model_rate(file, rate, name);
+  const MotionFrames motion = bvh ? motion_at_model_rate(text, name, rate, skeleton) : at_model_rate(file, rate, name);
   const int64_t needed = static_cast<int64_t>(start) + frames;
   if (motion.frame_count() < needed) {
     std::string found = std::to_string(motion.frame_count()) + " frames at 25 Hz";
@@ -76,9 +73,9 @@ MotionFrames motion_window(const std::string& text, const std::string& name, int
   return window;
 }
 
-void write_motion_output(const MotionFrames& motion, const std::string& path) {
+void write_motion_output(const MotionFrames& motion, const std::string& path, const Skeleton& skeleton) {
   if (is_bvh_path(path)) {
-    write_file_atomically(path, h36m_motion_to_bvh_text(motion, kModelRate));
+    write_file_atomically(path, write_bvh_text(skeleton_motion_to_bvh(skeleton, bvh_layout_of(skeleton), motion, kModelRate)));
     return;
   }
   if (!is_standard_stream(path)) {

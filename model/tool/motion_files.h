@@ -1,13 +1,15 @@
-// Motion files as the tool reads and writes them: inputs are H3.6M text at
-// 50 Hz (the data set) or 25 Hz (what the tool writes), or BVH files of the
-// H3.6M skeleton at any frame rate (format/h36m_bvh.h), from which a window
-// of the model's clip length is taken at 25 Hz; outputs are written at
-// 25 Hz, as BVH when the path ends in ".bvh", else as text. Torch-free.
+// Motion files as the tool reads and writes them: inputs are exp-map text
+// (H3.6M's layout or that of the model's skeleton) at 50 Hz (the data set) or
+// 25 Hz (what the tool writes), or BVH files of the model's skeleton at any
+// frame rate (format/skeleton_bvh.h), from which a window of the model's clip
+// length is taken at 25 Hz; outputs are written at 25 Hz, as BVH of the
+// skeleton's own layout when the path ends in ".bvh", else as text. Torch-free.
 #pragma once
 
 #include <string>
 
 #include "format/motion_text.h"
+#include "format/skeleton.h"
 
 namespace mm::tool {
 
@@ -31,8 +33,9 @@ bool is_bvh_input(const std::string& path, const std::string& text);
 // The whole motion of an input at 25 Hz: BVH is converted and resampled to
 // 25 Hz (its frame time decides; `rate` is ignored), text at `rate` as
 // at_model_rate. Throws InputError naming `name`.
+// Motions are of `skeleton` (the model's): 3 + 3 x its joints columns.
 MotionFrames motion_at_model_rate(const std::string& text, const std::string& name, int rate,
-                                  int columns = kH36mColumns);
+                                  const Skeleton& skeleton = Skeleton::h36m());
 
 // Parses `text` (motion text at `rate` Hz, 25 or 50, with `columns` values a
 // frame, or BVH as is_bvh_input(name, text) tells; `name` is the file's name
@@ -41,11 +44,13 @@ MotionFrames motion_at_model_rate(const std::string& text, const std::string& na
 // naming the file, the frames found and the frames needed when it is too
 // short, and for a negative start or a malformed file.
 MotionFrames motion_window(const std::string& text, const std::string& name, int frames, int start, int rate,
-                           int columns = kH36mColumns);
+                           const Skeleton& skeleton = Skeleton::h36m());
 
 // Writes a motion (at 25 Hz) to `path`: BVH for a path ending in ".bvh"
-// (frame time 0.04 s), else text; standard output ("-") gets text.
-void write_motion_output(const MotionFrames& motion, const std::string& path);
+// (frame time 0.04 s) of `skeleton` in its BVH layout, else text; standard
+// output ("-") gets text.
+void write_motion_output(const MotionFrames& motion, const std::string& path,
+                         const Skeleton& skeleton = Skeleton::h36m());
 
 // Creates `dir` (and its parents) if needed. Throws InputError naming the
 // option and the system's reason when it cannot.

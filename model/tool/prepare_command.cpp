@@ -1,6 +1,6 @@
-// `prepare`: H3.6M text files to one prepared dataset file (Sec. 4):
-// downsampled to 25 Hz, normalised on the training subjects, with the
-// position-loss scale measured on them.
+// `prepare`: H3.6M text files, or a folder of BVH files of one's own
+// skeleton, to one prepared dataset file (Sec. 4): at 25 Hz, normalised on
+// the training subjects (files), with the position-loss scale measured on them.
 #include <CLI/CLI.hpp>
 #include <chrono>
 #include <cstdio>
@@ -9,6 +9,8 @@
 
 #include "commands.h"
 #include "file_arguments.h"
+#include "format/bvh_dataset.h"
+#include "format/input_error.h"
 #include "format/prepared_dataset.h"
 #include "format/skeleton.h"
 #include "trainer.h"
@@ -17,9 +19,20 @@ namespace mm::tool {
 namespace {
 
 struct PrepareOptions {
-  std::string data_dir, out;
+  std::string data_dir, bvh_dir, out, unit = "auto";
   SplitOptions split;
+  BvhFolderOptions bvh;
 };
+
+// Millimetres per unit of a --unit value; 0 for auto (detected).
+double millimetres_per_unit(const std::string& unit) {
+  if (unit == "auto") return 0;
+  if (unit == "mm") return 1;
+  if (unit == "cm") return 10;
+  if (unit == "m") return 1000;
+  if (unit == "in") return 25.4;
+  throw InputError("--unit " + unit + ", expected auto, mm, cm, m or in");
+}
 
 int64_t frame_total(const std::vector<const PreparedSequence*>& sequences) {
   int64_t frames = 0;
@@ -30,8 +43,15 @@ int64_t frame_total(const std::vector<const PreparedSequence*>& sequences) {
 int run_prepare(const PrepareOptions& options) {
   check_output_file(options.out, "--out", "a prepared dataset is a binary file read by path");
   const auto started = std::chrono::steady_clock::now();
-  PreparedDataset data = prepare_h36m(options.data_dir, options.split);
-  data.normalization.position_scale_mm = position_scale_for(data, Skeleton::h36m());
+  PreparedDataset data;
+  if (!options.bvh_dir.empty()) {
+    BvhFolderOptions bvh = options.bvh;
+    bvh.millimetres_per_unit = millimetres_per_unit(options.unit);
+    data = prepare_bvh_folder(options.bvh_dir, bvh);
+  } else {
+    data = prepare_h36m(options.data_dir, options.split);
+  }
+  data.normalization.position_scale_mm = position_scale_for(data, data.skeleton);
   save_prepared_dataset(data, options.out);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
 
@@ -42,6 +62,8 @@ int run_prepare(const PrepareOptions& options) {
               static_cast<long long>(frame_total(train)), data.frame_rate);
   std::printf("  test:  %zu sequences, %lld frames at %d Hz\n", test.size(),
               static_cast<long long>(frame_total(test)), data.frame_rate);
+  std::printf("  skeleton %s: %d joints (%.4g mm a unit)\n", data.skeleton.name.c_str(), data.skeleton.joint_count(),
+              data.skeleton.bvh ? data.skeleton.bvh->millimetres_per_unit : 1.0);
   std::printf("  pose dimensions: %d of %d columns; position scale %.1f mm\n", data.normalization.dims(),
               data.normalization.input_columns(), data.normalization.position_scale_mm);
   return kExitSuccess;
@@ -53,9 +75,23 @@ void add_prepare_command(CLI::App& app, Action& action) {
   auto options = std::make_shared<PrepareOptions>();
   auto* command = app.add_subcommand(
       "prepare",
-      "Downsample H3.6M to 25 Hz, fit the normalisation on the training subjects and write a prepared dataset file.");
-  command->add_option("--data", options->data_dir, "H3.6M folder: holds S1, S5, ... (or h3.6m/dataset/S1, ...)")
-      ->required();
+      "Bring H3.6M (--data) or a folder of BVH files of one skeleton (--bvh) to 25 Hz, fit the normalisation on the "
+      "training subjects or files and write a prepared dataset file.");
+  auto* data = command->add_option("--data", options->data_dir, "H3.6M folder: holds S1, S5, ... (or h3.6m/dataset/S1, ...)");
+  auto* bvh = command->add_option(
+      "--bvh", options->bvh_dir,
+      "folder of BVH files of one hierarchy (searched recursively): the skeleton, its channel layout, the kept "
+      "dimensions and the statistics come from them; split into train and test by file (--test-files)");
+  data->excludes(bvh);
+  bvh->excludes(data);
+  command->add_option("--test-files", options->bvh.test_files,
+                      "with --bvh: test files or folders relative to it, comma-separated (default: every fifth file)")
+      ->delimiter(',');
+  command->add_option("--unit", options->unit,
+                      "with --bvh: the files' length unit, auto (from the rest pose's height), mm, cm, m or in")
+      ->check(CLI::IsMember({"auto", "mm", "cm", "m", "in"}))
+      ->capture_default_str();
+  command->add_option("--name", options->bvh.skeleton_name, "with --bvh: the skeleton's name (default: the folder's)");
   command->add_option("--out", options->out, "prepared dataset file to write")->required();
   command->add_option("--train", options->split.train_subjects, "training subjects, comma-separated")
       ->delimiter(',')
@@ -63,7 +99,10 @@ void add_prepare_command(CLI::App& app, Action& action) {
   command->add_option("--test", options->split.test_subjects, "test subjects, comma-separated")
       ->delimiter(',')
       ->capture_default_str();
-  command->callback([options, &action] { action = [options] { return run_prepare(*options); }; });
+  command->callback([options, &action, data, bvh] {
+    if (data->count() == 0 && bvh->count() == 0) throw CLI::RequiredError("--data or --bvh");
+    action = [options] { return run_prepare(*options); };
+  });
 }
 
 }  // namespace mm::tool

@@ -180,6 +180,13 @@ TrainConfig read_config_file(const std::string& path) {
   }
 }
 
+// Whether a configuration file gives "model": {"pose_dims": ...} itself.
+bool config_sets_pose_dims(const std::string& path) {
+  const auto document = nlohmann::json::parse(read_input_file(path, "--config"), nullptr, false);
+  return document.is_object() && document.contains("model") && document["model"].is_object() &&
+         document["model"].contains("pose_dims");
+}
+
 int run_resume(const std::string& checkpoint, const std::string& dataset_path, int64_t iterations,
                const std::string& device_name, const std::string& command_line, bool progress_json) {
   check_input_file(checkpoint, "checkpoint");
@@ -197,6 +204,10 @@ int run_train(const TrainOptions& o, const std::string& command_line) {
     return run_resume(o.resume, o.dataset, o.iterations, o.device, command_line, o.progress_json);
   }
   TrainConfig config = o.config_path.empty() ? variant_config(o.variant) : read_config_file(o.config_path);
+  // The pose dimensions are the dataset's kept columns (51 for H3.6M), not a
+  // choice: a configuration that does not fix them takes them from the
+  // dataset, so that one configuration trains any skeleton.
+  const bool fixes_pose_dims = !o.config_path.empty() && config_sets_pose_dims(o.config_path);
   if (!o.dataset.empty()) config.dataset = o.dataset;
   if (!o.out.empty()) config.output_dir = o.out;
   if (o.iterations > 0) config.iterations = o.iterations;
@@ -217,6 +228,7 @@ int run_train(const TrainOptions& o, const std::string& command_line) {
   check_input_file(config.dataset, o.dataset.empty() ? "dataset" : "--dataset");
   const c10::Device device = parse_device(o.device);
   const PreparedDataset data = load_dataset(config.dataset);
+  if (!fixes_pose_dims) config.model.pose_dims = data.normalization.dims();
   Trainer trainer(config, data, device);
   nlohmann::json origin = nlohmann::json::object();
   if (!o.init_from.empty()) {

@@ -354,6 +354,8 @@ std::vector<ModelInfo> ManifoldCore::list_models(const CallContext& ctx) {
   return state_->call("list_models", ctx, [&] { return state_->store.list(); });
 }
 
+ModelShape ManifoldCore::model_shape(const std::string& name) { return state_->store.get(name)->shape; }
+
 ModelInfo ManifoldCore::describe_model(const CallContext& ctx, const std::string& name) {
   return state_->call("describe_model", ctx, [&] {
     if (name.empty()) return state_->store.describe(state_->store.active()->name);

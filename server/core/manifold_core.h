@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "core/api_types.h"
+#include "core/motion_conversion.h"
 
 namespace mm::service {
 
@@ -74,6 +75,11 @@ class ManifoldCore {
   MotionsReply interpolate(const CallContext& ctx, const InterpolateRequest& request);
   MotionsReply analogy(const CallContext& ctx, const AnalogyRequest& request);
   MotionsReply denoise(const CallContext& ctx, const DenoiseRequest& request);
+
+  // The shape of the motions model `name` takes ("" for the active one):
+  // columns, layout and skeleton, for the frontends' BVH translation (REST's
+  // application/x-bvh). ApiError as the operations give for the name.
+  ModelShape model_shape(const std::string& name);
 
   std::vector<ModelInfo> list_models(const CallContext& ctx);
   ModelInfo describe_model(const CallContext& ctx, const std::string& name);

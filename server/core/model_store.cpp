@@ -151,6 +151,7 @@ std::shared_ptr<const LoadedModel> ModelStore::load(const std::string& name) {
     shape.columns = manifold.normalization().input_columns();
     shape.latent = manifold.config().latent;
     shape.layout = layout_name(shape.columns);
+    shape.skeleton = manifold.skeleton();
     auto model = std::shared_ptr<const LoadedModel>(
         new LoadedModel{name, version, dir, std::move(manifold), shape, seconds});
     metrics_.observe_model_load(name, seconds, true);

@@ -11,15 +11,18 @@
 
 #include "core/api_types.h"
 #include "format/motion_text.h"
+#include "format/skeleton.h"
 
 namespace mm::service {
 
-// What a model takes: its clip length at 25 Hz, columns, layout name and code size.
+// What a model takes: its clip length at 25 Hz, columns, layout name, code
+// size, and the skeleton its motions are of (for BVH in and out).
 struct ModelShape {
   int frames = 150;
   int columns = 99;
   int latent = 64;
   std::string layout = kH36mLayout;
+  Skeleton skeleton = Skeleton::h36m();
 };
 
 // The layout name of a model with `columns` input columns: "h36m-expmap-99"

@@ -6,6 +6,9 @@
 #include <nlohmann/json.hpp>
 #include <regex>
 
+#include "format/bvh_dataset.h"
+#include "format/input_error.h"
+
 namespace mm::service {
 namespace {
 
@@ -72,8 +75,8 @@ const std::vector<std::string>& job_variants() {
 
 JobDataset resolve_job_dataset(const std::string& data_root, const std::string& dataset) {
   if (dataset.empty()) {
-    refuse("dataset", "dataset is empty, expected a prepared dataset file (.mmd) or an H3.6M text tree under the "
-                      "data root");
+    refuse("dataset", "dataset is empty, expected a prepared dataset file (.mmd), an H3.6M text tree or a folder of "
+                      "BVH files under the data root");
   }
   std::error_code error;
   const fs::path root = fs::weakly_canonical(fs::path(data_root), error);
@@ -111,9 +114,24 @@ JobDataset resolve_job_dataset(const std::string& data_root, const std::string& 
     result.subjects = std::move(subjects);
     return result;
   }
+  std::vector<std::string> bvh_files;
+  try {
+    bvh_files = list_bvh_files(path.string());
+  } catch (const InputError&) {
+    // Neither kind of folder: the message below says what was expected.
+  }
+  if (bvh_files.size() == 1) {
+    refuse("dataset", "dataset " + quoted(dataset) +
+                          " holds one .bvh file, expected at least two (split by file into training and test)");
+  }
+  if (!bvh_files.empty()) {
+    result.bvh_folder = true;
+    return result;
+  }
   refuse("dataset", "dataset " + quoted(dataset) +
-                        " is a folder without H3.6M motion files, expected S1, S5, ... folders holding "
-                        "<action>_<n>.txt files (in it, in h3.6m/dataset or in dataset below it)");
+                        " is a folder without H3.6M motion files or BVH files, expected S1, S5, ... folders holding "
+                        "<action>_<n>.txt files (in it, in h3.6m/dataset or in dataset below it) or .bvh files of "
+                        "one skeleton");
 }
 
 void check_job_spec(const JobSpec& spec) {

@@ -5,7 +5,7 @@
 //
 // Torch-free: a prepared dataset is recognised by its magic bytes and
 // version (format/prepared_dataset.h), a text tree by its S*/<action>_<n>.txt
-// files, without reading either. Thread safe (no shared state).
+// files, a BVH folder by its .bvh files, without reading any. Thread safe (no shared state).
 #pragma once
 
 #include <filesystem>
@@ -20,15 +20,20 @@ namespace mm::service {
 struct JobDataset {
   std::filesystem::path path;  // the .mmd file, or the folder holding S1, S5, ...
   bool prepared = false;       // a prepared dataset file, not a text tree
+  // A folder of BVH files of one skeleton (format/bvh_dataset.h), prepared
+  // with the default split by file and the unit detected.
+  bool bvh_folder = false;
   // A text tree's subjects that hold motion files, sorted (S1, S5, S6, ...).
   std::vector<std::string> subjects;
 };
 
 // Resolves `dataset` (relative to `data_root`, or absolute) with `..` and
 // symbolic links followed, and checks that it lies under the data root and
-// is a prepared dataset file or an H3.6M text tree with at least one
-// training subject (any subject but the test subject S5). ApiError
-// INVALID_ARGUMENT with field "dataset" otherwise.
+// is a prepared dataset file, an H3.6M text tree with at least one
+// training subject (any subject but the test subject S5), or a folder
+// holding at least two .bvh files (one for training, one for testing; their
+// content is checked when the job prepares them). ApiError INVALID_ARGUMENT
+// with field "dataset" otherwise.
 JobDataset resolve_job_dataset(const std::string& data_root, const std::string& dataset);
 
 // Checks the spec's other fields: variant (one of S D DK DKG DKGM DKGMZ

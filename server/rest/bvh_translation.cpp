@@ -2,7 +2,8 @@
 
 #include <cctype>
 
-#include "format/h36m_bvh.h"
+#include "format/bvh_file.h"
+#include "format/skeleton_bvh.h"
 #include "format/input_error.h"
 
 namespace mm::service::rest {
@@ -13,23 +14,23 @@ bool names_bvh(const std::string& header_value) {
   return lower.find(kBvhType) != std::string::npos;
 }
 
-Motion motion_from_bvh_body(const std::string& body) {
+Motion motion_from_bvh_body(const std::string& body, const ModelShape& shape) {
   MotionFrames frames;
   try {
-    frames = h36m_motion_from_bvh_text(body, "request body");
+    frames = skeleton_motion_from_bvh(shape.skeleton, parse_bvh_text(body, "request body"), "request body");
   } catch (const InputError& error) {
     throw ApiError(ErrorCode::kInvalidArgument, "", error.what());
   }
   Motion motion;
   motion.frames = static_cast<int>(frames.frame_count());
   motion.columns = frames.columns;
-  motion.frame_rate = kH36mBvhImportRate;
-  motion.layout = kH36mLayout;
+  motion.frame_rate = kBvhImportRate;
+  motion.layout = shape.layout;
   motion.values = std::move(frames.values);
   return motion;
 }
 
-std::string motions_reply_to_bvh(const MotionsReply& reply) {
+std::string motions_reply_to_bvh(const MotionsReply& reply, const ModelShape& shape) {
   if (reply.motions.size() != 1) {
     throw ApiError(ErrorCode::kInvalidArgument, "",
                    "Accept: application/x-bvh holds one motion and this reply has " +
@@ -40,7 +41,8 @@ std::string motions_reply_to_bvh(const MotionsReply& reply) {
   frames.columns = motion.columns;
   frames.values = motion.values;
   try {
-    return h36m_motion_to_bvh_text(frames, motion.frame_rate > 0 ? motion.frame_rate : kH36mBvhImportRate);
+    return write_bvh_text(skeleton_motion_to_bvh(shape.skeleton, bvh_layout_of(shape.skeleton), frames,
+                                                 motion.frame_rate > 0 ? motion.frame_rate : kBvhImportRate));
   } catch (const InputError& error) {
     throw ApiError(ErrorCode::kInternal, "", std::string("the reply cannot be written as BVH: ") + error.what());
   }

@@ -51,7 +51,8 @@ void send_json(httplib::Response& response, int status, const std::string& body)
 
 // A reply of motions as JSON, or as BVH when the client's Accept names
 // application/x-bvh; BVH holds one motion, so a reply of several is 406.
-void send_motions(httplib::Response& response, const httplib::Request& request, const MotionsReply& reply) {
+void send_motions(httplib::Response& response, const httplib::Request& request, const MotionsReply& reply,
+                  ManifoldCore& core) {
   if (!rest::names_bvh(request.get_header_value("Accept"))) {
     response.status = 200;
     return response.set_content(rest::motions_reply_to_json(reply), kJsonType);
@@ -64,7 +65,8 @@ void send_motions(httplib::Response& response, const httplib::Request& request, 
     return response.set_content(rest::error_body(error), kJsonType);
   }
   response.status = 200;
-  response.set_content(rest::motions_reply_to_bvh(reply), rest::kBvhType);
+  // BVH of the skeleton of the model that answered.
+  response.set_content(rest::motions_reply_to_bvh(reply, core.model_shape(reply.answered_by.model)), rest::kBvhType);
 }
 
 // An encode or denoise body: JSON, or one BVH motion (Content-Type
@@ -159,27 +161,27 @@ void RestFrontend::State::handle(RouteId route, const httplib::Request& request,
         if (is_bvh_body(request)) {
           EncodeRequest encode;
           encode.model = request.get_param_value("model");
-          encode.motions.push_back(rest::motion_from_bvh_body(body));
+          encode.motions.push_back(rest::motion_from_bvh_body(body, core.model_shape(encode.model)));
           return send_json(response, 200, rest::encode_reply_to_json(core.encode(context, encode)));
         }
         return send_json(response, 200,
                          rest::encode_reply_to_json(core.encode(context, rest::encode_request_from_json(body))));
       case RouteId::kDecode:
-        return send_motions(response, request, core.decode(context, rest::decode_request_from_json(body)));
+        return send_motions(response, request, core.decode(context, rest::decode_request_from_json(body)), core);
       case RouteId::kSample:
-        return send_motions(response, request, core.sample(context, rest::sample_request_from_json(body)));
+        return send_motions(response, request, core.sample(context, rest::sample_request_from_json(body)), core);
       case RouteId::kInterpolate:
-        return send_motions(response, request, core.interpolate(context, rest::interpolate_request_from_json(body)));
+        return send_motions(response, request, core.interpolate(context, rest::interpolate_request_from_json(body)), core);
       case RouteId::kAnalogy:
-        return send_motions(response, request, core.analogy(context, rest::analogy_request_from_json(body)));
+        return send_motions(response, request, core.analogy(context, rest::analogy_request_from_json(body)), core);
       case RouteId::kDenoise:
         if (is_bvh_body(request)) {
           DenoiseRequest denoise;
           denoise.model = request.get_param_value("model");
-          denoise.motions.push_back(rest::motion_from_bvh_body(body));
-          return send_motions(response, request, core.denoise(context, denoise));
+          denoise.motions.push_back(rest::motion_from_bvh_body(body, core.model_shape(denoise.model)));
+          return send_motions(response, request, core.denoise(context, denoise), core);
         }
-        return send_motions(response, request, core.denoise(context, rest::denoise_request_from_json(body)));
+        return send_motions(response, request, core.denoise(context, rest::denoise_request_from_json(body)), core);
       case RouteId::kListModels:
         return send_json(response, 200, rest::model_list_to_json(core.list_models(context)));
       case RouteId::kDescribeModel:

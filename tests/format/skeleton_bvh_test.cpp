@@ -1,0 +1,251 @@
+// A user's own skeleton, on the CMU dances (43 joints and 14 end sites, cm,
+// 120 Hz): BVH -> the skeleton's exp-map layout -> BVH keeps the world
+// positions a BVH reader computes, in the rig's own channel layout or any
+// other rotation order; a BVH of another hierarchy is refused naming what
+// differs; a folder of them becomes a prepared dataset split by file.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <string>
+
+#include "cmu_dance.h"
+#include "format/bvh_dataset.h"
+#include "format/bvh_file.h"
+#include "format/h36m_bvh.h"
+#include "format/input_error.h"
+#include "format/prepared_dataset.h"
+#include "format/skeleton_bvh.h"
+#include "test_environment.h"
+
+namespace mm {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::AllOf;
+using ::testing::HasSubstr;
+
+template <typename F>
+std::string error_of(F&& f) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "(no InputError)";
+}
+
+std::string cmu(const std::string& relative) { return (test::cmu_dance_dir() / relative).string(); }
+
+// The source frame that import takes for 25 Hz frame k (nearest in time).
+int64_t source_frame(const BvhFile& file, int64_t k) {
+  return std::min<int64_t>(static_cast<int64_t>(std::floor(k / 25.0 / file.frame_time_s + 0.5)),
+                           file.frame_count() - 1);
+}
+
+// Every joint's world position relative to the root's, and the root's
+// position relative to frame 0's: what a round trip must keep.
+void expect_same_poses(const BvhFile& original, const BvhFile& exported, double tolerance) {
+  ASSERT_EQ(original.joints.size(), exported.joints.size());
+  const std::vector<Vec3> origin = bvh_world_positions(original, source_frame(original, 0));
+  for (int64_t k = 0; k < exported.frame_count(); k += 7) {
+    const std::vector<Vec3> want = bvh_world_positions(original, source_frame(original, k));
+    const std::vector<Vec3> got = bvh_world_positions(exported, k);
+    for (size_t j = 0; j < want.size(); ++j) {
+      for (int a = 0; a < 3; ++a) {
+        ASSERT_NEAR(got[j][a] - got[0][a], want[j][a] - want[0][a], tolerance) << "frame " << k << " joint " << j;
+      }
+    }
+    for (int a = 0; a < 3; ++a) ASSERT_NEAR(got[0][a], want[0][a] - origin[0][a], tolerance) << "root, frame " << k;
+  }
+}
+
+TEST(SkeletonBvh, CmuDanceRoundTripKeepsWorldPositionsInItsOwnLayout) {
+  for (const char* name : {"indian/04.bvh", "martial/07.bvh"}) {
+    SCOPED_TRACE(name);
+    const BvhFile original = read_bvh_file(cmu(name));
+    const Skeleton skeleton = bvh_skeleton(original, "cmu-dance", 10.0);
+    const MotionFrames motion = skeleton_motion_from_bvh(skeleton, original, name);
+    EXPECT_EQ(motion.columns, 3 + 3 * 57);
+    EXPECT_EQ(motion.frame_count(),
+              static_cast<int64_t>(std::floor((original.frame_count() - 1) * original.frame_time_s * 25 + 1e-9)) + 1);
+    const BvhFile exported = skeleton_motion_to_bvh(skeleton, *skeleton.bvh, motion, 25);
+    // The same rig: names, parents, offsets, End Sites and channels.
+    for (size_t j = 0; j < original.joints.size(); ++j) {
+      EXPECT_EQ(exported.joints[j].name, original.joints[j].name);
+      EXPECT_EQ(exported.joints[j].parent, original.joints[j].parent);
+      EXPECT_EQ(exported.joints[j].end_site, original.joints[j].end_site);
+      EXPECT_EQ(exported.joints[j].channels, original.joints[j].channels);
+      for (int a = 0; a < 3; ++a) EXPECT_NEAR(exported.joints[j].offset[a], original.joints[j].offset[a], 1e-9);
+    }
+    // Through the text, as a file on disk: cm to rounding of 6 decimals
+    // and of the float exponential maps.
+    expect_same_poses(original, parse_bvh_text(write_bvh_text(exported), "exported.bvh"), 2e-3);
+  }
+}
+
+TEST(SkeletonBvh, AnyRotationOrderGivesTheSamePosesAndReadsBack) {
+  const BvhFile original = read_bvh_file(cmu("martial/05.bvh"));
+  const Skeleton skeleton = bvh_skeleton(original, "cmu-dance", 10.0);
+  const MotionFrames motion = skeleton_motion_from_bvh(skeleton, original, "martial/05.bvh");
+  std::mt19937 random(3);
+  for (const char* order : {"XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX", "mixed"}) {
+    SCOPED_TRACE(order);
+    BvhLayout layout = *skeleton.bvh;
+    for (auto& channels : layout.channels) {
+      if (channels.empty()) continue;
+      std::string axes = order;
+      if (axes == "mixed") {
+        axes = "XYZ";
+        std::shuffle(axes.begin(), axes.end(), random);
+      }
+      std::vector<std::string> reordered;
+      for (const auto& channel : channels) {
+        if (channel.find("position") != std::string::npos) reordered.push_back(channel);
+      }
+      for (char axis : axes) reordered.push_back(std::string(1, axis) + "rotation");
+      channels = reordered;
+    }
+    const BvhFile exported = parse_bvh_text(write_bvh_text(skeleton_motion_to_bvh(skeleton, layout, motion, 25)), "x");
+    expect_same_poses(original, exported, 2e-3);
+    // And it reads back as the same motion of the skeleton.
+    const MotionFrames back = skeleton_motion_from_bvh(skeleton, exported, "exported.bvh");
+    const BvhFile again = skeleton_motion_to_bvh(skeleton, *skeleton.bvh, back, 25);
+    expect_same_poses(original, again, 4e-3);
+  }
+}
+
+TEST(SkeletonBvh, AnotherHierarchyIsRefusedNamingWhatDiffers) {
+  const BvhFile cmu_file = read_bvh_file(cmu("indian/06.bvh"));
+  const Skeleton skeleton = bvh_skeleton(cmu_file, "cmu-dance", 10.0);
+
+  // H3.6M's hierarchy: the counts of both.
+  MotionFrames h36m;
+  h36m.values.assign(kH36mColumns, 0.0f);
+  EXPECT_THAT(error_of([&] { skeleton_motion_from_bvh(skeleton, h36m_motion_to_bvh(h36m, 25), "h36m.bvh"); }),
+              AllOf(HasSubstr("h36m.bvh: not the skeleton \"cmu-dance\": it has 25 joints and 7 end sites, the "
+                              "skeleton \"cmu-dance\" 43 joints and 14 end sites"),
+                    HasSubstr("missing joints: hip"), HasSubstr("unexpected joints: ")));
+
+  // A renamed joint: missing and unexpected.
+  BvhFile renamed = cmu_file;
+  auto joint = [&](BvhFile& file, const std::string& name) -> BvhJoint& {
+    return *std::find_if(file.joints.begin(), file.joints.end(), [&](const BvhJoint& j) { return j.name == name; });
+  };
+  joint(renamed, "lShin").name = "lKnee";
+  EXPECT_THAT(error_of([&] { skeleton_motion_from_bvh(skeleton, renamed, "renamed.bvh"); }),
+              AllOf(HasSubstr("missing joints: lShin"), HasSubstr("unexpected joints: lKnee")));
+
+  // A joint under another parent.
+  BvhFile moved = cmu_file;
+  const int chest = static_cast<int>(&joint(moved, "chest") - moved.joints.data());
+  joint(moved, "neck").parent = chest - 1;  // abdomen
+  EXPECT_THAT(error_of([&] { skeleton_motion_from_bvh(skeleton, moved, "moved.bvh"); }),
+              HasSubstr("a different parent: neck's parent is abdomen, expected chest"));
+
+  // The same hierarchy with other offsets and channel orders is accepted.
+  BvhFile other_person = cmu_file;
+  for (auto& j : other_person.joints) j.offset[1] *= 1.1;
+  EXPECT_NO_THROW(skeleton_motion_from_bvh(skeleton, other_person, "taller.bvh"));
+}
+
+TEST(SkeletonBvh, SkeletonKeepsItsBvhLayoutThroughJson) {
+  const BvhFile file = read_bvh_file(cmu("indian/04.bvh"));
+  const Skeleton skeleton = bvh_skeleton(file, "cmu-dance", 10.0);
+  const Skeleton again = Skeleton::from_json_text(skeleton.to_json_text(), "skeleton.json");
+  ASSERT_TRUE(again.bvh.has_value());
+  EXPECT_EQ(again.bvh->millimetres_per_unit, 10.0);
+  EXPECT_EQ(again.bvh->channels, skeleton.bvh->channels);
+  EXPECT_EQ(again.bvh->end_site, skeleton.bvh->end_site);
+  EXPECT_EQ(again.bvh->channels[0].size(), 6u);
+  EXPECT_EQ(again.bvh->channels[1], (std::vector<std::string>{"Zrotation", "Xrotation", "Yrotation"}));
+
+  // A layout that cannot be written is refused naming the joint.
+  std::string text = skeleton.to_json_text();
+  const size_t at = text.find("\"Zrotation\"");
+  text.replace(at, 11, "\"Wrotation\"");
+  EXPECT_THAT(error_of([&] { Skeleton::from_json_text(text, "bad.json"); }),
+              AllOf(HasSubstr("bad.json: field \"bvh\" joint 0 (\"hip\")"), HasSubstr("\"Wrotation\"")));
+}
+
+TEST(BvhFolder, CmuDancesPrepareSplitByFile) {
+  const PreparedDataset data = prepare_bvh_folder(test::cmu_dance_dir().string(), BvhFolderOptions{});
+  EXPECT_EQ(data.skeleton.name, "cmu-dance-bvh");
+  EXPECT_EQ(data.skeleton.joint_count(), 57);
+  ASSERT_TRUE(data.skeleton.bvh.has_value());
+  EXPECT_EQ(data.skeleton.bvh->millimetres_per_unit, 10.0);  // detected: a person about 170 units tall
+  EXPECT_EQ(data.normalization.input_columns(), 174);
+  EXPECT_EQ(data.frame_rate, 25);
+  ASSERT_EQ(data.sequences.size(), 15u);
+  std::vector<std::string> test_files;
+  for (const auto* s : data.subset(data.test_subjects)) test_files.push_back(s->action);
+  // Every fifth file in path order.
+  EXPECT_EQ(test_files, (std::vector<std::string>{"indian/13", "martial/05", "martial/10"}));
+  EXPECT_EQ(data.subset(data.train_subjects).size(), 12u);
+  // Root translation and the End Sites' zeros are not modelled.
+  for (int column : data.normalization.kept_columns) {
+    EXPECT_GE(column, 3);
+    EXPECT_FALSE(data.skeleton.bvh->end_site[(column - 3) / 3]) << data.skeleton.joints[(column - 3) / 3].name;
+  }
+  // The rig's eyes, fingers and toes never turn in these files: 17 joints x 3.
+  EXPECT_EQ(data.normalization.dims(), 51);
+
+  // The file keeps the skeleton with its layout.
+  test::ScratchDir dir;
+  save_prepared_dataset(data, dir.file("cmu.mmd"));
+  const PreparedDataset loaded = load_prepared_dataset(dir.file("cmu.mmd"));
+  EXPECT_EQ(loaded.skeleton.to_json_text(), data.skeleton.to_json_text());
+  EXPECT_EQ(loaded.sequences[0].action, "indian/04");
+}
+
+TEST(BvhFolder, TestFilesNameFilesOrFolders) {
+  BvhFolderOptions options;
+  options.test_files = {"martial/", "indian/15.bvh"};
+  options.skeleton_name = "dancer";
+  options.millimetres_per_unit = 10;
+  const PreparedDataset data = prepare_bvh_folder(test::cmu_dance_dir().string(), options);
+  EXPECT_EQ(data.skeleton.name, "dancer");
+  EXPECT_EQ(data.subset(data.test_subjects).size(), 9u);
+  EXPECT_EQ(data.subset(data.train_subjects).size(), 6u);
+
+  options.test_files = {"ballet"};
+  EXPECT_THAT(error_of([&] { prepare_bvh_folder(test::cmu_dance_dir().string(), options); }),
+              HasSubstr("test file \"ballet\" names no .bvh file under"));
+  options.test_files = {"indian", "martial"};
+  EXPECT_THAT(error_of([&] { prepare_bvh_folder(test::cmu_dance_dir().string(), options); }),
+              HasSubstr("expected at least one training file"));
+}
+
+TEST(BvhFolder, AFileOfAnotherHierarchyOrMalformedIsNamed) {
+  test::ScratchDir dir;
+  fs::copy_file(cmu("indian/04.bvh"), dir.file("a.bvh"));
+  MotionFrames h36m;
+  h36m.values.assign(2 * kH36mColumns, 0.0f);
+  std::ofstream(dir.file("b.bvh")) << h36m_motion_to_bvh_text(h36m, 25);
+  EXPECT_THAT(error_of([&] { prepare_bvh_folder(dir.path().string(), {}); }),
+              AllOf(HasSubstr(dir.file("b.bvh") + ": not the skeleton \""), HasSubstr("missing joints: hip")));
+
+  // Cut inside the motion: the file and the line.
+  std::ifstream in(cmu("indian/06.bvh"));
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const size_t frames = text.find("Frame Time");
+  const size_t cut = text.find('\n', frames + 2000);
+  std::ofstream(dir.file("b.bvh"), std::ios::trunc) << text.substr(0, cut) << "\n1 2 three\n";
+  EXPECT_THAT(error_of([&] { prepare_bvh_folder(dir.path().string(), {}); }),
+              AllOf(HasSubstr(dir.file("b.bvh") + ":"), HasSubstr("\"three\" is not a number")));
+
+  // A folder without BVH, a unit that cannot be told.
+  test::ScratchDir empty;
+  EXPECT_THAT(error_of([&] { prepare_bvh_folder(empty.path().string(), {}); }), HasSubstr("holds no .bvh file"));
+  BvhFile tiny = read_bvh_file(cmu("indian/04.bvh"));
+  for (auto& j : tiny.joints) j.offset = {j.offset[0] * 1e-3, j.offset[1] * 1e-3, j.offset[2] * 1e-3};
+  EXPECT_THAT(error_of([&] { detect_bvh_millimetres_per_unit(tiny, "tiny.bvh"); }),
+              AllOf(HasSubstr("tiny.bvh: its rest pose spans"), HasSubstr("--unit")));
+}
+
+}  // namespace
+}  // namespace mm

@@ -1,0 +1,200 @@
+// A user's own skeleton through the service, end to end on the real server
+// over REST: a training job on a folder of CMU dance BVH files (43 joints,
+// cm, 120 Hz) prepares and trains a small manifold of that skeleton and
+// publishes it; activated, it encodes BVH of that skeleton, decodes and
+// samples BVH of the same hierarchy, interpolates in its layout, and refuses
+// a BVH of another hierarchy or a malformed one naming what is wrong. The
+// tool decodes with the published model into BVH of the same rig too.
+#include <httplib.h>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <thread>
+
+#include "cmu_dance.h"
+#include "format/bvh_file.h"
+#include "format/h36m_bvh.h"
+#include "server_process.h"
+#include "test_environment.h"
+
+namespace mm::test {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using ::testing::HasSubstr;
+
+// The first 6 s of a CMU file (720 frames at 120 Hz: 150 at 25 Hz, the
+// model's clip) as BVH text, the hierarchy unchanged.
+std::string six_seconds(const std::string& relative) {
+  BvhFile file = read_bvh_file((cmu_dance_dir() / relative).string());
+  file.values.resize(static_cast<size_t>(720) * file.channel_count());
+  return write_bvh_text(file);
+}
+
+class Rest {
+ public:
+  explicit Rest(const ServerProcess& server) : client_("127.0.0.1", server.rest_port()) {
+    client_.set_read_timeout(120, 0);
+  }
+  httplib::Result post(const std::string& path, const std::string& body, const std::string& type,
+                       const std::string& accept = "application/json") {
+    return client_.Post(path.c_str(), {{"Accept", accept}}, body, type.c_str());
+  }
+  json post_json(const std::string& path, const json& body) {
+    auto reply = post(path, body.dump(), "application/json");
+    EXPECT_TRUE(reply) << path;
+    if (!reply) return json();
+    EXPECT_EQ(reply->status, 200) << path << ": " << reply->body;
+    return json::parse(reply->body);
+  }
+  json get(const std::string& path) {
+    auto reply = client_.Get(path.c_str());
+    EXPECT_TRUE(reply) << path;
+    return reply ? json::parse(reply->body) : json();
+  }
+
+ private:
+  httplib::Client client_;
+};
+
+// The hierarchy of a BVH reply is the CMU rig's: names, parents, End Sites,
+// channels and offsets (cm); 150 frames at 25 Hz.
+void expect_cmu_rig(const std::string& text, const BvhFile& rig) {
+  const BvhFile file = parse_bvh_text(text, "reply.bvh");
+  ASSERT_EQ(file.joints.size(), rig.joints.size());
+  for (size_t j = 0; j < rig.joints.size(); ++j) {
+    EXPECT_EQ(file.joints[j].name, rig.joints[j].name);
+    EXPECT_EQ(file.joints[j].parent, rig.joints[j].parent);
+    EXPECT_EQ(file.joints[j].end_site, rig.joints[j].end_site);
+    EXPECT_EQ(file.joints[j].channels, rig.joints[j].channels) << rig.joints[j].name;
+    for (int a = 0; a < 3; ++a) EXPECT_NEAR(file.joints[j].offset[a], rig.joints[j].offset[a], 1e-5);
+  }
+  EXPECT_EQ(file.frame_count(), 150);
+  EXPECT_NEAR(file.frame_time_s, 0.04, 1e-9);
+  for (double value : file.values) ASSERT_TRUE(std::isfinite(value));
+}
+
+TEST(SkeletonService, AJobOnABvhFolderPublishesAModelThatSpeaksBvhOfThatSkeleton) {
+  ScratchDir scratch;
+  const fs::path dances = scratch.path() / "data" / "dances";
+  for (const char* file : {"indian/04.bvh", "indian/06.bvh", "martial/03.bvh"}) {
+    fs::create_directories((dances / file).parent_path());
+    fs::copy_file(cmu_dance_dir() / file, dances / file);
+  }
+  ServerProcess server({"--state-dir", (scratch.path() / "state").string(), "--data-root",
+                        (scratch.path() / "data").string(), "--training-threads", "2"});
+  Rest rest(server);
+
+  // A folder that is not under the data root, or holds one file, is refused
+  // at submission.
+  auto refused = rest.post("/v1/jobs", json{{"dataset", "dances/martial"}}.dump(), "application/json");
+  ASSERT_TRUE(refused);
+  EXPECT_EQ(refused->status, 400);
+  EXPECT_THAT(refused->body, HasSubstr("holds one .bvh file"));
+
+  const json job = rest.post_json("/v1/jobs", {{"dataset", "dances"}, {"variant", "DKGM"}, {"iterations", 3},
+                                               {"hidden", 16}, {"batch", 2}, {"seed", 1}, {"model_name", "dances"}});
+  const std::string id = job.value("id", "");
+  json record;
+  for (int i = 0; i < 300 * 5; ++i) {
+    record = rest.get("/v1/jobs/" + id);
+    const std::string state = record.value("state", "");
+    if (state == "succeeded" || state == "failed" || state == "cancelled") break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  }
+  ASSERT_EQ(record.value("state", ""), "succeeded") << record.dump() << "\n" << server.log();
+  EXPECT_EQ(record["published_model"], "dances");
+
+  const json activated = rest.post_json("/v1/models/dances:activate", json::object());
+  EXPECT_TRUE(activated.value("active", false)) << activated.dump();
+  EXPECT_EQ(activated["columns"], 3 + 3 * 57);  // 43 joints and 14 End Sites
+  EXPECT_EQ(activated["layout"], "expmap-174");
+
+  // Encode: BVH of the CMU rig in, a code out.
+  const BvhFile rig = read_bvh_file((cmu_dance_dir() / "martial/03.bvh").string());
+  auto encoded = rest.post("/v1/encode", six_seconds("martial/03.bvh"), "application/x-bvh");
+  ASSERT_TRUE(encoded);
+  ASSERT_EQ(encoded->status, 200) << encoded->body;
+  const json code = json::parse(encoded->body)["codes"][0];
+  ASSERT_EQ(code.size(), 64u);
+  auto other = rest.post("/v1/encode", six_seconds("indian/06.bvh"), "application/x-bvh");
+  ASSERT_TRUE(other);
+  ASSERT_EQ(other->status, 200) << other->body;
+  const json other_code = json::parse(other->body)["codes"][0];
+  EXPECT_NE(code, other_code);
+
+  // Decode and sample: BVH of the same hierarchy back.
+  auto decoded = rest.post("/v1/decode", json{{"codes", {code}}}.dump(), "application/json", "application/x-bvh");
+  ASSERT_TRUE(decoded);
+  ASSERT_EQ(decoded->status, 200) << decoded->body;
+  EXPECT_EQ(decoded->get_header_value("Content-Type"), "application/x-bvh");
+  expect_cmu_rig(decoded->body, rig);
+  auto sampled = rest.post("/v1/sample", json{{"count", 1}, {"seed", 7}}.dump(), "application/json", "application/x-bvh");
+  ASSERT_TRUE(sampled);
+  ASSERT_EQ(sampled->status, 200) << sampled->body;
+  expect_cmu_rig(sampled->body, rig);
+  // A decoded BVH encodes again: the reply is a valid motion of the skeleton.
+  auto again = rest.post("/v1/encode", decoded->body, "application/x-bvh");
+  ASSERT_TRUE(again);
+  EXPECT_EQ(again->status, 200) << again->body;
+
+  // Interpolate between the two codes: motions in the model's layout.
+  const json path = rest.post_json(
+      "/v1/interpolate", {{"from", {{"code", code}}}, {"to", {{"code", other_code}}}, {"steps", 3}, {"method", "spherical"}});
+  ASSERT_EQ(path["motions"].size(), 3u);
+  for (const auto& motion : path["motions"]) {
+    EXPECT_EQ(motion["layout"], "expmap-174");
+    EXPECT_EQ(motion["columns"], 174);
+    EXPECT_EQ(motion["frames"], 150);
+  }
+  // Any one of them as BVH of the rig.
+  auto middle = rest.post("/v1/decode", json{{"codes", {path["codes"][1]}}}.dump(), "application/json",
+                          "application/x-bvh");
+  ASSERT_TRUE(middle);
+  expect_cmu_rig(middle->body, rig);
+
+  // Another hierarchy (H3.6M's) and a malformed BVH are refused, naming why.
+  MotionFrames h36m;
+  h36m.values.assign(150 * kH36mColumns, 0.0f);
+  auto wrong = rest.post("/v1/encode", h36m_motion_to_bvh_text(h36m, 25), "application/x-bvh");
+  ASSERT_TRUE(wrong);
+  EXPECT_EQ(wrong->status, 400);
+  EXPECT_THAT(wrong->body, HasSubstr("not the skeleton \\\"dances\\\": it has 25 joints and 7 end sites"));
+  EXPECT_THAT(wrong->body, HasSubstr("missing joints: hip"));
+  std::string broken = six_seconds("martial/03.bvh");
+  broken.replace(broken.find("CHANNELS 3"), 10, "CHANNELS 9");
+  auto malformed = rest.post("/v1/encode", broken, "application/x-bvh");
+  ASSERT_TRUE(malformed);
+  EXPECT_EQ(malformed->status, 400);
+  EXPECT_THAT(malformed->body, HasSubstr("request body:9: channel count 9, expected 0 to 6"));
+  // An H3.6M motion as JSON: the layout names the model's.
+  auto h36m_json = rest.post("/v1/encode",
+                             json{{"motions", {{{"frames", 150}, {"columns", 99}, {"frame_rate", 25},
+                                                {"layout", "h36m-expmap-99"}, {"values", h36m.values}}}}}.dump(),
+                             "application/json");
+  ASSERT_TRUE(h36m_json);
+  EXPECT_EQ(h36m_json->status, 400);
+  EXPECT_THAT(h36m_json->body, HasSubstr("expected \\\"expmap-174\\\""));
+
+  // The tool with the published model: a code file to BVH of the rig.
+  const std::string code_file = scratch.file("code.json");
+  std::ofstream(code_file) << code.dump();
+  const std::string out = scratch.file("decoded.bvh");
+  const std::string command = std::string(MM_TOOL_PATH) + " decode --model '" +
+                              (fs::path(server.model_store()) / "dances").string() + "' --code '" + code_file +
+                              "' --out '" + out + "' 2>&1";
+  ASSERT_EQ(std::system(command.c_str()), 0) << command;
+  std::ifstream in(out);
+  expect_cmu_rig(std::string(std::istreambuf_iterator<char>(in), {}), rig);
+}
+
+}  // namespace
+}  // namespace mm::test
