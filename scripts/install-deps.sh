@@ -17,7 +17,7 @@ packages=(
 )
 if [ "${1:-}" != "--build-only" ]; then
   packages+=(
-    postgresql python3 python3-grpcio python3-grpc-tools python3-yaml
+    postgresql python3 python3-grpcio python3-grpc-tools python3-yaml curl
     libgtest-dev libgmock-dev libbenchmark-dev
   )
   # Node.js and npm run the OpenAPI validator of the tests; a machine that
