@@ -3,21 +3,29 @@
 # libopenblas0-openmp matters: without an optimised BLAS, Debian's LibTorch
 # runs on the reference BLAS, many times slower. Never add
 # libopenblas0-pthread beside it.
+#   bash scripts/install-deps.sh               # building and testing
+#   bash scripts/install-deps.sh --build-only  # building only (the container image's build stage)
+# A container engine (podman) is not installed here: scripts/build-image.sh
+# installs it when an image is built.
 set -euo pipefail
 packages=(
   build-essential cmake pkg-config git xz-utils
   libtorch-dev libopenblas0-openmp
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler
   libcpp-httplib-dev nlohmann-json3-dev libcli11-dev zlib1g-dev
-  libsqlite3-dev libpqxx-dev postgresql libspdlog-dev prometheus-cpp-dev
-  python3 python3-grpcio python3-grpc-tools
-  libgtest-dev libgmock-dev libbenchmark-dev
+  libsqlite3-dev libpqxx-dev libspdlog-dev prometheus-cpp-dev
 )
-# Node.js and npm run the OpenAPI validator of the tests; a machine that
-# already has them (a newer Node.js) keeps its own.
-command -v npm > /dev/null || packages+=(nodejs npm)
-# The web page's browser test drives Debian's Chromium headless.
-packages+=(chromium)
+if [ "${1:-}" != "--build-only" ]; then
+  packages+=(
+    postgresql python3 python3-grpcio python3-grpc-tools python3-yaml curl
+    libgtest-dev libgmock-dev libbenchmark-dev
+  )
+  # Node.js and npm run the OpenAPI validator of the tests; a machine that
+  # already has them (a newer Node.js) keeps its own.
+  command -v npm > /dev/null || packages+=(nodejs npm)
+  # The web page's browser test drives Debian's Chromium headless.
+  packages+=(chromium)
+fi
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
