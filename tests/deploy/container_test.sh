@@ -85,7 +85,7 @@ else
   image_env=$(python3 "$source_dir/tests/deploy/dockerfile_env.py" "$source_dir/docker/Dockerfile")
   # shellcheck disable=SC2086
   env $image_env SERVER_BINARY="$server" SHIPPED_MODELS="$source_dir/models" \
-    MM_MODEL_STORE="$work/models" MM_STATE_DIR="$work/state" MM_DATA_ROOT="$work/data" \
+    MM_MODEL_STORE="$work/models" MM_STATE_DIR="$work/state" MM_DATA_ROOT="$work/data" MM_WEB_ROOT="$source_dir/web" \
     MM_ADDRESS=127.0.0.1 MM_GRPC_PORT=0 MM_REST_PORT=0 MM_READY_FILE="$work/ready.json" MM_AUTH_TOKEN=$token \
     bash "$source_dir/docker/entrypoint.sh" > "$work/server.log" 2>&1 &
   server_pid=$!
