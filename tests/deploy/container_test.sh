@@ -7,7 +7,9 @@
 # ready (/readyz), the HEALTHCHECK passes, a Sample call answers from the
 # default model, and SIGTERM lets a call in flight finish and exits 0.
 #   container_test.sh SERVER_BINARY SOURCE_DIR
-# MM_CONTAINER_TEST: auto (default), image (fail without the image), host.
+# MM_CONTAINER_TEST: auto (default), image (fail without the image), build
+# (first build the image from SOURCE_DIR with scripts/build-image.sh, then
+# run it), host.
 set -euo pipefail
 server=$1
 source_dir=$2
@@ -22,6 +24,16 @@ fail() {
   exit 1
 }
 say() { echo "deploy_container: $*"; }
+
+if [ "$mode" = build ]; then
+  # The image of this very tree; the layer cache and ccache make a rebuild
+  # after a small change take minutes, a cold one most of an hour.
+  say "building $image from $source_dir with scripts/build-image.sh"
+  build_started=$(date +%s.%N)
+  MM_IMAGE=$image bash "$source_dir/scripts/build-image.sh" || fail "scripts/build-image.sh failed"
+  say "image built in $(seconds_since "$build_started") s"
+  mode=image
+fi
 
 engine=""
 if [ "$mode" != host ]; then
@@ -126,7 +138,8 @@ else
     bash "$source_dir/docker/healthcheck.sh" || fail "docker/healthcheck.sh failed"
 fi
 
-# 4. One operation, answered by the default model.
+# 4. The web page, then one operation answered by the default model.
+curl -sf "$api/" | grep -q "<title>Motion Manifold</title>" || fail "GET / did not serve the web page"
 curl -sf -o "$work/sample.json" "$api/v1/sample" -d '{"count": 2, "seed": 7}' || fail "POST /v1/sample failed"
 python3 - "$work/sample.json" << 'PY' || fail "unexpected /v1/sample reply: $(head -c 300 "$work/sample.json")"
 import json, sys
