@@ -139,7 +139,8 @@ else
 fi
 
 # 4. The web page, then one operation answered by the default model.
-curl -sf "$api/" | grep -q "<title>Motion Manifold</title>" || fail "GET / did not serve the web page"
+curl -sf -o "$work/page.html" "$api/" || fail "GET / failed"
+grep -q "<title>Motion Manifold</title>" "$work/page.html" || fail "GET / did not serve the web page: $(head -c 300 "$work/page.html")"
 curl -sf -o "$work/sample.json" "$api/v1/sample" -d '{"count": 2, "seed": 7}' || fail "POST /v1/sample failed"
 python3 - "$work/sample.json" << 'PY' || fail "unexpected /v1/sample reply: $(head -c 300 "$work/sample.json")"
 import json, sys
