@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "postgres_cluster.h"
+#include "rest_call.h"
 #include "server_process.h"
 #include "test_environment.h"
 
@@ -39,18 +40,7 @@ int occurrences(const std::string& text, const std::string& what) {
 
 json call(const ServerProcess& server, const std::string& method, const std::string& path, const json& body = json(),
           int expected = 200) {
-  httplib::Client client("127.0.0.1", server.rest_port());
-  client.set_read_timeout(120, 0);
-  const httplib::Headers headers = {{"Authorization", std::string("Bearer ") + kToken}};
-  auto result = method == "GET" ? client.Get(path.c_str(), headers)
-                                : client.Post(path.c_str(), headers, body.is_null() ? "{}" : body.dump(),
-                                              "application/json");
-  if (!result) {
-    ADD_FAILURE() << method << " " << path << ": " << httplib::to_string(result.error());
-    return json();
-  }
-  EXPECT_EQ(result->status, expected) << method << " " << path << ": " << result->body;
-  return json::parse(result->body);
+  return test::rest_call(server.rest_port(), kToken, method, path, body, expected);
 }
 
 bool finished(const json& job) {

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#include "rest_call.h"
 #include "server_process.h"
 #include "test_environment.h"
 
@@ -38,18 +39,7 @@ class Service {
  public:
   explicit Service(const ServerProcess& server) : server_(server) {}
   json call(const std::string& method, const std::string& path, const json& body = json(), int expected = 200) {
-    httplib::Client client("127.0.0.1", server_.rest_port());
-    client.set_read_timeout(120, 0);
-    const httplib::Headers headers = {{"Authorization", std::string("Bearer ") + kToken}};
-    auto result = method == "GET" ? client.Get(path.c_str(), headers)
-                                  : client.Post(path.c_str(), headers, body.is_null() ? "{}" : body.dump(),
-                                                "application/json");
-    if (!result) {
-      ADD_FAILURE() << method << " " << path << ": " << httplib::to_string(result.error());
-      return json();
-    }
-    EXPECT_EQ(result->status, expected) << method << " " << path << ": " << result->body;
-    return json::parse(result->body);
+    return test::rest_call(server_.rest_port(), kToken, method, path, body, expected);
   }
   // Polls the job until `done(job)` or the timeout; returns the last record.
   json wait_for(const std::string& id, const std::function<bool(const json&)>& done, int seconds = 300) {
