@@ -28,7 +28,7 @@ struct Optimizers {
 namespace {
 
 constexpr const char* kCheckpointFormat = "motion-manifold-checkpoint-1";
-const char* const kLogColumns[] = {"L_ang", "L_pos", "L_R", "L_M", "L_W", "L_G", "L_D", "total"};
+const char* const kLogColumns[] = {"L_ang", "L_pos", "L_R", "L_M", "L_W", "L_G", "L_D", "D_acc", "total"};
 
 void set_learning_rate(torch::optim::Optimizer& optimizer, double lr) {
   for (auto& group : optimizer.param_groups()) static_cast<torch::optim::AdamOptions&>(group.options()).lr(lr);
@@ -128,6 +128,7 @@ LossValues Trainer::step() {
   }
   const std::vector<at::Tensor> decoded = forward_together(decoders, code);
   at::Tensor loss_d_value = at::zeros({}, motion.options());
+  at::Tensor accuracy_d = at::zeros({}, motion.options());
 
   // Discriminator first (Eq. 16), on the generator's current output.
   if (w.adversarial > 0) {
@@ -137,8 +138,15 @@ LossValues Trainer::step() {
     // real clips; the paper's Eq. 16 counts the real clips once.
     const double real_weight =
         config_.losses.adversarial == AdversarialReduction::kBatchSum ? static_cast<double>(decoded.size()) : 1.0;
-    auto loss_d = lsgan_discriminator_loss(d->step_scores(motion), d->step_scores(fake), config_.losses.adversarial,
-                                           real_weight);
+    const auto real_scores = d->step_scores(motion);
+    const auto fake_scores = d->step_scores(fake);
+    auto loss_d = lsgan_discriminator_loss(real_scores, fake_scores, config_.losses.adversarial, real_weight);
+    // How often the discriminator tells the clips apart before its update (a
+    // clip's score is its mean over the steps; LSGAN's targets are 1 and 0):
+    // near 1 it wins outright and its gradient to the generator says little.
+    accuracy_d = (real_scores.detach().mean(1).gt(0.5).sum() + fake_scores.detach().mean(1).lt(0.5).sum())
+                     .to(motion.scalar_type()) /
+                 static_cast<double>(real_scores.size(0) + fake_scores.size(0));
     optimizers_->discriminator.zero_grad();
     (w.adversarial * loss_d).backward();
     optimizers_->discriminator.step();
@@ -197,7 +205,7 @@ LossValues Trainer::step() {
   // One transfer for all values: on a GPU each read waits for the device.
   const std::vector<std::pair<const char*, at::Tensor>> terms = {
       {"L_ang", l_ang}, {"L_pos", l_pos}, {"L_R", l_r}, {"L_M", l_m}, {"L_W", l_w},
-      {"L_G", l_g},     {"L_D", loss_d_value}, {"total", total}};
+      {"L_G", l_g},     {"L_D", loss_d_value}, {"D_acc", accuracy_d}, {"total", total}};
   std::vector<at::Tensor> values;
   for (const auto& term : terms) values.push_back(term.second.detach().reshape({}).to(at::kDouble));
   const auto host = at::stack(values).to(at::kCPU);

@@ -26,7 +26,9 @@ struct Optimizers;
 class ClipSampler;
 
 // Loss terms of one iteration by name: L_ang, L_pos, L_R, L_M, L_W, L_G,
-// L_D (each already summed over the decoders, before its lambda) and total.
+// L_D (each already summed over the decoders, before its lambda) and total;
+// also D_acc, the discriminator's accuracy on the real and generated clips
+// before its update (0 when the variant has no discriminator).
 using LossValues = std::map<std::string, double>;
 
 struct TrainProgress {

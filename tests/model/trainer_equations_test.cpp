@@ -73,6 +73,8 @@ TEST(TrainerEquations, LoggedTermsAreTheLossesOfSec33OnTheDrawnBatch) {
   const auto fake_scores = model.discriminator()->forward(fake);
   const double discriminator =
       (0.5 * fake_scores.pow(2).mean() + 0.5 * (real_scores - 1).pow(2).mean()).item<double>();
+  const double accuracy = ((real_scores > 0.5).sum() + (fake_scores < 0.5).sum()).item<double>() /
+                          static_cast<double>(real_scores.size(0) + fake_scores.size(0));
   const double adversarial =
       2 * (0.5 * (trainer.model().discriminator()->forward(fake) - 1).pow(2).mean()).item<double>();
 
@@ -86,6 +88,7 @@ TEST(TrainerEquations, LoggedTermsAreTheLossesOfSec33OnTheDrawnBatch) {
   EXPECT_LT(relative_difference(logged.at("L_W"), wasserstein), 1e-3) << logged.at("L_W") << " vs " << wasserstein;
   EXPECT_LT(relative_difference(logged.at("L_D"), discriminator), 1e-4) << logged.at("L_D") << " vs " << discriminator;
   EXPECT_LT(relative_difference(logged.at("L_G"), adversarial), 1e-4) << logged.at("L_G") << " vs " << adversarial;
+  EXPECT_NEAR(logged.at("D_acc"), accuracy, 1e-6);  // float32 ratio of counts
 }
 
 TEST(TrainerEquations, TotalIsTheSumOfTheTermsWeightedByTheConfiguration) {

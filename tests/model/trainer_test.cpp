@@ -51,6 +51,9 @@ TEST(Trainer, AllLossTermsOfTheFullModelAreReported) {
     EXPECT_TRUE(std::isfinite(losses.at(term))) << term;
     EXPECT_GT(losses.at(term), 0.0) << term;
   }
+  ASSERT_TRUE(losses.count("D_acc"));
+  EXPECT_GE(losses.at("D_acc"), 0.0);
+  EXPECT_LE(losses.at("D_acc"), 1.0);
 }
 
 TEST(Trainer, AblatedTermsStayZero) {
