@@ -121,6 +121,19 @@ for _ in $(seq 600); do
 done
 [ -n "$ready" ] || fail "/readyz not 200 within 120 s: $(logs)"
 say "ready $(seconds_since "$start") s after start"
+# A line is looked for in a copy of the log, for up to 5 s: under pipefail
+# `logs | grep -q` fails when grep stops reading before `podman logs` has
+# written everything, and the engine may store a line a moment after the
+# server wrote it.
+log_has() {
+  for _ in $(seq 50); do
+    logs > "$work/log.txt"
+    grep -q "$1" "$work/log.txt" && return 0
+    sleep 0.1
+  done
+  return 1
+}
+log_has "serving gRPC on" || fail "the running server's log lacks its serving line: $(logs)"
 
 # 3. The shipped model was linked into the empty store; the job database is
 # on the state volume; the HEALTHCHECK passes.
@@ -172,6 +185,6 @@ wait "$curl_pid" || true
 say "stopped $(seconds_since "$stop") s after SIGTERM, exit code $code"
 [ "$code" = 0 ] || fail "exit code $code after SIGTERM, expected 0: $(logs)"
 [ "$(cat "$work/inflight.code")" = 200 ] || fail "the call in flight at SIGTERM got HTTP $(cat "$work/inflight.code")"
-logs | grep -q "draining calls in flight" || fail "no drain in the log: $(logs)"
-logs | grep -q '"stopped"\|[0-9] info stopped' || fail "the server did not log its stop: $(logs)"
+log_has "draining calls in flight" || fail "no drain in the log: $(logs)"
+log_has '"stopped"\|[0-9] info stopped' || fail "the server did not log its stop: $(logs)"
 say "passed"
