@@ -13,6 +13,7 @@
 #include "clip_sampler.h"
 #include "format/input_error.h"
 #include "latent_operations.h"
+#include "losses.h"
 #include "rotation.h"
 
 namespace mm {
@@ -201,6 +202,43 @@ nlohmann::json table1(const MotionManifold& model, const at::Tensor& motion, con
   return decoders;
 }
 
+// How well the codes of the test clips (n, latent) match the prior N(0, I)
+// the training pulls them to (Eq. 12): their mean and sample covariance, and
+// Eq. 12's MMD to n prior draws beside the MMD between two sets of n prior
+// draws (what a perfect match measures at this n), each averaged over
+// `draws` draws from a generator seeded `seed`.
+nlohmann::json prior_match(const at::Tensor& codes, uint64_t seed, int draws) {
+  const auto c = codes.to(at::kCPU).to(at::kDouble);
+  const int64_t n = c.size(0);
+  const auto mean = c.mean(0);
+  const auto centred = c - mean;
+  const auto covariance = centred.t().mm(centred) / static_cast<double>(n - 1);
+  const auto variances = covariance.diagonal();
+  const auto off_diagonal = covariance - at::diag(variances);
+  const int64_t latent = c.size(1);
+  auto generator = at::detail::createCPUGenerator(seed);
+  double codes_to_prior = 0, prior_to_prior = 0;
+  for (int k = 0; k < draws; ++k) {
+    const auto prior = at::randn({n, latent}, generator, at::kDouble);
+    const auto other = at::randn({n, latent}, generator, at::kDouble);
+    codes_to_prior += mmd_inverse_multiquadratic(c, prior, 1.0).item<double>() / draws;
+    prior_to_prior += mmd_inverse_multiquadratic(other, prior, 1.0).item<double>() / draws;
+  }
+  return {{"codes", n},
+          {"prior", "N(0, I)"},
+          {"draws", draws},
+          {"seed", seed},
+          {"mmd_codes_to_prior", codes_to_prior},
+          {"mmd_prior_to_prior", prior_to_prior},
+          {"mean_norm", mean.norm().item<double>()},
+          {"mean_abs_max", mean.abs().max().item<double>()},
+          {"variance_mean", variances.mean().item<double>()},
+          {"variance_min", variances.min().item<double>()},
+          {"variance_max", variances.max().item<double>()},
+          {"covariance_off_diagonal_abs_mean",
+           latent > 1 ? off_diagonal.abs().sum().item<double>() / static_cast<double>(latent * (latent - 1)) : 0.0}};
+}
+
 // The mean and sample standard deviation over documents of one shape, leaf
 // by leaf: a number becomes {"mean", "std"}, an array of numbers two arrays.
 nlohmann::json mean_and_std(const std::vector<nlohmann::json>& documents) {
@@ -301,6 +339,7 @@ std::string evaluate_reconstruction(const MotionManifold& model, const std::vect
                              {"statistics", "mean and sample standard deviation over the seeds' clip sets"},
                              {"decoders", mean_and_std(tables)}};
   }
+  if (options.clips > 1) result["prior_match"] = prior_match(model.encode(motion), options.seed, 20);
   if (options.corruption_probability > 0) {
     result["denoising"] = evaluate_denoising(model, motion, model.positions_mm(motion), options);
   }

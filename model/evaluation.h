@@ -42,6 +42,13 @@ struct EvaluationOptions {
 // position statistics of the training frames (`positions`; without them
 // paper_units has no E_p), and E_r a multiple of 3 pose values (without
 // one it has no E_r).
+// With more than one clip, "prior_match": the mean and sample covariance of
+// the clips' codes (mean_norm, mean_abs_max, variance_mean/min/max,
+// covariance_off_diagonal_abs_mean; N(0, I) has 0, 0, 1, 1, 1, 0) and Eq.
+// 12's MMD (single scale, diagonal left out) of the codes to as many draws
+// from N(0, I), beside the MMD between two such draws (the value of a
+// perfect match at this number of clips), both averaged over 20 draws of a
+// generator seeded with the evaluation's seed.
 // With a corruption probability, also "denoising": for each corruption (the
 // reference's, then the paper's zeroing, then whole joints missing over 1.2 s
 // and over the whole clip, as when a marker is lost) the mean per-joint

@@ -15,6 +15,7 @@
 
 #include "commands.h"
 #include "format/input_error.h"
+#include "heap_reuse.h"
 
 namespace {
 
@@ -29,6 +30,7 @@ std::string join_command_line(int argc, char** argv) {
 
 int run(int argc, char** argv) {
   using namespace mm::tool;
+  mm::keep_freed_memory_for_reuse();
   // LibTorch starts with one intra-op thread here; the GRU's matrix products
   // want every core, unless OMP_NUM_THREADS bounds them: OpenMP threads spin,
   // so two runs that each take every core slow each other many times over.

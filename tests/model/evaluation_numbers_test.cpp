@@ -229,5 +229,85 @@ TEST(EvaluationNumbers, EveryTable1NumberMatchesTheHandComputedValueOfEachDecode
   }
 }
 
+// Eq. 12's unbiased MMD with the inverse multiquadratic kernel, in plain loops.
+double hand_mmd(const std::vector<std::vector<double>>& x, const std::vector<std::vector<double>>& y) {
+  const double c = 2.0 * static_cast<double>(x[0].size());
+  auto k = [c](const std::vector<double>& a, const std::vector<double>& b) {
+    double squared = 0.0;
+    for (size_t i = 0; i < a.size(); ++i) squared += (a[i] - b[i]) * (a[i] - b[i]);
+    return c / (c + squared);
+  };
+  const double n = static_cast<double>(x.size());
+  double within_x = 0, within_y = 0, across = 0;
+  for (size_t i = 0; i < x.size(); ++i) {
+    for (size_t j = 0; j < x.size(); ++j) {
+      if (i != j) within_x += k(x[i], x[j]) / (n * (n - 1));
+      if (i != j) within_y += k(y[i], y[j]) / (n * (n - 1));
+      across += k(x[i], y[j]) / (n * n);
+    }
+  }
+  return within_x + within_y - 2 * across;
+}
+
+std::vector<std::vector<double>> rows(const at::Tensor& matrix) {
+  std::vector<std::vector<double>> result;
+  for (int64_t i = 0; i < matrix.size(0); ++i) {
+    auto row = matrix[i].contiguous();
+    result.emplace_back(row.data_ptr<double>(), row.data_ptr<double>() + row.numel());
+  }
+  return result;
+}
+
+TEST(EvaluationNumbers, PriorMatchIsTheMomentsAndMmdOfTheTestCodes) {
+  const MotionManifold model = hand_model();
+  const std::vector<Clip> sequences{test_clip(0), test_clip(1)};
+  const PreparedSequence first = as_sequence(sequences[0], "first"), second = as_sequence(sequences[1], "second");
+  EvaluationOptions options;
+  options.clips = 6;
+  options.seed = 3;
+  options.intervals = kIntervals;
+  options.corruption_probability = 0;
+  const auto result = nlohmann::json::parse(evaluate_reconstruction(model, {&first, &second}, options));
+  std::vector<std::vector<double>> codes;
+  for (const auto& c : result["test_clips"]) codes.push_back(code_of(c["action"] == "first" ? sequences[0] : sequences[1]));
+  ASSERT_EQ(codes.size(), 6u);
+
+  // Moments with the sample (n - 1) covariance.
+  const double n = static_cast<double>(codes.size());
+  std::vector<double> mean(2, 0.0);
+  for (const auto& z : codes) for (int i = 0; i < 2; ++i) mean[i] += z[i] / n;
+  double variance[2] = {0, 0}, covariance = 0;
+  for (const auto& z : codes) {
+    for (int i = 0; i < 2; ++i) variance[i] += (z[i] - mean[i]) * (z[i] - mean[i]) / (n - 1);
+    covariance += (z[0] - mean[0]) * (z[1] - mean[1]) / (n - 1);
+  }
+  // The prior draws the evaluation makes: pairs of n x latent standard
+  // normals from a generator seeded with the evaluation's seed.
+  auto generator = at::detail::createCPUGenerator(options.seed);
+  const int draws = result["prior_match"]["draws"];
+  ASSERT_EQ(draws, 20);
+  double codes_to_prior = 0, prior_to_prior = 0;
+  for (int k = 0; k < draws; ++k) {
+    const auto prior = rows(at::randn({6, 2}, generator, at::kDouble));
+    const auto other = rows(at::randn({6, 2}, generator, at::kDouble));
+    codes_to_prior += hand_mmd(codes, prior) / draws;
+    prior_to_prior += hand_mmd(other, prior) / draws;
+  }
+
+  // A biased (n) covariance is 20% off at n = 6; a population of other draws
+  // or the diagonal kept in the MMD moves it by more than 1e-4.
+  const auto& match = result["prior_match"];
+  auto near = [](double actual, double expected) { return std::abs(actual - expected) <= 1e-4 * std::abs(expected) + 1e-6; };
+  EXPECT_TRUE(near(match["mean_norm"], std::hypot(mean[0], mean[1]))) << match.dump();
+  EXPECT_TRUE(near(match["mean_abs_max"], std::max(std::abs(mean[0]), std::abs(mean[1])))) << match.dump();
+  EXPECT_TRUE(near(match["variance_mean"], (variance[0] + variance[1]) / 2)) << match.dump();
+  EXPECT_TRUE(near(match["variance_min"], std::min(variance[0], variance[1]))) << match.dump();
+  EXPECT_TRUE(near(match["variance_max"], std::max(variance[0], variance[1]))) << match.dump();
+  EXPECT_TRUE(near(match["covariance_off_diagonal_abs_mean"], std::abs(covariance))) << match.dump();
+  EXPECT_TRUE(near(match["mmd_codes_to_prior"], codes_to_prior)) << match.dump() << " vs " << codes_to_prior;
+  EXPECT_TRUE(near(match["mmd_prior_to_prior"], prior_to_prior)) << match.dump() << " vs " << prior_to_prior;
+  EXPECT_GT(codes_to_prior, prior_to_prior);  // two codes repeated are far from N(0, I)
+}
+
 }  // namespace
 }  // namespace mm
