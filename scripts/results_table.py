@@ -9,7 +9,9 @@ paper row is printed once, above the first of our rows of its variant.
              with mean +- std over the evaluation's seeds where it has them
   project    Table 1 in the evaluation's own units (one norm per frame)
   physical   mean per-joint position error (mm) and joint-rotation error (rad)
-  denoising  the denoising experiment, every corruption and method (mm)"""
+  denoising  the denoising experiment, every corruption and method (mm)
+  prior      how the test clips' codes match the prior N(0, I): Eq. 12's MMD
+             beside its value between two prior draws, the mean and covariance"""
 import json
 import sys
 
@@ -104,6 +106,19 @@ def denoising(models):
                   f"| {mm('time_interpolation_mpjpe_mm')} |")
 
 
+def prior(models):
+    print("| model | MMD codes to N(0, I) | MMD N(0, I) to N(0, I) | \u2016mean\u2016 | largest mean component "
+          "| variance mean (min – max) | off-diagonal covariance, mean size |")
+    print("|---|---:|---:|---:|---:|---:|---:|")
+    for name, result in models:
+        m = result.get("prior_match")
+        if not m:
+            continue
+        print(f"| {name} | {m['mmd_codes_to_prior']:.4f} | {m['mmd_prior_to_prior']:.4f} | {m['mean_norm']:.3f} "
+              f"| {m['mean_abs_max']:.3f} | {m['variance_mean']:.3f} ({m['variance_min']:.3f} – {m['variance_max']:.3f}) "
+              f"| {m['covariance_off_diagonal_abs_mean']:.3f} |")
+
+
 def main(args):
     table = "paper"
     if args and args[0] == "--table":
@@ -117,8 +132,10 @@ def main(args):
         physical(models)
     elif table == "denoising":
         denoising(models)
+    elif table == "prior":
+        prior(models)
     else:
-        sys.exit(f"results_table.py: --table: expected paper, project, physical or denoising, found {table}")
+        sys.exit(f"results_table.py: --table: expected paper, project, physical, denoising or prior, found {table}")
 
 
 if __name__ == "__main__":
