@@ -1,0 +1,68 @@
+#!/usr/bin/env bash
+# Trains DKGM with each loss-form set at one budget and seed, evaluates every
+# run with the default model's evaluation (30 fixed S5 clips, five clip sets)
+# and writes what docs/RESULTS.md compares: Table 1 in the paper's units,
+# the physical errors, the codes' match to the prior, the discriminator's
+# accuracy over training, the training curves and samples side by side.
+#   scripts/compare-loss-forms.sh [ITERATIONS]          (default 2000)
+#   MM_FORMS="paper reference" scripts/compare-loss-forms.sh
+# A form set is `paper`, `reference`, or one reference form alone on the
+# paper's losses: `angle`, `position`, `mmd`, `adversarial`. Runs land in
+# runs/losses/<set> (a run whose model exists is not trained again); the
+# evaluations are copied to docs/results/losses/<set>.json. Each run trains
+# on one thread, so two can run side by side on two cores.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+iterations=${1:-2000}
+tool=${MM_TOOL:-build/model/tool/motion-manifold}  # MM_TOOL: a copy, to rebuild meanwhile
+out=docs/results/losses
+mkdir -p runs/losses "$out"
+[ -f runs/h36m.mmd ] || "$tool" prepare --data data --out runs/h36m.mmd
+forms=(${MM_FORMS:-paper reference})
+
+options_of() {
+  case $1 in
+    paper | reference) echo "--losses $1" ;;
+    angle) echo "--loss-angle triplet-mean" ;;
+    position) echo "--loss-position standardized-triplet-mean" ;;
+    mmd) echo "--loss-mmd seven-scales" ;;
+    adversarial) echo "--loss-adversarial batch-sum" ;;
+    *) echo "compare-loss-forms.sh: unknown form set $1" >&2; exit 2 ;;
+  esac
+}
+
+for set in "${forms[@]}"; do
+  run=runs/losses/$set
+  if [ ! -f "$run/model/manifest.json" ]; then
+    # shellcheck disable=SC2046
+    OMP_NUM_THREADS=1 "$tool" train --variant DKGM --dataset runs/h36m.mmd --out "$run" --iterations "$iterations" \
+      --hidden 256 --batch 30 --seed 1 $(options_of "$set") 2> "$run.log"
+  fi
+  [ -f "$run/evaluation.json" ] ||
+    "$tool" evaluate --model "$run/model" --dataset runs/h36m.mmd --out "$run/evaluation.json" > /dev/null
+  cp "$run/evaluation.json" "$out/$set.json"
+  "$tool" plot-log --log "$run/train_log.csv" --columns L_ang,L_pos,L_W,L_G,L_D,D_acc --smooth 10 \
+    --title "DKGM, $set loss forms" --out "$out/curves-$set.svg"
+  "$tool" sample --model "$run/model" --count 3 --seed 7 --out-dir "$run/samples"
+done
+
+named=()
+for set in "${forms[@]}"; do named+=("DKGM $set losses=$out/$set.json"); done
+for table in paper physical prior; do
+  python3 scripts/results_table.py --table "$table" "${named[@]}" > "$out/table-$table.md"
+done
+logs=()
+for set in "${forms[@]}"; do logs+=("$set=runs/losses/$set/train_log.csv"); done
+python3 scripts/log_windows.py --column D_acc --column L_G --column L_D --windows 4 "${logs[@]}" > "$out/table-discriminator.md"
+
+# The same three prior codes decoded by each model, one row per model and sample.
+inputs=() labels=()
+for set in "${forms[@]}"; do
+  for i in 0 1 2; do
+    inputs+=(--input "runs/losses/$set/samples/sample_00$i.txt")
+    labels+=(--label "$set, sample $((i + 1))")
+  done
+done
+"$tool" render "${inputs[@]}" "${labels[@]}" --title "Samples from N(0, I), seed 7: DKGM by loss forms" \
+  --out "$out/samples.svg"
+echo "compare-loss-forms: tables, curves and samples in $out"

@@ -1,0 +1,48 @@
+#!/usr/bin/env python3
+"""Prints a markdown table of training-log columns (train_log.csv, written by
+`motion-manifold train`) averaged over equal windows of iterations, one row
+per run: how a term moves over training, in numbers beside its curve.
+Usage: scripts/log_windows.py --column NAME [--column NAME ...] [--windows K] RUN=train_log.csv ..."""
+import csv
+import sys
+
+
+def windows_of(path, column, count):
+    with open(path) as f:
+        rows = [(int(r["iteration"]), float(r[column])) for r in csv.DictReader(f)]
+    last = rows[-1][0]
+    spans = [(last * k // count, last * (k + 1) // count) for k in range(count)]
+    means = []
+    for low, high in spans:
+        values = [v for i, v in rows if low < i <= high]
+        means.append(sum(values) / len(values) if values else float("nan"))
+    return spans, means
+
+
+def main(args):
+    columns, count, runs = [], 4, []
+    while args:
+        if args[0] == "--column":
+            columns.append(args[1])
+            args = args[2:]
+        elif args[0] == "--windows":
+            count = int(args[1])
+            args = args[2:]
+        else:
+            runs.append(args[0].split("=", 1))
+            args = args[1:]
+    if not columns or not runs:
+        sys.exit(__doc__)
+    header_done = False
+    for column in columns:
+        for name, path in runs:
+            spans, means = windows_of(path, column, count)
+            if not header_done:
+                print("| run | term | " + " | ".join(f"it. {low + 1}–{high}" for low, high in spans) + " |")
+                print("|---|---|" + "---:|" * count)
+                header_done = True
+            print(f"| {name} | {column} | " + " | ".join(f"{m:.3f}" for m in means) + " |")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
