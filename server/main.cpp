@@ -18,7 +18,6 @@
 #include "core/manifold_core.h"
 #include "core/service_metrics.h"
 #include "grpc/grpc_frontend.h"
-#include "heap_reuse.h"
 #include "jobs/training_jobs.h"
 #include "rest/rest_frontend.h"
 #include "server_config.h"
@@ -62,7 +61,6 @@ void write_ready_file(const std::string& path, int grpc_port, int rest_port) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  mm::keep_freed_memory_for_reuse();  // inference allocates the same blocks call after call
   ServerConfig config;
   if (const int code = parse_server_config(argc, argv, config); code >= 0) return code;
   configure_logging(config);
