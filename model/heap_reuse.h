@@ -4,8 +4,9 @@
 // glibc serves blocks above a moving threshold with mmap and gives the top
 // of the heap back once 128 KiB are free there; a training step allocates
 // and frees the same tens of megabytes every iteration, so with the paper's
-// loss forms every iteration faulted its pages in again: 14,000 page faults
-// a second and half the run's time (docs/PERFORMANCE.md).
+// loss forms every iteration faulted its pages in again: about 50,000 page
+// faults an iteration, and 40 iterations took 2.6 times as long
+// (docs/PERFORMANCE.md).
 //
 // Thread safety: call once at the start of main, before other threads.
 #pragma once
