@@ -96,7 +96,9 @@ int parse_server_config(int argc, char** argv, ServerConfig& config) {
   app.add_option("--state-dir", config.jobs.state_dir,
                  "folder of the job database and job runs; empty: no training jobs")
       ->envname("MM_STATE_DIR");
-  app.add_option("--data-root", config.jobs.data_root, "folder every training dataset must lie under")
+  app.add_option("--data-root", config.jobs.data_root,
+                 "folder every training dataset must lie under, whose motion files clients may also list and read "
+                 "(ListClips, ReadClip)")
       ->envname("MM_DATA_ROOT");
   app.add_option("--tool", config.jobs.tool_path, "the motion-manifold executable that trains")
       ->envname("MM_TOOL")->capture_default_str();
@@ -147,6 +149,7 @@ int parse_server_config(int argc, char** argv, ServerConfig& config) {
   config.rest.tls_cert_file = config.grpc.tls_cert_file;
   config.rest.tls_key_file = config.grpc.tls_key_file;
   config.jobs.model_store = config.core.model_store;
+  config.core.data_root = config.jobs.data_root;
   // An installation without the source tree has no page unless it names one;
   // a --web-root given that is not a folder stops the server at start.
   if (web_root->count() == 0 && !std::filesystem::is_directory(config.rest.web_root)) config.rest.web_root.clear();

@@ -84,6 +84,13 @@ class GrpcConnection : public ServerConnection {
     return unary(&Stub::ActivateModel, request, v1::ModelInfo{});
   }
 
+  v1::ListClipsReply list_clips() override {
+    return unary(&Stub::ListClips, v1::ListClipsRequest{}, v1::ListClipsReply{});
+  }
+  v1::ReadClipReply read_clip(const v1::ReadClipRequest& request) override {
+    return unary(&Stub::ReadClip, request, v1::ReadClipReply{});
+  }
+
   v1::Job submit_job(const v1::JobSpec& spec) override {
     v1::SubmitJobRequest request;
     *request.mutable_spec() = spec;

@@ -31,6 +31,7 @@ int run(int argc, char** argv) {
   Action action;
   add_inference_commands(app, settings, action);
   add_model_commands(app, settings, action);
+  add_clip_commands(app, settings, action);
   add_job_commands(app, settings, action);
   try {
     app.parse(argc, argv);

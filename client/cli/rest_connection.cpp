@@ -36,7 +36,8 @@ ServerError error_of_response(int status, const std::string& body) {
 }
 
 // Path parameters never hold '/' or ':' on the server's side; escape what
-// a user typed anyway so that it reaches the server as one segment.
+// a user typed anyway so that it reaches the server as one segment. Query
+// values are escaped the same way (a data-root path's '/' included).
 std::string segment(const std::string& value) {
   static const char* hex = "0123456789ABCDEF";
   std::string out;
@@ -100,6 +101,13 @@ class RestConnection : public ServerConnection {
   }
   v1::ModelInfo activate_model(const std::string& name) override {
     return model_from_json(post("/v1/models/" + segment(name) + ":activate", json::object()));
+  }
+
+  v1::ListClipsReply list_clips() override { return clips_from_json(get("/v1/clips")); }
+  v1::ReadClipReply read_clip(const v1::ReadClipRequest& request) override {
+    std::string query = "?path=" + segment(request.path()) + "&start=" + std::to_string(request.start());
+    if (!request.model().empty()) query += "&model=" + segment(request.model());
+    return clip_window_from_json(get("/v1/clips/window" + query));
   }
 
   v1::Job submit_job(const v1::JobSpec& spec) override { return job_from_json(post("/v1/jobs", to_json(spec))); }

@@ -33,6 +33,9 @@ class ServerConnection {
   virtual v1::ModelInfo describe_model(const std::string& name) = 0;
   virtual v1::ModelInfo activate_model(const std::string& name) = 0;
 
+  virtual v1::ListClipsReply list_clips() = 0;
+  virtual v1::ReadClipReply read_clip(const v1::ReadClipRequest& request) = 0;
+
   virtual v1::Job submit_job(const v1::JobSpec& spec) = 0;
   virtual v1::Job get_job(const std::string& id) = 0;
   virtual v1::ListJobsReply list_jobs() = 0;

@@ -163,6 +163,24 @@ json to_json(const v1::ListModelsReply& reply) {
   return {{"models", std::move(models)}};
 }
 
+json to_json(const v1::ListClipsReply& reply) {
+  json clips = json::array();
+  for (const auto& c : reply.clips()) {
+    clips.push_back({{"path", c.path()}, {"format", c.format()}, {"size_bytes", c.size_bytes()}});
+  }
+  return {{"clips", std::move(clips)}, {"truncated", reply.truncated()}};
+}
+
+json to_json(const v1::ReadClipReply& reply) {
+  return {{"path", reply.path()},
+          {"format", reply.format()},
+          {"start", reply.start()},
+          {"file_frames", reply.file_frames()},
+          {"file_frame_rate", reply.file_frame_rate()},
+          {"last_start", reply.last_start()},
+          {"motion", motion_json(reply.motion())}};
+}
+
 json to_json(const v1::Job& job) {
   const auto& p = job.progress();
   json losses = json::object();
@@ -229,6 +247,30 @@ v1::ModelInfo model_from_json(const json& body) {
 v1::ListModelsReply models_from_json(const json& body) {
   v1::ListModelsReply reply;
   for (const auto& m : body.value("models", json::array())) *reply.add_models() = model_from_json(m);
+  return reply;
+}
+
+v1::ListClipsReply clips_from_json(const json& body) {
+  v1::ListClipsReply reply;
+  for (const auto& c : body.value("clips", json::array())) {
+    auto* clip = reply.add_clips();
+    clip->set_path(c.value("path", ""));
+    clip->set_format(c.value("format", ""));
+    clip->set_size_bytes(integer<int64_t>(c, "size_bytes"));
+  }
+  reply.set_truncated(body.value("truncated", false));
+  return reply;
+}
+
+v1::ReadClipReply clip_window_from_json(const json& body) {
+  v1::ReadClipReply reply;
+  reply.set_path(body.value("path", ""));
+  reply.set_format(body.value("format", ""));
+  reply.set_start(integer<int64_t>(body, "start"));
+  reply.set_file_frames(integer<int64_t>(body, "file_frames"));
+  reply.set_file_frame_rate(body.value("file_frame_rate", 0.0));
+  reply.set_last_start(integer<int64_t>(body, "last_start"));
+  if (body.contains("motion")) read_motion(body["motion"], reply.mutable_motion());
   return reply;
 }
 

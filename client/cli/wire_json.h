@@ -30,6 +30,8 @@ json to_json(const v1::EncodeReply& reply);
 json to_json(const v1::MotionsReply& reply);
 json to_json(const v1::ModelInfo& model);
 json to_json(const v1::ListModelsReply& reply);
+json to_json(const v1::ListClipsReply& reply);
+json to_json(const v1::ReadClipReply& reply);
 json to_json(const v1::Job& job);
 json to_json(const v1::ListJobsReply& reply);
 
@@ -39,6 +41,8 @@ v1::EncodeReply encode_reply_from_json(const json& body);
 v1::MotionsReply motions_reply_from_json(const json& body);
 v1::ModelInfo model_from_json(const json& body);
 v1::ListModelsReply models_from_json(const json& body);
+v1::ListClipsReply clips_from_json(const json& body);
+v1::ReadClipReply clip_window_from_json(const json& body);
 v1::Job job_from_json(const json& body);
 v1::ListJobsReply jobs_from_json(const json& body);
 

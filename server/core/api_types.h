@@ -152,6 +152,33 @@ struct ModelInfo {
   std::string model_card;
 };
 
+// Clips of the data root (--data-root): the motion files a client may pick
+// on the server instead of uploading one.
+struct ClipFile {
+  std::string path;    // relative to the data root, '/' separators
+  std::string format;  // "h36m-text" (*.txt, 99 values a line at 50 Hz) or "bvh" (*.bvh)
+  int64_t size_bytes = 0;
+};
+struct ListClipsReply {
+  std::vector<ClipFile> clips;  // sorted by path
+  bool truncated = false;       // the root holds more files than the server lists
+};
+
+struct ReadClipRequest {
+  std::string model;  // whose clip length and skeleton; empty: the active model
+  std::string path;   // relative to the data root (as ListClips gives it), or absolute under it
+  int64_t start = 0;  // the window's first frame, in the file's own frames
+};
+struct ReadClipReply {
+  std::string path;  // relative to the data root
+  std::string format;
+  int64_t start = 0;
+  int64_t file_frames = 0;       // frames of the file at its own rate
+  double file_frame_rate = 0;    // Hz: 50 for H3.6M text, 1 / frame time for BVH
+  int64_t last_start = 0;        // the largest start that still gives a full window
+  Motion motion;                 // the window: the model's clip length at 25 Hz
+};
+
 // Training jobs.
 enum class JobState { kQueued, kRunning, kSucceeded, kFailed, kCancelled };
 const char* job_state_name(JobState state);  // "queued", "running", ...

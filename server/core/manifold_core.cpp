@@ -10,6 +10,7 @@
 #include <optional>
 #include <thread>
 
+#include "core/data_root_clips.h"
 #include "core/inference_executor.h"
 #include "core/model_store.h"
 #include "core/motion_conversion.h"
@@ -374,6 +375,18 @@ ModelInfo ManifoldCore::activate_model(const CallContext& ctx, const std::string
       throw;
     }
     return state_->store.describe(name);
+  });
+}
+
+ListClipsReply ManifoldCore::list_clips(const CallContext& ctx) {
+  return state_->call("list_clips", ctx,
+                      [&] { return list_data_root_clips(state_->config.data_root, state_->config.max_listed_clips); });
+}
+
+ReadClipReply ManifoldCore::read_clip(const CallContext& ctx, const ReadClipRequest& request) {
+  return state_->call("read_clip", ctx, [&] {
+    const auto model = state_->store.get(request.model);
+    return read_data_root_clip(state_->config.data_root, request, model->shape);
   });
 }
 

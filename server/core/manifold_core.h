@@ -51,6 +51,10 @@ struct CoreConfig {
   std::string model_store;    // folder of model folders
   std::string default_model;  // name in the store; empty: the first of h36m-dkgm-h100 or the only model
   std::string auth_token;     // empty: no token needed
+  // The folder of motion files ListClips and ReadClip serve (--data-root, the
+  // folder training datasets lie under); empty: none.
+  std::string data_root;
+  int max_listed_clips = 10000;  // ListClips lists the first ones by path and says it truncated
   int max_loaded_models = 4;  // models kept in memory, the active one included
   Limits limits;
   BatchingConfig batching;
@@ -86,6 +90,12 @@ class ManifoldCore {
   // Loads `name` if needed and makes it the active model; requests in flight
   // finish on the model they started with. Needs the token.
   ModelInfo activate_model(const CallContext& ctx, const std::string& name);
+
+  // The motion files of the data root (core/data_root_clips.h), and one
+  // window of one in the shape of model request.model ("" for the active
+  // one). Read only: no token. FAILED_PRECONDITION without --data-root.
+  ListClipsReply list_clips(const CallContext& ctx);
+  ReadClipReply read_clip(const CallContext& ctx, const ReadClipRequest& request);
 
   JobInfo submit_job(const CallContext& ctx, const JobSpec& spec);  // needs the token
   JobInfo get_job(const CallContext& ctx, const std::string& id);

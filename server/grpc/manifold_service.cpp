@@ -102,6 +102,16 @@ grpc::Status ManifoldService::ActivateModel(grpc::ServerContext* context, const 
                 [&](const CallContext& ctx) { to_wire(core_.activate_model(ctx, request->model()), reply); });
 }
 
+grpc::Status ManifoldService::ListClips(grpc::ServerContext* context, const v1::ListClipsRequest*,
+                                        v1::ListClipsReply* reply) {
+  return answer(context, [&](const CallContext& ctx) { to_wire(core_.list_clips(ctx), reply); });
+}
+
+grpc::Status ManifoldService::ReadClip(grpc::ServerContext* context, const v1::ReadClipRequest* request,
+                                       v1::ReadClipReply* reply) {
+  return answer(context, [&](const CallContext& ctx) { to_wire(core_.read_clip(ctx, to_api(*request)), reply); });
+}
+
 grpc::Status ManifoldService::SubmitJob(grpc::ServerContext* context, const v1::SubmitJobRequest* request,
                                         v1::Job* reply) {
   return answer(context,

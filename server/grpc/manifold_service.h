@@ -50,6 +50,11 @@ class ManifoldService final : public v1::MotionManifold::Service {
   grpc::Status ActivateModel(grpc::ServerContext* context, const v1::ActivateModelRequest* request,
                              v1::ModelInfo* reply) override;
 
+  grpc::Status ListClips(grpc::ServerContext* context, const v1::ListClipsRequest* request,
+                         v1::ListClipsReply* reply) override;
+  grpc::Status ReadClip(grpc::ServerContext* context, const v1::ReadClipRequest* request,
+                        v1::ReadClipReply* reply) override;
+
   grpc::Status SubmitJob(grpc::ServerContext* context, const v1::SubmitJobRequest* request, v1::Job* reply) override;
   grpc::Status GetJob(grpc::ServerContext* context, const v1::GetJobRequest* request, v1::Job* reply) override;
   grpc::Status ListJobs(grpc::ServerContext* context, const v1::ListJobsRequest* request,

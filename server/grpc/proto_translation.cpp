@@ -107,6 +107,14 @@ JobSpec to_api(const v1::JobSpec& spec) {
   return out;
 }
 
+ReadClipRequest to_api(const v1::ReadClipRequest& request) {
+  ReadClipRequest out;
+  out.model = request.model();
+  out.path = request.path();
+  out.start = request.start();
+  return out;
+}
+
 // ---- core -> wire
 
 void to_wire(const Motion& motion, v1::Motion* out) {
@@ -163,6 +171,29 @@ void to_wire(const ModelInfo& info, v1::ModelInfo* out) {
   out->set_provenance_json(info.provenance_json);
   out->set_evaluation_json(info.evaluation_json);
   out->set_model_card(info.model_card);
+}
+
+void to_wire(const ListClipsReply& reply, v1::ListClipsReply* out) {
+  out->Clear();
+  out->mutable_clips()->Reserve(static_cast<int>(reply.clips.size()));
+  for (const auto& clip : reply.clips) {
+    auto* file = out->add_clips();
+    file->set_path(clip.path);
+    file->set_format(clip.format);
+    file->set_size_bytes(clip.size_bytes);
+  }
+  out->set_truncated(reply.truncated);
+}
+
+void to_wire(const ReadClipReply& reply, v1::ReadClipReply* out) {
+  out->Clear();
+  out->set_path(reply.path);
+  out->set_format(reply.format);
+  out->set_start(reply.start);
+  out->set_file_frames(reply.file_frames);
+  out->set_file_frame_rate(reply.file_frame_rate);
+  out->set_last_start(reply.last_start);
+  to_wire(reply.motion, out->mutable_motion());
 }
 
 void to_wire(const JobSpec& spec, v1::JobSpec* out) {

@@ -29,6 +29,7 @@ SampleRequest to_api(const v1::SampleRequest& request);
 InterpolateRequest to_api(const v1::InterpolateRequest& request);
 AnalogyRequest to_api(const v1::AnalogyRequest& request);
 DenoiseRequest to_api(const v1::DenoiseRequest& request);
+ReadClipRequest to_api(const v1::ReadClipRequest& request);
 JobSpec to_api(const v1::JobSpec& spec);
 
 // Core -> wire: each fills `out` (cleared first).
@@ -38,6 +39,8 @@ void to_wire(const AnsweredBy& answered_by, v1::AnsweredBy* out);
 void to_wire(const EncodeReply& reply, v1::EncodeReply* out);
 void to_wire(const MotionsReply& reply, v1::MotionsReply* out);
 void to_wire(const ModelInfo& info, v1::ModelInfo* out);
+void to_wire(const ListClipsReply& reply, v1::ListClipsReply* out);
+void to_wire(const ReadClipReply& reply, v1::ReadClipReply* out);
 void to_wire(const JobSpec& spec, v1::JobSpec* out);
 void to_wire(const JobProgress& progress, v1::JobProgress* out);
 void to_wire(const JobInfo& info, v1::Job* out);  // state as job_state_name(): "queued", ...

@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 #include <regex>
 
+#include "core/data_root_path.h"
 #include "format/bvh_dataset.h"
 #include "format/input_error.h"
 
@@ -19,13 +20,6 @@ namespace fs = std::filesystem;
 }
 
 std::string quoted(const std::string& value) { return nlohmann::json(value).dump(); }
-
-bool is_under(const fs::path& path, const fs::path& root) {
-  // Component by component, so that /data/root2 is not taken for a child
-  // of /data/root.
-  const auto mismatch = std::mismatch(root.begin(), root.end(), path.begin(), path.end());
-  return mismatch.first == root.end();
-}
 
 // The magic and version of format/prepared_dataset.h: enough to tell a
 // prepared dataset from anything else without loading it.
@@ -78,13 +72,13 @@ JobDataset resolve_job_dataset(const std::string& data_root, const std::string& 
     refuse("dataset", "dataset is empty, expected a prepared dataset file (.mmd), an H3.6M text tree or a folder of "
                       "BVH files under the data root");
   }
-  std::error_code error;
-  const fs::path root = fs::weakly_canonical(fs::path(data_root), error);
-  if (error) throw ApiError(ErrorCode::kInternal, "", "data root " + data_root + ": " + error.message());
-  const fs::path path = fs::weakly_canonical(root / dataset, error);
-  if (error || !is_under(path, root)) {
+  const fs::path root = canonical_data_root(data_root);
+  const auto resolved = resolve_under_data_root(root, dataset);
+  if (!resolved) {
     refuse("dataset", "dataset " + quoted(dataset) + " lies outside the data root, expected a path under it");
   }
+  const fs::path& path = *resolved;
+  std::error_code error;
   JobDataset result;
   result.path = path;
   if (fs::is_regular_file(path, error)) {

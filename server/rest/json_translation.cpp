@@ -435,6 +435,24 @@ std::string model_list_to_json(const std::vector<ModelInfo>& models) {
   return dump(json{{"models", std::move(list)}});
 }
 
+std::string clip_list_to_json(const ListClipsReply& reply) {
+  json clips = json::array();
+  for (const ClipFile& clip : reply.clips) {
+    clips.push_back(json{{"path", clip.path}, {"format", clip.format}, {"size_bytes", clip.size_bytes}});
+  }
+  return dump(json{{"clips", std::move(clips)}, {"truncated", reply.truncated}});
+}
+
+std::string read_clip_reply_to_json(const ReadClipReply& reply) {
+  return dump(FloatJson{{"path", reply.path},
+                        {"format", reply.format},
+                        {"start", reply.start},
+                        {"file_frames", reply.file_frames},
+                        {"file_frame_rate", reply.file_frame_rate},
+                        {"last_start", reply.last_start},
+                        {"motion", motion_json(reply.motion)}});
+}
+
 std::string job_info_to_json(const JobInfo& job) { return dump(job_json(job)); }
 
 std::string job_list_to_json(const std::vector<JobInfo>& jobs) {

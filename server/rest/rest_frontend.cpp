@@ -16,6 +16,7 @@
 #include "rest/http_errors.h"
 #include "rest/json_translation.h"
 #include "rest/openapi_document.h"
+#include "rest/query_translation.h"
 #include "rest/rest_routes.h"
 
 namespace mm::service {
@@ -189,6 +190,11 @@ void RestFrontend::State::handle(RouteId route, const httplib::Request& request,
       case RouteId::kActivateModel:
         rest::empty_request_from_json(body);
         return send_json(response, 200, rest::model_info_to_json(core.activate_model(context, request.matches[1].str())));
+      case RouteId::kListClips:
+        return send_json(response, 200, rest::clip_list_to_json(core.list_clips(context)));
+      case RouteId::kReadClip:
+        return send_json(response, 200, rest::read_clip_reply_to_json(
+                                            core.read_clip(context, rest::read_clip_request_from_query(request.params))));
       case RouteId::kSubmitJob:
         return send_json(response, 200,
                          rest::job_info_to_json(core.submit_job(context, rest::job_spec_from_json(body))));

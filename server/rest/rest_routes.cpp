@@ -16,6 +16,8 @@ const std::vector<RestRoute>& rest_routes() {
       {RouteId::kListModels, "GET", "/v1/models"},
       {RouteId::kDescribeModel, "GET", "/v1/models/{name}"},
       {RouteId::kActivateModel, "POST", "/v1/models/{name}:activate"},
+      {RouteId::kListClips, "GET", "/v1/clips"},
+      {RouteId::kReadClip, "GET", "/v1/clips/window"},
       {RouteId::kSubmitJob, "POST", "/v1/jobs"},
       {RouteId::kListJobs, "GET", "/v1/jobs"},
       {RouteId::kGetJob, "GET", "/v1/jobs/{id}"},

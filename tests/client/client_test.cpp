@@ -68,13 +68,14 @@ std::vector<std::vector<double>> motion_rows(const std::string& path) {
 }
 
 // The small H3.6M text tree of tests/server: S1 to train on, S5 to test.
+// Copies, not links: a link out of the data root is not one of its clips.
 fs::path small_data_root(const fs::path& scratch) {
   const fs::path root = scratch / "data";
   for (const auto& [subject, files] : std::vector<std::pair<std::string, std::vector<std::string>>>{
            {"S1", {"walking_1.txt", "walking_2.txt", "eating_1.txt"}}, {"S5", {"walking_1.txt"}}}) {
     fs::create_directories(root / "small" / subject);
     for (const auto& file : files) {
-      fs::create_symlink(test::h36m_dataset_dir() / subject / file, root / "small" / subject / file);
+      fs::copy_file(test::h36m_dataset_dir() / subject / file, root / "small" / subject / file);
     }
   }
   return root;
@@ -388,6 +389,82 @@ TEST_F(ClientTest, ActivateChangesTheAnsweringModelAndNeedsTheToken) {
   run = run_client(grpc() + " " + token() + " models activate no-such-model");
   EXPECT_EQ(run.exit_code, 1);
   EXPECT_EQ(run.err.rfind("error: NOT_FOUND: ", 0), 0u) << run.err;
+}
+
+// ------------------------------------------------------------------ clips
+
+TEST_F(ClientTest, ClipsListTheDataRootsFilesOverBothProtocols) {
+  for (const auto& protocol : {grpc(), rest()}) {
+    const auto run = run_client(protocol + " --json clips list");
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    const auto reply = json::parse(run.out);
+    EXPECT_FALSE(reply["truncated"].get<bool>());
+    std::vector<std::string> paths;
+    for (const auto& clip : reply["clips"]) {
+      paths.push_back(clip["path"]);
+      EXPECT_EQ(clip["format"], "h36m-text");
+      EXPECT_EQ(clip["size_bytes"].get<int64_t>(),
+                static_cast<int64_t>(fs::file_size(test::h36m_dataset_dir() / clip["path"].get<std::string>().substr(6))))
+          << clip.dump();
+    }
+    EXPECT_EQ(paths, (std::vector<std::string>{"small/S1/eating_1.txt", "small/S1/walking_1.txt",
+                                               "small/S1/walking_2.txt", "small/S5/walking_1.txt"}));
+  }
+  const auto plain = run_client(grpc() + " clips list");
+  EXPECT_NE(plain.out.find("h36m-text"), std::string::npos) << plain.out;
+  EXPECT_NE(plain.out.find("small/S5/walking_1.txt"), std::string::npos) << plain.out;
+}
+
+TEST_F(ClientTest, ClipsReadWritesEverySecondRowFromStartAsTheServerAnswers) {
+  const auto rows = motion_rows(s5("walking_1.txt"));
+  for (const auto& protocol : {grpc(), rest()}) {
+    const std::string out = dir_.file("window.txt");
+    const auto run = run_client(protocol + " clips read small/S5/walking_1.txt --start 7 --out " + out);
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    EXPECT_NE(run.out.find("150 frames at 25 Hz of small/S5/walking_1.txt from frame 7 of " +
+                           std::to_string(rows.size()) + " at 50 Hz (last start " + std::to_string(rows.size() - 300)),
+              std::string::npos)
+        << run.out;
+    const auto window = motion_rows(out);
+    ASSERT_EQ(window.size(), 150u);
+    for (size_t k = 0; k < window.size(); ++k) {
+      ASSERT_EQ(window[k].size(), 99u);
+      for (size_t c = 0; c < 99; ++c) ASSERT_NEAR(window[k][c], rows[7 + 2 * k][c], 1e-6) << k << " " << c;
+    }
+  }
+  // --json prints the server's reply, as REST answers it.
+  httplib::Client client("127.0.0.1", server_->rest_port());
+  const auto direct = client.Get("/v1/clips/window?path=small%2FS5%2Fwalking_1.txt&start=7");
+  ASSERT_TRUE(direct);
+  ASSERT_EQ(direct->status, 200) << direct->body;
+  const auto run = run_client(grpc() + " --json clips read small/S5/walking_1.txt --start 7");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  auto printed = json::parse(run.out), answered = json::parse(direct->body);
+  // Floats compared as floats: the server writes each one's shortest form.
+  EXPECT_EQ(printed["motion"]["values"].get<std::vector<float>>(), answered["motion"]["values"].get<std::vector<float>>());
+  printed["motion"].erase("values");
+  answered["motion"].erase("values");
+  EXPECT_EQ(printed, answered);
+}
+
+TEST_F(ClientTest, ClipsReadReportsTheServersRefusalsNamingTheField) {
+  const auto rows = motion_rows(s5("walking_1.txt"));
+  for (const auto& protocol : {grpc(), rest()}) {
+    auto run = run_client(protocol + " --json clips read small/S5/walking_1.txt --start " +
+                          std::to_string(rows.size() - 299));
+    EXPECT_EQ(run.exit_code, 1);
+    EXPECT_EQ(run.err.rfind("error: INVALID_ARGUMENT: start: ", 0), 0u) << run.err;
+    EXPECT_NE(run.err.find("expected 0 to " + std::to_string(rows.size() - 300)), std::string::npos) << run.err;
+    run = run_client(protocol + " --json clips read ../outside.txt");
+    EXPECT_EQ(run.exit_code, 1);
+    EXPECT_EQ(run.err.rfind("error: INVALID_ARGUMENT: path: ", 0), 0u) << run.err;
+    run = run_client(protocol + " --json clips read small/S5/no_such_file.txt");
+    EXPECT_EQ(run.exit_code, 1);
+    EXPECT_EQ(run.err.rfind("error: NOT_FOUND: path: ", 0), 0u) << run.err;
+  }
+  const auto no_output = run_client(grpc() + " clips read small/S5/walking_1.txt");
+  EXPECT_EQ(no_output.exit_code, 2);
+  EXPECT_NE(no_output.err.find("--out is required"), std::string::npos) << no_output.err;
 }
 
 // ------------------------------------------------------------------- jobs

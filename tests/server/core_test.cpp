@@ -1,7 +1,8 @@
 // The service core as both frontends use it, on the shipped models: answers
 // equal the model library's own, concurrent calls are batched on one
 // executor, models are activated while serving and broken ones refused with
-// their reason, and limits, tokens and draining behave as documented.
+// their reason, limits, tokens and draining behave as documented, and the
+// clips of the data root are listed and read as the files hold them.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -13,8 +14,11 @@
 #include <set>
 #include <thread>
 
+#include "cmu_dance.h"
 #include "core/manifold_core.h"
 #include "core/service_metrics.h"
+#include "format/bvh_file.h"
+#include "format/h36m_bvh.h"
 #include "latent_operations.h"
 #include "test_environment.h"
 
@@ -364,6 +368,183 @@ TEST_F(CoreTest, ModelsAreListedAndDescribedWithoutLoadingThem) {
   EXPECT_EQ(described.variant, "DKGM");
   EXPECT_FALSE(described.model_card.empty());
   EXPECT_NE(described.evaluation_json.find("paper_units"), std::string::npos);
+}
+
+// ---------------------------------------------------------------- clips of the data root
+
+// A data root of real files (copies: a link out of the root is not one of
+// its clips) beside things that are not clips, and a file outside it.
+class DataRoot {
+ public:
+  DataRoot() {
+    fs::create_directories(root() / "h36m" / "S1");
+    fs::create_directories(root() / "h36m" / "S5");
+    fs::copy_file(test::h36m_dataset_dir() / "S1" / "walking_1.txt", root() / "h36m" / "S1" / "walking_1.txt");
+    fs::copy_file(test::h36m_dataset_dir() / "S5" / "eating_1.txt", root() / "h36m" / "S5" / "eating_1.txt");
+    // The first 400 rows of S5 walking as BVH of the H3.6M skeleton at 50 Hz.
+    auto rows = read_motion_text((test::h36m_dataset_dir() / "S5" / "walking_1.txt").string());
+    rows.values.resize(400 * static_cast<size_t>(rows.columns));
+    fs::create_directories(root() / "bvh");
+    write_bvh_file(h36m_motion_to_bvh(rows, 50), (root() / "bvh" / "walking.bvh").string());
+    fs::copy_file(test::cmu_dance_dir() / "indian" / "04.bvh", root() / "bvh" / "Dance.BVH");
+    std::ofstream(root() / "README.md") << "not a clip\n";
+    std::ofstream(root() / "bad.txt") << "0,0,0\n";
+    fs::create_directories(root() / ".cache");
+    std::ofstream(root() / ".cache" / "hidden.txt") << "0\n";
+    std::ofstream(root() / ".hidden.bvh") << "0\n";
+    std::ofstream(dir_.path() / "outside.txt") << "0\n";
+    fs::create_symlink(dir_.path() / "outside.txt", root() / "link_out.txt");
+    fs::create_directory_symlink(dir_.path(), root() / "folder_link");
+  }
+  fs::path root() const { return dir_.path() / "root"; }
+
+ private:
+  test::ScratchDir dir_;
+};
+
+class CoreClipsTest : public CoreTest {
+ protected:
+  void SetUp() override { MM_REQUIRE_H36M(); }
+  void start_with_data_root(CoreConfig config = {}) {
+    data_ = std::make_unique<DataRoot>();
+    config.data_root = data_->root().string();
+    start(config);
+  }
+  ReadClipReply read(const std::string& path, int64_t start) { return core_->read_clip(kCall, {"", path, start}); }
+
+  std::unique_ptr<DataRoot> data_;
+};
+
+TEST_F(CoreClipsTest, EveryTextAndBvhFileUnderTheRootIsListedSortedWithItsFormatAndSize) {
+  start_with_data_root();
+  const auto reply = core_->list_clips(kCall);
+  EXPECT_FALSE(reply.truncated);
+  std::vector<std::string> listed;
+  for (const auto& clip : reply.clips) {
+    listed.push_back(clip.path + " " + clip.format);
+    EXPECT_EQ(clip.size_bytes, static_cast<int64_t>(fs::file_size(data_->root() / clip.path))) << clip.path;
+  }
+  // Not listed: README.md, hidden files and folders, the link out of the
+  // root and what lies behind the link to a folder.
+  EXPECT_EQ(listed, (std::vector<std::string>{"bad.txt h36m-text", "bvh/Dance.BVH bvh", "bvh/walking.bvh bvh",
+                                              "h36m/S1/walking_1.txt h36m-text", "h36m/S5/eating_1.txt h36m-text"}));
+}
+
+TEST_F(CoreClipsTest, AListLongerThanTheLimitIsCutAndSaysSo) {
+  CoreConfig config;
+  config.max_listed_clips = 2;
+  start_with_data_root(config);
+  const auto reply = core_->list_clips(kCall);
+  EXPECT_TRUE(reply.truncated);
+  ASSERT_EQ(reply.clips.size(), 2u);
+  EXPECT_EQ(reply.clips[1].path, "bvh/Dance.BVH");
+}
+
+TEST_F(CoreClipsTest, ATextWindowIsEverySecondRowFromStartAndEncodesAsTheRaw50HzRows) {
+  start_with_data_root();
+  const auto rows = read_motion_text((test::h36m_dataset_dir() / "S1" / "walking_1.txt").string());
+  const int64_t start = 101;  // odd: the rows kept are the odd ones
+  const auto reply = read("h36m/S1/walking_1.txt", start);
+  EXPECT_EQ(reply.path, "h36m/S1/walking_1.txt");
+  EXPECT_EQ(reply.format, "h36m-text");
+  EXPECT_EQ(reply.start, start);
+  EXPECT_EQ(reply.file_frames, rows.frame_count());
+  EXPECT_EQ(reply.file_frame_rate, 50);
+  EXPECT_EQ(reply.last_start, rows.frame_count() - 300);
+  const Motion& motion = reply.motion;
+  EXPECT_EQ(motion.frames, 150);
+  EXPECT_EQ(motion.columns, 99);
+  EXPECT_EQ(motion.frame_rate, 25);
+  EXPECT_EQ(motion.layout, "h36m-expmap-99");
+  std::vector<float> expected;
+  for (int64_t k = 0; k < 150; ++k) expected.insert(expected.end(), rows.frame(start + 2 * k), rows.frame(start + 2 * k) + 99);
+  EXPECT_EQ(motion.values, expected);
+
+  Motion raw;
+  raw.frames = 300;
+  raw.columns = 99;
+  raw.frame_rate = 50;
+  raw.layout = kH36mLayout;
+  raw.values.assign(rows.frame(start), rows.frame(start + 300));
+  EXPECT_EQ(core_->encode(kCall, {"", {motion}}).codes, core_->encode(kCall, {"", {raw}}).codes);
+  // The last full window is read; one frame further is refused.
+  EXPECT_EQ(read("h36m/S1/walking_1.txt", reply.last_start).motion.frames, 150);
+}
+
+TEST_F(CoreClipsTest, ABvhOfTheModelsSkeletonIsItsImportFromStartAndAnotherSkeletonKeepsItsOwn) {
+  start_with_data_root();
+  const auto file = read_bvh_file((data_->root() / "bvh" / "walking.bvh").string());
+  const auto whole = skeleton_motion_from_bvh(Skeleton::h36m(), file, "walking.bvh");  // 25 Hz: file frames 0, 2, ...
+  const auto reply = read("bvh/walking.bvh", 20);
+  EXPECT_EQ(reply.format, "bvh");
+  EXPECT_EQ(reply.file_frames, 400);
+  EXPECT_DOUBLE_EQ(reply.file_frame_rate, 50);
+  EXPECT_EQ(reply.last_start, 400 - 299);  // 149 frames at 25 Hz after the start, 298 at 50 Hz
+  EXPECT_EQ(reply.motion.layout, "h36m-expmap-99");
+  EXPECT_EQ(reply.motion.frames, 150);
+  EXPECT_EQ(reply.motion.frame_rate, 25);
+  ASSERT_EQ(reply.motion.values.size(), 150u * 99);
+  for (int k = 0; k < 150; ++k) {
+    for (int c = 0; c < 99; ++c) {
+      // The root's change is counted from the window's first frame.
+      const float expected = c < 3 && k == 0 ? 0.f : whole.frame(10 + k)[c];
+      ASSERT_EQ(reply.motion.values[static_cast<size_t>(k) * 99 + c], expected) << "frame " << k << " column " << c;
+    }
+  }
+  const auto foreign = read("bvh/Dance.BVH", 0);
+  const auto dance = read_bvh_file((data_->root() / "bvh" / "Dance.BVH").string());
+  const int columns = 3 + 3 * static_cast<int>(dance.joints.size());
+  EXPECT_EQ(foreign.motion.layout, "expmap-" + std::to_string(columns));
+  EXPECT_EQ(foreign.motion.columns, columns);
+  EXPECT_EQ(foreign.motion.frames, 150);
+  EXPECT_NEAR(foreign.file_frame_rate, 120, 1e-3);
+  EXPECT_EQ(foreign.file_frames, dance.frame_count());
+}
+
+TEST_F(CoreClipsTest, PathsOutsideTheRootMissingOrNotClipsAreRefusedNamingPath) {
+  start_with_data_root();
+  for (const std::string path : {"../outside.txt", "h36m/../../outside.txt", "/etc/hostname", "link_out.txt",
+                                 "folder_link/outside.txt", ""}) {
+    const auto error = error_of([&] { read(path, 0); });
+    EXPECT_EQ(error.code(), ErrorCode::kInvalidArgument) << path << ": " << error.what();
+    EXPECT_EQ(error.field(), "path") << path;
+  }
+  EXPECT_NE(std::string(error_of([&] { read("../outside.txt", 0); }).what()).find("outside the data root"),
+            std::string::npos);
+  const auto missing = error_of([&] { read("h36m/S1/walking_9.txt", 0); });
+  EXPECT_EQ(missing.code(), ErrorCode::kNotFound);
+  EXPECT_EQ(missing.field(), "path");
+  for (const std::string path : {"h36m", "README.md"}) {
+    EXPECT_EQ(error_of([&] { read(path, 0); }).field(), "path") << path;
+  }
+  const auto malformed = error_of([&] { read("bad.txt", 0); });
+  EXPECT_EQ(malformed.field(), "path");
+  EXPECT_NE(std::string(malformed.what()).find("bad.txt:1: expected 99 values"), std::string::npos) << malformed.what();
+}
+
+TEST_F(CoreClipsTest, AStartPastTheLastFullWindowIsRefusedNamingTheLargestValidStart) {
+  start_with_data_root();
+  const int64_t rows = read_motion_text((data_->root() / "h36m" / "S5" / "eating_1.txt").string()).frame_count();
+  for (const int64_t start : {rows - 299, int64_t{-1}}) {
+    const auto error = error_of([&] { read("h36m/S5/eating_1.txt", start); });
+    EXPECT_EQ(error.code(), ErrorCode::kInvalidArgument);
+    EXPECT_EQ(error.field(), "start");
+    EXPECT_NE(std::string(error.what()).find("expected 0 to " + std::to_string(rows - 300)), std::string::npos)
+        << error.what();
+  }
+  const auto bvh = error_of([&] { read("bvh/walking.bvh", 102); });
+  EXPECT_EQ(bvh.field(), "start");
+  EXPECT_NE(std::string(bvh.what()).find("expected 0 to 101"), std::string::npos) << bvh.what();
+}
+
+TEST_F(CoreClipsTest, WithoutADataRootClipsAreAFailedPreconditionNamingTheFlag) {
+  start();
+  for (const auto& call : std::vector<std::function<void()>>{[&] { core_->list_clips(kCall); },
+                                                             [&] { read("h36m/S1/walking_1.txt", 0); }}) {
+    const auto error = error_of(call);
+    EXPECT_EQ(error.code(), ErrorCode::kFailedPrecondition);
+    EXPECT_NE(std::string(error.what()).find("without --data-root"), std::string::npos) << error.what();
+  }
 }
 
 }  // namespace

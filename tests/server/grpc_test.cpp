@@ -824,8 +824,9 @@ TEST_F(GrpcApiTest, ReflectionListsTheServiceAndServesItsDescriptor) {
     EXPECT_EQ(m.server_streaming(), m.name() == "WatchJob") << m.name();
   }
   EXPECT_EQ(methods, (std::vector<std::string>{"Encode", "Decode", "Sample", "Interpolate", "Analogy", "Denoise",
-                                               "ListModels", "DescribeModel", "ActivateModel", "SubmitJob", "GetJob",
-                                               "ListJobs", "CancelJob", "WatchJob"}));
+                                               "ListModels", "DescribeModel", "ActivateModel", "ListClips",
+                                               "ReadClip", "SubmitJob", "GetJob", "ListJobs", "CancelJob",
+                                               "WatchJob"}));
   stream->WritesDone();
   EXPECT_TRUE(stream->Finish().ok());
 }

@@ -126,14 +126,15 @@ class PythonClientTest(unittest.TestCase):
             cls.clip = [0.01 * math.sin(0.1 * i) for i in range(300 * 99)]
         else:
             raise RuntimeError(f"H3.6M not found: {clip} (run scripts/extract-h36m.sh, or set MM_ALLOW_MISSING_H36M=1)")
-        # Training jobs on a small text tree (one S1 and one S5 file, linked),
-        # which a job prepares in a moment.
+        # Training jobs and clips on a small text tree (one S1 and one S5 file,
+        # copied: a link out of the data root is not one of its clips), which
+        # a job prepares in a moment.
         data_root = os.path.join(cls.state_dir, "data")
         for subject in ("S1", "S5"):
             os.makedirs(os.path.join(data_root, "h36m", subject))
             source = os.path.abspath(os.path.join(dataset_dir, subject, "walking_1.txt"))
             if os.path.exists(source):
-                os.symlink(source, os.path.join(data_root, "h36m", subject, "walking_1.txt"))
+                shutil.copyfile(source, os.path.join(data_root, "h36m", subject, "walking_1.txt"))
         cls.server = Server(ARGS.server, ARGS.models,
                             ["--auth-token", TOKEN, "--max-message-bytes", str(MAX_MESSAGE_BYTES),
                              "--state-dir", os.path.join(cls.state_dir, "state"), "--data-root", data_root])
@@ -267,6 +268,31 @@ class PythonClientTest(unittest.TestCase):
                             token="wrong")
         info = self.stub.ActivateModel(request, timeout=120, metadata=[("authorization", f"Bearer {TOKEN}")])
         self.assertTrue(info.active)
+
+    # --- clips of the data root
+
+    def test_clips_of_the_data_root_are_listed_and_read_as_every_second_row(self):
+        if not os.path.exists(os.path.join(h36m_dataset_dir(), "S5", "walking_1.txt")):
+            self.skipTest("H3.6M not found: the data root holds no clips")
+        listed = self.stub.ListClips(self.pb.ListClipsRequest(), timeout=60)
+        self.assertEqual([(c.path, c.format) for c in listed.clips],
+                         [("h36m/S1/walking_1.txt", "h36m-text"), ("h36m/S5/walking_1.txt", "h36m-text")])
+        self.assertFalse(listed.truncated)
+        window = self.stub.ReadClip(self.pb.ReadClipRequest(path="h36m/S5/walking_1.txt"), timeout=60)
+        self.assertEqual((window.start, window.file_frame_rate), (0, 50.0))
+        self.assertEqual(window.last_start, window.file_frames - 300)
+        self.assert_motion_shape(window.motion)
+        every_second_row = [v for f in range(0, 300, 2) for v in self.clip[f * 99:(f + 1) * 99]]
+        for got, row_value in zip(window.motion.values, every_second_row):
+            self.assertTrue(math.isclose(got, row_value, rel_tol=1e-6, abs_tol=1e-7), (got, row_value))
+        # It encodes to the code of the raw 50 Hz rows.
+        encoded = self.stub.Encode(self.pb.EncodeRequest(motions=[window.motion]), timeout=120)
+        self.assertEqual(list(encoded.codes[0].values), list(self.code_of_clip().values))
+        self.assert_refused(self.stub.ReadClip, self.pb.ReadClipRequest(path="../outside.txt"),
+                            grpc.StatusCode.INVALID_ARGUMENT, "path")
+        self.assert_refused(self.stub.ReadClip,
+                            self.pb.ReadClipRequest(path="h36m/S5/walking_1.txt", start=window.last_start + 1),
+                            grpc.StatusCode.INVALID_ARGUMENT, "start")
 
     # --- jobs
 

@@ -4,8 +4,10 @@
 // the page loads without console errors; Sample plays a 32-joint, 150-frame
 // animation whose drawn joints are the server's FK within 0.1 mm; the
 // interpolation slider changes the pose; an uploaded BVH plays (its drawn
-// joints the FK of the motion exported); a bad upload shows the server's
-// own message; a job submitted from the page (token asked for on the 401)
+// joints the FK of the motion exported); a file of the server's data root
+// picked from its list plays from the window start chosen (drawn as the FK
+// of the file's rows) beside its reconstruction and error; a bad upload and
+// a start past the file's last window show the server's own message; a job submitted from the page (token asked for on the 401)
 // shows progress from its event stream; the models show their Table 1 mm.
 // Screenshots go to MM_WEB_SCREENSHOT_DIR (docs/ for the README) or the
 // build tree.
@@ -19,7 +21,7 @@ import os from 'node:os';
 import path from 'node:path';
 import { pathToFileURL } from 'node:url';
 import { largestDistanceMm, referencePositions, writeMotionText } from './fk_reference.mjs';
-import { TOKEN, environment, startServer } from './server_harness.mjs';
+import { TOKEN, environment, h36mDatasetDir, startServer } from './server_harness.mjs';
 
 const TOLERANCE_MM = 0.1;
 const nodeModules = process.argv[2];
@@ -181,6 +183,46 @@ try {
     const distance = largestDistanceMm((await describe()).figures[0].drawnPositionsMm, clipReference[frame]);
     assert.ok(distance < TOLERANCE_MM, `uploaded text, frame ${frame}: a drawn joint lies ${distance} mm from the FK`);
   }
+
+  step("a file of the server's data root: picked from the list, played from the window start, reconstructed");
+  const { clips } = await server.call('GET', 'v1/clips');
+  assert.deepEqual(await page.$$eval('#clip-path option', (options) => options.map((o) => o.value)),
+                   clips.map((clip) => clip.path), 'the menu lists the data root');
+  await page.select('#clip-path', 'small/S5/walking_1.txt');
+  await page.waitForFunction(() => document.getElementById('clip-start').max !== '', { timeout: 60000 });
+  const fileRows = fs.readFileSync(path.join(h36mDatasetDir(), 'S5', 'walking_1.txt'), 'utf8').trim().split('\n');
+  assert.equal(Number(await page.$eval('#clip-start', (e) => e.max)), fileRows.length - 300, 'the start is bounded by the last full window');
+  const clipStart = 40;
+  await page.$eval('#clip-start', (e, v) => (e.value = String(v)), clipStart);
+  await page.click('#clip-button');
+  await waitForFigure(`small/S5/walking_1.txt @${clipStart}`);
+  view = await describe();
+  assert.equal(view.figures[0].frames, 150);
+  assert.match(view.figures[1].label, /reconstruction \(\d+\.\d mm\)/);
+  assert.match(await page.$eval('#result', (e) => e.textContent), /reconstruction error \d+\.\d mm/);
+  // The drawn original is the FK of the file's every second row from the start.
+  const windowFile = path.join(scratch, 'clip_window.txt');
+  fs.writeFileSync(windowFile, `${Array.from({ length: 150 }, (_, k) => fileRows[clipStart + 2 * k]).join('\n')}\n`);
+  const windowReference = referencePositions(windowFile);
+  await page.click('#play');
+  for (const frame of [0, 75, 149]) {
+    await setRange('#frame', frame);
+    const distance = largestDistanceMm((await describe()).figures[0].drawnPositionsMm, windowReference[frame]);
+    console.log(`   frame ${frame}: largest distance ${distance.toExponential(2)} mm`);
+    assert.ok(distance < TOLERANCE_MM, `data-root clip, frame ${frame}: a drawn joint lies ${distance} mm from the FK`);
+  }
+  const calls = await page.$$eval('#call-log li', (entries) => entries.map((e) => e.textContent));
+  assert.ok(calls.some((c) => c.startsWith(`GET /v1/clips/window?path=small%2FS5%2Fwalking_1.txt&start=${clipStart}  200`)),
+            `the call log lacks the window read: ${calls.slice(0, 5).join(' | ')}`);
+  const pastLast = fileRows.length - 299;
+  const refusal = await fetch(`${server.direct}/v1/clips/window?path=small%2FS5%2Fwalking_1.txt&start=${pastLast}`);
+  const refusalMessage = (await refusal.json()).error.message;
+  await page.$eval('#clip-start', (e, v) => (e.value = String(v)), pastLast);
+  await page.click('#clip-button');
+  await page.waitForSelector('#error:not([hidden])', { timeout: 30000 });
+  const clipBanner = await page.$eval('#error', (e) => e.textContent);
+  assert.ok(clipBanner.includes(refusalMessage), `banner "${clipBanner}" lacks the server's message "${refusalMessage}"`);
+  assert.match(clipBanner, /400 INVALID_ARGUMENT \(start\)/);
 
   step('analogy a - b + c, and denoising: the filled motion is nearer the original than the corrupted one');
   const selectByText = (selector, text) => page.$eval(selector, (menu, t) => {

@@ -1,6 +1,8 @@
 // The real server for the web tests: motion-manifold-server on loopback
 // ports with a scratch model store (the shipped models, linked), a small
-// H3.6M data root for training jobs (S1: three takes; S5: one) and a token,
+// H3.6M data root for training jobs and the page's clip picker (S1: three
+// takes; S5: one; copies, since a link out of the data root is not one of
+// its clips) and a token,
 // behind a path prefix served by a small proxy, as a reverse proxy would
 // put it. Paths come from the environment ctest sets (tests/web/CMakeLists.txt).
 import { spawn } from 'node:child_process';
@@ -31,7 +33,7 @@ function smallDataRoot(scratch) {
   const files = { S1: ['walking_1.txt', 'walking_2.txt', 'eating_1.txt'], S5: ['walking_1.txt'] };
   for (const [subject, names] of Object.entries(files)) {
     fs.mkdirSync(path.join(scratch, 'data', 'small', subject), { recursive: true });
-    for (const name of names) fs.symlinkSync(path.join(dataset, subject, name), path.join(scratch, 'data', 'small', subject, name));
+    for (const name of names) fs.copyFileSync(path.join(dataset, subject, name), path.join(scratch, 'data', 'small', subject, name));
   }
   return path.join(scratch, 'data');
 }

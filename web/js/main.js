@@ -1,9 +1,10 @@
-// The page's entry: the 3D view, then the three panels, each of which talks
-// to the server only through the REST API (api_client.js).
+// The page's entry: the 3D view, then the panels and the data root's clips,
+// each of which talks to the server only through the REST API (api_client.js).
 import { SkeletonView } from './skeleton_view.js';
 import { setUpManifoldPanel } from './manifold_panel.js';
 import { setUpJobsPanel } from './jobs_panel.js';
 import { setUpModelsPanel } from './models_panel.js';
+import { setUpClipPicker } from './data_root_clips.js';
 import { runAction, showError } from './call_log.js';
 import { callApi } from './api_client.js';
 
@@ -23,5 +24,5 @@ await runAction(async () => {
   const ready = await callApi('GET', 'readyz');
   $('server-status').textContent = `server ${ready.status}`;
 });
-await Promise.all([setUpModelsPanel(), setUpJobsPanel()]);
+await Promise.all([setUpModelsPanel(), setUpJobsPanel(), setUpClipPicker()]);
 document.body.dataset.loaded = 'true';

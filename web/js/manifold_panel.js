@@ -3,6 +3,7 @@
 // and filled), its result drawn in the view and kept on the shelf.
 import { callApi } from './api_client.js';
 import { runAction } from './call_log.js';
+import { clipWindowPath, showClipBounds } from './data_root_clips.js';
 import { meanJointErrorMm, motionPositions } from './forward_kinematics.js';
 import { H36M_PARENTS } from './h36m_skeleton.js';
 import { corruptZeroed } from './paper_corruption.js';
@@ -29,8 +30,21 @@ async function decodeCode(code) {
   return reply.motions[0];
 }
 
+// A reconstruction: the code the server encoded `original` (a 25 Hz motion)
+// into is decoded back; both are drawn side by side, with the
+// reconstruction's error, and shelved.
+async function showReconstruction(view, name, original, encoded) {
+  const code = encoded.codes[0];
+  const reconstruction = await decodeCode(code);
+  shelve(name, original, code);
+  shelve(`${name} reconstructed`, reconstruction, code);
+  const error = meanJointErrorMm(motionPositions(original), motionPositions(reconstruction));
+  view.show([figure(name, original), figure(`reconstruction (${error.toFixed(1)} mm)`, reconstruction)]);
+  say(`reconstruction error ${error.toFixed(1)} mm (mean per-joint position error); ${answeredBy(encoded)}`);
+}
+
 // Upload: the file goes to the server as it is (JSON for text, the BVH
-// itself for .bvh); its code is decoded back, and both are drawn.
+// itself for .bvh).
 async function reconstructUpload(view) {
   const file = $('upload-file').files[0];
   if (!file) throw new Error('choose an H3.6M text file or a BVH file first');
@@ -45,14 +59,18 @@ async function reconstructUpload(view) {
     encoded = await callApi('POST', 'v1/encode', { body: { motions: [original] }, summary: file.name });
     original = atModelRate(original);
   }
-  const code = encoded.codes[0];
-  const reconstruction = await decodeCode(code);
-  const name = `${file.name}${isBvh ? '' : ` @${$('upload-start').value}`}`;
-  shelve(name, original, code);
-  shelve(`${name} reconstructed`, reconstruction, code);
-  const error = meanJointErrorMm(motionPositions(original), motionPositions(reconstruction));
-  view.show([figure(name, original), figure(`reconstruction (${error.toFixed(1)} mm)`, reconstruction)]);
-  say(`reconstruction error ${error.toFixed(1)} mm (mean per-joint position error); ${answeredBy(encoded)}`);
+  await showReconstruction(view, `${file.name}${isBvh ? '' : ` @${$('upload-start').value}`}`, original, encoded);
+}
+
+// A file of the server's data root: the server reads its window (the
+// model's 25 Hz, as it takes an upload), which is sent back to be encoded.
+async function reconstructClip(view) {
+  const path = $('clip-path').value;
+  if (!path) throw new Error("choose a file of the server's data root first (Refresh lists them)");
+  const clip = await callApi('GET', clipWindowPath(path, Number($('clip-start').value)));
+  showClipBounds(clip);
+  const encoded = await callApi('POST', 'v1/encode', { body: { motions: [clip.motion] }, summary: path });
+  await showReconstruction(view, `${clip.path} @${clip.start}`, clip.motion, encoded);
 }
 
 async function sample(view) {
@@ -121,7 +139,7 @@ export function setUpManifoldPanel(view) {
   ['interpolate-to', 'analogy-b', 'denoise-source'].forEach((id) => bindMenu($(id), 0));
   ['interpolate-from', 'analogy-a'].forEach((id) => bindMenu($(id), 1));
   bindMenu($('analogy-c'), 2);
-  const actions = { 'upload-button': reconstructUpload, 'sample-button': sample, 'interpolate-button': interpolate,
-                    'analogy-button': analogy, 'denoise-button': denoise };
+  const actions = { 'upload-button': reconstructUpload, 'clip-button': reconstructClip, 'sample-button': sample,
+                    'interpolate-button': interpolate, 'analogy-button': analogy, 'denoise-button': denoise };
   for (const [id, action] of Object.entries(actions)) $(id).addEventListener('click', () => runAction(() => action(view)));
 }

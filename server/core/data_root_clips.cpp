@@ -1,0 +1,277 @@
+#include "core/data_root_clips.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "core/data_root_path.h"
+#include "format/bvh_dataset.h"
+#include "format/bvh_file.h"
+#include "format/input_error.h"
+#include "format/skeleton_bvh.h"
+
+namespace mm::service {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Larger files are refused before they are read: a window needs a few MB of
+// any real motion file, and a request must not make the server read gigabytes.
+constexpr uintmax_t kMaxClipFileBytes = uintmax_t{256} << 20;
+
+// 50 Hz text rows per frame at the model's 25 Hz.
+constexpr int64_t kTextRowsPerModelFrame = 2;
+
+ApiError invalid(const std::string& field, const std::string& message) {
+  return ApiError(ErrorCode::kInvalidArgument, field, message);
+}
+
+std::string quoted(const std::string& value) {
+  return nlohmann::json(value).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
+std::string decimal(double value, const char* format = "%g") {
+  char text[32];
+  std::snprintf(text, sizeof text, format, value);
+  return text;
+}
+
+// The format a file's extension names; empty for neither.
+std::string clip_format(const fs::path& path) {
+  std::string extension = path.extension().string();
+  for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (extension == ".txt") return kH36mTextFormat;
+  if (extension == ".bvh") return kBvhFormat;
+  return "";
+}
+
+fs::path data_root_folder(const std::string& data_root) {
+  if (data_root.empty()) {
+    throw ApiError(ErrorCode::kFailedPrecondition, "",
+                   "this server was started without --data-root: it has no folder of clips to list or read");
+  }
+  const fs::path root = canonical_data_root(data_root);
+  std::error_code error;
+  if (!fs::is_directory(root, error)) {
+    throw ApiError(ErrorCode::kFailedPrecondition, "", "the data root (--data-root) " + data_root + " is not a folder");
+  }
+  return root;
+}
+
+void check_start(int64_t start, int64_t last_start, const std::string& window) {
+  if (start < 0) {
+    throw invalid("start", "start " + std::to_string(start) + " is negative, expected 0 to " +
+                               std::to_string(last_start) + " (" + window + ")");
+  }
+  if (start > last_start) {
+    throw invalid("start", "start " + std::to_string(start) + " is past the last full window, expected 0 to " +
+                               std::to_string(last_start) + " (" + window + ")");
+  }
+}
+
+std::string read_whole_file(const fs::path& path, uintmax_t size, const std::string& relative) {
+  std::ifstream in(path, std::ios::binary);
+  std::string data(static_cast<size_t>(size), '\0');
+  if (!in || !in.read(data.data(), static_cast<std::streamsize>(size))) {
+    throw invalid("path", relative + ": the file cannot be read");
+  }
+  return data;
+}
+
+// Every second row from `start`, as Encode takes a 50 Hz motion to 25 Hz.
+void read_text_window(const std::string& data, const std::string& relative, const ModelShape& shape,
+                      int64_t start, ReadClipReply& reply) {
+  const MotionFrames rows = parse_motion_text_buffer(data.data(), data.size(), relative, kH36mColumns);
+  const int64_t window_rows = kTextRowsPerModelFrame * shape.frames;
+  reply.file_frames = rows.frame_count();
+  reply.file_frame_rate = kH36mFrameRate;
+  reply.last_start = reply.file_frames - window_rows;
+  const std::string window = relative + " has " + std::to_string(reply.file_frames) + " frames at 50 Hz and a window takes " +
+                             std::to_string(window_rows) + " of them, " + std::to_string(shape.frames) +
+                             " at the model's 25 Hz";
+  if (reply.last_start < 0) {
+    throw invalid("path", relative + " is shorter than one window: it has " + std::to_string(reply.file_frames) +
+                              " frames at 50 Hz, expected at least " + std::to_string(window_rows) + " (" +
+                              std::to_string(shape.frames) + " at the model's 25 Hz)");
+  }
+  check_start(start, reply.last_start, window);
+  Motion& motion = reply.motion;
+  motion.frames = shape.frames;
+  motion.columns = rows.columns;
+  motion.frame_rate = 25;
+  motion.layout = layout_name(rows.columns);
+  motion.values.reserve(static_cast<size_t>(shape.frames) * rows.columns);
+  for (int64_t k = 0; k < shape.frames; ++k) {
+    const float* row = rows.frame(start + kTextRowsPerModelFrame * k);
+    motion.values.insert(motion.values.end(), row, row + rows.columns);
+  }
+}
+
+// Frames at 25 Hz that the BVH importer makes of `frames` file frames: its
+// own count (skeleton_motion_from_bvh), so that the window check and the
+// import agree to the last frame.
+int64_t imported_frames(int64_t frames, double frame_time_s) {
+  if (frames < 1) return 0;
+  return static_cast<int64_t>(std::floor(static_cast<double>(frames - 1) * frame_time_s * kBvhImportRate + 1e-9)) + 1;
+}
+
+// Resampled from `start` to 25 Hz; in the model's skeleton when the file is
+// of its hierarchy, else in the file's own.
+void read_bvh_window(const std::string& data, const std::string& relative, const ModelShape& shape, int64_t start,
+                     ReadClipReply& reply) {
+  const BvhFile file = parse_bvh_text(data.data(), data.size(), relative);
+  Skeleton skeleton = shape.skeleton;
+  std::string layout = shape.layout;
+  try {
+    match_bvh_to_skeleton(shape.skeleton, file, relative);
+  } catch (const InputError&) {
+    double millimetres_per_unit = 1;
+    try {
+      millimetres_per_unit = detect_bvh_millimetres_per_unit(file, relative);
+    } catch (const InputError&) {
+      throw invalid("path", relative + " is a BVH of another skeleton than the model's whose length unit cannot be "
+                                       "told: its rest pose is no person 0.5 to 3 m tall in mm, cm or m");
+    }
+    skeleton = bvh_skeleton(file, fs::path(relative).stem().string(), millimetres_per_unit);
+    layout = "expmap-" + std::to_string(skeleton_motion_columns(skeleton));
+  }
+
+  const int64_t frames = file.frame_count();
+  reply.file_frames = frames;
+  reply.file_frame_rate = 1.0 / file.frame_time_s;
+  const std::string rate = decimal(reply.file_frame_rate);
+  if (imported_frames(frames, file.frame_time_s) < shape.frames) {
+    throw invalid("path", relative + " is shorter than one window: its " + std::to_string(frames) + " frames at " +
+                              rate + " Hz last " + decimal((frames - 1) * file.frame_time_s, "%.2f") +
+                              " s, expected at least " + decimal((shape.frames - 1) / kBvhImportRate, "%.2f") +
+                              " s (" + std::to_string(shape.frames) + " frames at 25 Hz)");
+  }
+  // The last start from which the import still makes a full window: the
+  // estimate from the durations, then moved to the importer's own count.
+  int64_t last = frames - 1 -
+                 static_cast<int64_t>(std::ceil((shape.frames - 1) / (kBvhImportRate * file.frame_time_s)));
+  last = std::clamp<int64_t>(last, 0, frames - 1);
+  while (last > 0 && imported_frames(frames - last, file.frame_time_s) < shape.frames) --last;
+  while (last + 1 < frames && imported_frames(frames - last - 1, file.frame_time_s) >= shape.frames) ++last;
+  reply.last_start = last;
+  check_start(start, last,
+              relative + " has " + std::to_string(frames) + " frames at " + rate + " Hz and a window is " +
+                  std::to_string(shape.frames) + " frames at 25 Hz");
+
+  // Only the window's frames are imported, not the whole file.
+  BvhFile window;
+  window.joints = file.joints;
+  window.frame_time_s = file.frame_time_s;
+  int64_t count = std::min<int64_t>(
+      frames - start,
+      static_cast<int64_t>(std::ceil((shape.frames - 1) / (kBvhImportRate * file.frame_time_s))) + 2);
+  while (imported_frames(count, file.frame_time_s) < shape.frames && start + count < frames) ++count;
+  const auto channels = static_cast<size_t>(file.channel_count());
+  window.values.assign(file.values.begin() + static_cast<std::ptrdiff_t>(start * channels),
+                       file.values.begin() + static_cast<std::ptrdiff_t>((start + count) * channels));
+  MotionFrames motion = skeleton_motion_from_bvh(skeleton, window, relative);
+  motion.values.resize(static_cast<size_t>(shape.frames) * motion.columns);
+
+  reply.motion.frames = shape.frames;
+  reply.motion.columns = motion.columns;
+  reply.motion.frame_rate = kBvhImportRate;
+  reply.motion.layout = layout;
+  reply.motion.values = std::move(motion.values);
+}
+
+}  // namespace
+
+ListClipsReply list_data_root_clips(const std::string& data_root, int max_clips) {
+  const fs::path root = data_root_folder(data_root);
+  ListClipsReply reply;
+  std::error_code error, ignored;
+  // Links to folders are not followed (the iterator's default): one could
+  // lead out of the root, or round in a cycle.
+  fs::recursive_directory_iterator it(root, fs::directory_options::skip_permission_denied, error), end;
+  for (; !error && it != end; it.increment(error)) {
+    const fs::path& path = it->path();
+    if (path.filename().string().rfind('.', 0) == 0) {
+      if (it->is_directory(ignored)) it.disable_recursion_pending();
+      continue;
+    }
+    fs::path target = path;
+    if (it->is_symlink(ignored)) {
+      const auto resolved = resolve_under_data_root(root, path.string());
+      if (!resolved) continue;  // a link out of the root is not a clip of it
+      target = *resolved;
+    }
+    const std::string format = clip_format(target);
+    if (format.empty() || !fs::is_regular_file(target, ignored)) continue;
+    ClipFile clip;
+    clip.path = path.lexically_relative(root).generic_string();
+    clip.format = format;
+    clip.size_bytes = static_cast<int64_t>(fs::file_size(target, ignored));
+    reply.clips.push_back(std::move(clip));
+  }
+  if (error) {
+    throw ApiError(ErrorCode::kInternal, "", "the data root cannot be read: " + error.message());
+  }
+  std::sort(reply.clips.begin(), reply.clips.end(),
+            [](const ClipFile& a, const ClipFile& b) { return a.path < b.path; });
+  if (static_cast<int64_t>(reply.clips.size()) > max_clips) {
+    reply.clips.resize(static_cast<size_t>(std::max(0, max_clips)));
+    reply.truncated = true;
+  }
+  return reply;
+}
+
+ReadClipReply read_data_root_clip(const std::string& data_root, const ReadClipRequest& request,
+                                  const ModelShape& shape) {
+  const fs::path root = data_root_folder(data_root);
+  if (request.path.empty()) {
+    throw invalid("path", "path is empty, expected a .txt or .bvh file under the data root (as ListClips names it)");
+  }
+  const auto resolved = resolve_under_data_root(root, request.path);
+  if (!resolved) {
+    throw invalid("path", "path " + quoted(request.path) +
+                              " lies outside the data root, expected a file under it (as ListClips names it)");
+  }
+  std::error_code error;
+  if (!fs::exists(*resolved, error)) {
+    throw ApiError(ErrorCode::kNotFound, "path",
+                   "path " + quoted(request.path) + " names no file under the data root (ListClips names them)");
+  }
+  if (!fs::is_regular_file(*resolved, error)) {
+    throw invalid("path", "path " + quoted(request.path) + " is a folder, expected a .txt or .bvh file");
+  }
+  const std::string format = clip_format(*resolved);
+  if (format.empty()) {
+    throw invalid("path", "path " + quoted(request.path) +
+                              " is neither H3.6M text (.txt) nor BVH (.bvh), expected one of them");
+  }
+  const uintmax_t size = fs::file_size(*resolved, error);
+  if (error) throw invalid("path", "path " + quoted(request.path) + " cannot be read: " + error.message());
+  if (size > kMaxClipFileBytes) {
+    throw ApiError(ErrorCode::kResourceExhausted, "path",
+                   "path " + quoted(request.path) + " is " + std::to_string(size) + " bytes, more than the " +
+                       std::to_string(kMaxClipFileBytes) + " a clip file may have",
+                   /*too_large=*/true);
+  }
+
+  ReadClipReply reply;
+  reply.path = resolved->lexically_relative(root).generic_string();
+  reply.format = format;
+  reply.start = request.start;
+  const std::string data = read_whole_file(*resolved, size, reply.path);
+  try {
+    if (format == kH36mTextFormat) {
+      read_text_window(data, reply.path, shape, request.start, reply);
+    } else {
+      read_bvh_window(data, reply.path, shape, request.start, reply);
+    }
+  } catch (const InputError& e) {
+    throw invalid("path", e.what());
+  }
+  return reply;
+}
+
+}  // namespace mm::service

@@ -1,0 +1,279 @@
+// Clips of the data root through the real server, over both protocols: a
+// server started with --data-root on a small folder (copies of two H3.6M
+// files and a BVH of the H3.6M skeleton) lists them alike over gRPC and
+// REST, reads a window that is exactly every second row of the file from its
+// start and encodes to the code of the raw 50 Hz rows, and refuses a path
+// outside the root, a missing file, a start past the last full window and a
+// malformed query naming the field; a server without --data-root answers
+// FAILED_PRECONDITION (409) naming the flag.
+#include <gtest/gtest.h>
+#include <grpcpp/grpcpp.h>
+#include <httplib.h>
+
+#include <filesystem>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "format/bvh_file.h"
+#include "format/h36m_bvh.h"
+#include "format/motion_text.h"
+#include "motionmanifold/v1/manifold.grpc.pb.h"
+#include "server_process.h"
+#include "test_environment.h"
+
+namespace mm {
+namespace {
+
+namespace fs = std::filesystem;
+namespace v1 = ::motionmanifold::v1;
+using json = nlohmann::json;
+
+const char* const kText = "h36m/S5/walking_1.txt";
+const char* const kBvh = "bvh/walking.bvh";
+
+// The data root: real copies (a link out of the root is not one of its
+// clips) and a BVH of the first 400 rows of S5 walking at 50 Hz.
+fs::path make_data_root(const fs::path& root) {
+  for (const char* subject : {"S1", "S5"}) fs::create_directories(root / "h36m" / subject);
+  fs::copy_file(test::h36m_dataset_dir() / "S5" / "walking_1.txt", root / kText);
+  fs::copy_file(test::h36m_dataset_dir() / "S1" / "eating_1.txt", root / "h36m" / "S1" / "eating_1.txt");
+  auto rows = read_motion_text((root / kText).string());
+  rows.values.resize(400 * static_cast<size_t>(rows.columns));
+  fs::create_directories(root / "bvh");
+  write_bvh_file(h36m_motion_to_bvh(rows, 50), (root / kBvh).string());
+  return root;
+}
+
+struct Reply {
+  int status = 0;
+  json body;
+};
+
+Reply rest_get(int port, const std::string& path) {
+  httplib::Client client("127.0.0.1", port);
+  client.set_read_timeout(120, 0);
+  const auto result = client.Get(path.c_str());
+  if (!result) {
+    ADD_FAILURE() << "GET " << path << ": " << httplib::to_string(result.error());
+    return {};
+  }
+  return {result->status, json::parse(result->body, nullptr, false)};
+}
+
+std::string error_field(const grpc::ClientContext& context) {
+  const auto& trailing = context.GetServerTrailingMetadata();
+  const auto found = trailing.find("mm-error-field");
+  return found == trailing.end() ? "(none)" : std::string(found->second.data(), found->second.size());
+}
+
+// One server for the suite: loading the model is the slow part.
+class ClipsService : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    if (!test::has_h36m()) return;
+    scratch_ = new test::ScratchDir();
+    try {
+      server_ = new test::ServerProcess({"--data-root", make_data_root(scratch_->path() / "data").string()});
+      grpc::ChannelArguments arguments;
+      arguments.SetMaxReceiveMessageSize(-1);
+      stub_ = v1::MotionManifold::NewStub(
+                  grpc::CreateCustomChannel(server_->grpc_target(), grpc::InsecureChannelCredentials(), arguments))
+                  .release();
+    } catch (const std::exception& e) {
+      start_error_ = new std::string(e.what());
+    }
+  }
+  static void TearDownTestSuite() {
+    delete stub_;
+    delete server_;
+    delete scratch_;
+    delete start_error_;
+    stub_ = nullptr;
+    server_ = nullptr;
+    scratch_ = nullptr;
+    start_error_ = nullptr;
+  }
+  void SetUp() override {
+    MM_REQUIRE_H36M();
+    if (start_error_ != nullptr) FAIL() << *start_error_;
+  }
+
+  static grpc::Status read_clip(const std::string& path, int64_t start, v1::ReadClipReply* reply,
+                                grpc::ClientContext* context) {
+    context->set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(120));
+    v1::ReadClipRequest request;
+    request.set_path(path);
+    request.set_start(start);
+    return stub_->ReadClip(context, request, reply);
+  }
+  static std::vector<float> encode(const v1::Motion& motion) {
+    grpc::ClientContext context;
+    v1::EncodeRequest request;
+    *request.add_motions() = motion;
+    v1::EncodeReply reply;
+    const auto status = stub_->Encode(&context, request, &reply);
+    EXPECT_TRUE(status.ok()) << status.error_message();
+    if (reply.codes_size() != 1) return {};
+    return {reply.codes(0).values().begin(), reply.codes(0).values().end()};
+  }
+  static fs::path data_root() { return scratch_->path() / "data"; }
+  static int port() { return server_->rest_port(); }
+
+  static test::ScratchDir* scratch_;
+  static test::ServerProcess* server_;
+  static v1::MotionManifold::Stub* stub_;
+  static std::string* start_error_;
+};
+test::ScratchDir* ClipsService::scratch_ = nullptr;
+test::ServerProcess* ClipsService::server_ = nullptr;
+v1::MotionManifold::Stub* ClipsService::stub_ = nullptr;
+std::string* ClipsService::start_error_ = nullptr;
+
+TEST_F(ClipsService, BothProtocolsListTheDataRootsFilesWithFormatAndSize) {
+  grpc::ClientContext context;
+  v1::ListClipsReply listed;
+  const auto status = stub_->ListClips(&context, v1::ListClipsRequest(), &listed);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  const Reply rest = rest_get(port(), "/v1/clips");
+  ASSERT_EQ(rest.status, 200) << rest.body.dump();
+  EXPECT_FALSE(listed.truncated());
+  EXPECT_EQ(rest.body["truncated"], false);
+  const std::vector<std::pair<std::string, std::string>> expected = {
+      {kBvh, "bvh"}, {"h36m/S1/eating_1.txt", "h36m-text"}, {kText, "h36m-text"}};
+  ASSERT_EQ(listed.clips_size(), 3);
+  ASSERT_EQ(rest.body["clips"].size(), 3u);
+  for (int i = 0; i < 3; ++i) {
+    const auto& clip = listed.clips(i);
+    EXPECT_EQ(clip.path(), expected[i].first);
+    EXPECT_EQ(clip.format(), expected[i].second);
+    EXPECT_EQ(clip.size_bytes(), static_cast<int64_t>(fs::file_size(data_root() / clip.path())));
+    const json& twin = rest.body["clips"][i];
+    EXPECT_EQ(twin["path"], clip.path());
+    EXPECT_EQ(twin["format"], clip.format());
+    EXPECT_EQ(twin["size_bytes"], clip.size_bytes());
+  }
+}
+
+TEST_F(ClipsService, AWindowIsEverySecondRowFromStartAndEncodesAsTheRaw50HzRows) {
+  const auto rows = read_motion_text((data_root() / kText).string());
+  const int64_t start = 33;
+  grpc::ClientContext context;
+  v1::ReadClipReply window;
+  const auto status = read_clip(kText, start, &window, &context);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_EQ(window.path(), kText);
+  EXPECT_EQ(window.format(), "h36m-text");
+  EXPECT_EQ(window.start(), start);
+  EXPECT_EQ(window.file_frames(), rows.frame_count());
+  EXPECT_EQ(window.file_frame_rate(), 50);
+  EXPECT_EQ(window.last_start(), rows.frame_count() - 300);
+  const v1::Motion& motion = window.motion();
+  EXPECT_EQ(motion.frames(), 150);
+  EXPECT_EQ(motion.columns(), 99);
+  EXPECT_EQ(motion.frame_rate(), 25);
+  EXPECT_EQ(motion.layout(), "h36m-expmap-99");
+  std::vector<float> expected;
+  for (int64_t k = 0; k < 150; ++k) expected.insert(expected.end(), rows.frame(start + 2 * k), rows.frame(start + 2 * k) + 99);
+  EXPECT_EQ(std::vector<float>(motion.values().begin(), motion.values().end()), expected);
+
+  v1::Motion raw;
+  raw.set_frames(300);
+  raw.set_columns(99);
+  raw.set_frame_rate(50);
+  raw.set_layout("h36m-expmap-99");
+  raw.mutable_values()->Add(rows.frame(start), rows.frame(start + 300));
+  const auto code = encode(motion);
+  ASSERT_EQ(code.size(), 64u);
+  EXPECT_EQ(code, encode(raw));
+
+  // REST answers the same window.
+  const Reply rest = rest_get(port(), "/v1/clips/window?path=h36m%2FS5%2Fwalking_1.txt&start=33");
+  ASSERT_EQ(rest.status, 200) << rest.body.dump();
+  EXPECT_EQ(rest.body["path"], kText);
+  EXPECT_EQ(rest.body["file_frames"], rows.frame_count());
+  EXPECT_EQ(rest.body["last_start"], rows.frame_count() - 300);
+  EXPECT_EQ(rest.body["motion"]["frames"], 150);
+  EXPECT_EQ(rest.body["motion"]["frame_rate"], 25);
+  EXPECT_EQ(rest.body["motion"]["values"].get<std::vector<float>>(), expected);
+}
+
+TEST_F(ClipsService, ABvhOfTheModelsSkeletonIsReadInTheModelsLayoutAndEncodes) {
+  const Reply rest = rest_get(port(), "/v1/clips/window?path=bvh/walking.bvh&start=101");
+  ASSERT_EQ(rest.status, 200) << rest.body.dump();
+  EXPECT_EQ(rest.body["format"], "bvh");
+  EXPECT_EQ(rest.body["file_frames"], 400);
+  EXPECT_EQ(rest.body["file_frame_rate"], 50);
+  EXPECT_EQ(rest.body["last_start"], 101);
+  EXPECT_EQ(rest.body["motion"]["layout"], "h36m-expmap-99");
+  grpc::ClientContext context;
+  v1::ReadClipReply window;
+  ASSERT_TRUE(read_clip(kBvh, 101, &window, &context).ok());
+  EXPECT_EQ(std::vector<float>(window.motion().values().begin(), window.motion().values().end()),
+            rest.body["motion"]["values"].get<std::vector<float>>());
+  EXPECT_EQ(encode(window.motion()).size(), 64u);
+}
+
+TEST_F(ClipsService, RefusalsNameTheFieldOverBothProtocols) {
+  const int64_t rows = read_motion_text((data_root() / kText).string()).frame_count();
+  struct Case {
+    std::string path;
+    int64_t start;
+    grpc::StatusCode code;
+    int http_status;
+    std::string field, message;
+  };
+  const std::vector<Case> cases = {
+      {kText, rows - 299, grpc::StatusCode::INVALID_ARGUMENT, 400, "start",
+       "expected 0 to " + std::to_string(rows - 300)},
+      {kText, -1, grpc::StatusCode::INVALID_ARGUMENT, 400, "start", "is negative"},
+      {"../outside.txt", 0, grpc::StatusCode::INVALID_ARGUMENT, 400, "path", "outside the data root"},
+      {(data_root().parent_path() / "elsewhere.txt").string(), 0, grpc::StatusCode::INVALID_ARGUMENT, 400, "path",
+       "outside the data root"},
+      {"h36m/S5/walking_9.txt", 0, grpc::StatusCode::NOT_FOUND, 404, "path", "names no file"},
+  };
+  for (const auto& c : cases) {
+    grpc::ClientContext context;
+    v1::ReadClipReply reply;
+    const auto status = read_clip(c.path, c.start, &reply, &context);
+    EXPECT_EQ(status.error_code(), c.code) << c.path << ": " << status.error_message();
+    EXPECT_EQ(error_field(context), c.field) << c.path;
+    EXPECT_NE(status.error_message().find(c.message), std::string::npos) << status.error_message();
+
+    const Reply rest = rest_get(port(), "/v1/clips/window?path=" + httplib::detail::encode_query_param(c.path) +
+                                            "&start=" + std::to_string(c.start));
+    EXPECT_EQ(rest.status, c.http_status) << rest.body.dump();
+    EXPECT_EQ(rest.body["error"]["field"], c.field) << rest.body.dump();
+    EXPECT_NE(rest.body["error"]["message"].get<std::string>().find(c.message), std::string::npos) << rest.body.dump();
+  }
+  // What only a query string can get wrong, named by the parameter.
+  for (const auto& [query, field] : std::vector<std::pair<std::string, std::string>>{
+           {"path=h36m/S5/walking_1.txt&start=ten", "start"},
+           {"path=h36m/S5/walking_1.txt&frame=3", "frame"},
+           {"path=h36m/S5/walking_1.txt&path=bvh/walking.bvh", "path"}}) {
+    const Reply rest = rest_get(port(), "/v1/clips/window?" + query);
+    EXPECT_EQ(rest.status, 400) << query << ": " << rest.body.dump();
+    EXPECT_EQ(rest.body["error"]["field"], field) << rest.body.dump();
+  }
+}
+
+TEST(ClipsWithoutDataRoot, BothProtocolsAnswerFailedPreconditionNamingTheFlag) {
+  MM_REQUIRE_H36M();
+  test::ServerProcess server;
+  const Reply rest = rest_get(server.rest_port(), "/v1/clips");
+  EXPECT_EQ(rest.status, 409) << rest.body.dump();
+  EXPECT_EQ(rest.body["error"]["code"], "FAILED_PRECONDITION");
+  EXPECT_NE(rest.body["error"]["message"].get<std::string>().find("--data-root"), std::string::npos);
+  auto stub = v1::MotionManifold::NewStub(grpc::CreateChannel(server.grpc_target(), grpc::InsecureChannelCredentials()));
+  grpc::ClientContext context;
+  v1::ReadClipRequest request;
+  request.set_path(kText);
+  v1::ReadClipReply reply;
+  const auto status = stub->ReadClip(&context, request, &reply);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::FAILED_PRECONDITION) << status.error_message();
+  EXPECT_NE(status.error_message().find("--data-root"), std::string::npos) << status.error_message();
+}
+
+}  // namespace
+}  // namespace mm
