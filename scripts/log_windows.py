@@ -7,16 +7,18 @@ import csv
 import sys
 
 
-def windows_of(path, column, count):
+def read_column(path, column):
     with open(path) as f:
-        rows = [(int(r["iteration"]), float(r[column])) for r in csv.DictReader(f)]
-    last = rows[-1][0]
-    spans = [(last * k // count, last * (k + 1) // count) for k in range(count)]
+        return [(int(r["iteration"]), float(r[column])) for r in csv.DictReader(f)]
+
+
+def windows_of(rows, spans):
+    """The mean of `rows` in each span; nan where a shorter run has no row."""
     means = []
     for low, high in spans:
         values = [v for i, v in rows if low < i <= high]
         means.append(sum(values) / len(values) if values else float("nan"))
-    return spans, means
+    return means
 
 
 def main(args):
@@ -33,14 +35,14 @@ def main(args):
             args = args[1:]
     if not columns or not runs:
         sys.exit(__doc__)
-    header_done = False
+    # One set of windows for every run: equal spans of the longest run.
+    last = max(read_column(path, columns[0])[-1][0] for _, path in runs)
+    spans = [(last * k // count, last * (k + 1) // count) for k in range(count)]
+    print("| run | term | " + " | ".join(f"it. {low + 1}–{high}" for low, high in spans) + " |")
+    print("|---|---|" + "---:|" * count)
     for column in columns:
         for name, path in runs:
-            spans, means = windows_of(path, column, count)
-            if not header_done:
-                print("| run | term | " + " | ".join(f"it. {low + 1}–{high}" for low, high in spans) + " |")
-                print("|---|---|" + "---:|" * count)
-                header_done = True
+            means = windows_of(read_column(path, column), spans)
             print(f"| {name} | {column} | " + " | ".join(f"{m:.3f}" for m in means) + " |")
 
 
