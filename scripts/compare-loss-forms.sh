@@ -31,6 +31,14 @@ options_of() {
   esac
 }
 
+label_of() {
+  case $1 in
+    paper | reference) echo "DKGM $1's losses" ;;
+    mmd) echo "DKGM paper's + reference's MMD" ;;
+    *) echo "DKGM paper's + reference's $1" ;;
+  esac
+}
+
 for set in "${forms[@]}"; do
   run=runs/losses/$set
   if [ ! -f "$run/model/manifest.json" ]; then
@@ -42,12 +50,12 @@ for set in "${forms[@]}"; do
     "$tool" evaluate --model "$run/model" --dataset runs/h36m.mmd --out "$run/evaluation.json" > /dev/null
   cp "$run/evaluation.json" "$out/$set.json"
   "$tool" plot-log --log "$run/train_log.csv" --columns L_ang,L_pos,L_W,L_G,L_D,D_acc --smooth 10 \
-    --title "DKGM, $set loss forms" --out "$out/curves-$set.svg"
+    --title "$(label_of "$set")" --out "$out/curves-$set.svg"
   "$tool" sample --model "$run/model" --count 3 --seed 7 --out-dir "$run/samples"
 done
 
 named=()
-for set in "${forms[@]}"; do named+=("DKGM $set losses=$out/$set.json"); done
+for set in "${forms[@]}"; do named+=("$(label_of "$set")=$out/$set.json"); done
 for table in paper physical prior; do
   python3 scripts/results_table.py --table "$table" "${named[@]}" > "$out/table-$table.md"
 done
