@@ -3,6 +3,7 @@
 // written by the torch-free model/format library, all computing is the
 // server's.
 #include <CLI/CLI.hpp>
+#include <csignal>
 #include <cstdio>
 #include <iostream>
 
@@ -51,6 +52,9 @@ int run(int argc, char** argv) {
 }  // namespace mm::client
 
 int main(int argc, char** argv) {
+  // A server that closes the connection while a body is still being sent
+  // (one far over its limit) is an error to report, not a reason to die.
+  std::signal(SIGPIPE, SIG_IGN);
   try {
     return mm::client::run(argc, argv);
   } catch (const mm::client::ServerError& e) {

@@ -5,6 +5,7 @@
 #include <CLI/CLI.hpp>
 #include <atomic>
 #include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <fstream>
 #include <map>
@@ -29,6 +30,7 @@ struct ClientResult {
 }  // namespace
 
 int main(int argc, char** argv) {
+  std::signal(SIGPIPE, SIG_IGN);  // a closed connection is a failed call, not the end of the run
   CLI::App app{"motion-manifold-load: concurrent clients against a motion-manifold-server; prints throughput and "
                "latency percentiles (p50, p90, p99)"};
   std::string protocol = "grpc", host = "127.0.0.1", motion_file, json_out;

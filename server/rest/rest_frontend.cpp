@@ -31,6 +31,9 @@ constexpr const char* kPrometheusType = "text/plain; version=0.0.4; charset=utf-
 // notice a client that went away while its job did not change (a queued
 // job can wait for hours), so that its worker thread is freed.
 constexpr auto kKeepAliveInterval = std::chrono::seconds(2);
+// How much of a body past the limit is read and dropped at most (or the
+// limit itself, if larger) before the connection is given up on.
+constexpr size_t kMaxBytesDroppedPastTheLimit = 16u << 20;
 
 // The bearer token of "Authorization: Bearer <t>" (the scheme is
 // case-insensitive, RFC 7235); empty when absent or of another scheme, which
@@ -129,16 +132,25 @@ struct RestFrontend::State {
 bool RestFrontend::State::read_body(const httplib::Request& request, const httplib::ContentReader& reader,
                                     std::string& body, httplib::Response& response) const {
   if (!request.has_header("Content-Length") && !request.has_header("Transfer-Encoding")) return true;
+  // Past the limit the rest is read and dropped rather than left unread: a
+  // client still sending would otherwise meet a reset connection, not the 413.
+  // Dropping is bounded so that an endless body still ends the connection.
+  const size_t drop_at_most = std::max<size_t>(options.max_body_bytes, kMaxBytesDroppedPastTheLimit);
   bool too_large = false;
+  size_t dropped = 0;
   const bool ok = reader([&](const char* data, size_t length) {
-    if (body.size() + length > options.max_body_bytes) {
+    if (!too_large && body.size() + length > options.max_body_bytes) {
       too_large = true;
-      return false;
+      body.clear();
+    }
+    if (too_large) {
+      dropped += length;
+      return dropped <= drop_at_most;
     }
     body.append(data, length);
     return true;
   });
-  if (ok) return true;
+  if (ok && !too_large) return true;
   // httplib sets 413 itself when Content-Length is over the limit.
   if (too_large || response.status == 413) {
     send_error(response, ApiError(ErrorCode::kResourceExhausted, "",
