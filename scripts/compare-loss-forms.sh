@@ -9,8 +9,12 @@
 # A form set is `paper`, `reference`, or one reference form alone on the
 # paper's losses: `angle`, `position`, `mmd`, `adversarial`. Runs land in
 # runs/losses/<set> (a run whose model exists is not trained again); the
-# evaluations are copied to docs/results/losses/<set>.json. Each run trains
-# on one thread, so two can run side by side on two cores.
+# evaluations are copied to docs/results/losses/<set>.json, and the tables
+# of Table 1, physical errors and prior match list every set evaluated there
+# so far. The discriminator's windows and the samples picture compare the
+# sets of this invocation: table-discriminator-<sets>.md, samples-<sets>.svg.
+# Each run trains on one thread, so two can run side by side on two cores
+# (two invocations of one set each, then one of both for their pictures).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 iterations=${1:-2000}
@@ -55,13 +59,17 @@ for set in "${forms[@]}"; do
 done
 
 named=()
-for set in "${forms[@]}"; do named+=("$(label_of "$set")=$out/$set.json"); done
+for set in paper reference angle position mmd adversarial; do
+  if [ -f "$out/$set.json" ]; then named+=("$(label_of "$set")=$out/$set.json"); fi
+done
 for table in paper physical prior; do
   python3 scripts/results_table.py --table "$table" "${named[@]}" > "$out/table-$table.md"
 done
 logs=()
 for set in "${forms[@]}"; do logs+=("$set=runs/losses/$set/train_log.csv"); done
-python3 scripts/log_windows.py --column D_acc --column L_G --column L_D --windows 4 "${logs[@]}" > "$out/table-discriminator.md"
+these=$(IFS=-; echo "${forms[*]}")
+python3 scripts/log_windows.py --column D_acc --column L_G --column L_D --windows 4 "${logs[@]}" \
+  > "$out/table-discriminator-$these.md"
 
 # The same three prior codes decoded by each model, one row per model and sample.
 inputs=() labels=()
@@ -72,5 +80,5 @@ for set in "${forms[@]}"; do
   done
 done
 "$tool" render "${inputs[@]}" "${labels[@]}" --title "Samples from N(0, I), seed 7: DKGM by loss forms" \
-  --out "$out/samples.svg"
+  --out "$out/samples-$these.svg"
 echo "compare-loss-forms: tables, curves and samples in $out"
