@@ -19,6 +19,7 @@
 #include <thread>
 #include <vector>
 
+#include "command_run.h"
 #include "server_process.h"
 #include "test_environment.h"
 
@@ -30,26 +31,11 @@ using nlohmann::json;
 
 const char* const kToken = "client-token";
 
-struct Run {
-  int exit_code;
-  std::string out, err;
-};
-
-std::string read_text(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
+using Run = test::CommandRun;
+using test::read_text;
 
 // Runs the client with `arguments` (shell words), stdout and stderr apart.
-Run run_client(const std::string& arguments) {
-  test::ScratchDir streams;
-  const std::string command = std::string(MM_CLIENT_PATH) + " " + arguments + " >" + streams.file("out") + " 2>" +
-                              streams.file("err") + " </dev/null";
-  const int status = std::system(command.c_str());
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, read_text(streams.file("out")), read_text(streams.file("err"))};
-}
+Run run_client(const std::string& arguments) { return test::run_command(MM_CLIENT_PATH, arguments); }
 
 std::string s5(const std::string& name) { return (test::h36m_dataset_dir() / "S5" / name).string(); }
 

@@ -19,6 +19,7 @@
 
 #include "jobs/sqlite_job_store.h"
 #include "jobs/training_jobs.h"
+#include "command_run.h"
 #include "test_environment.h"
 
 namespace mm::service {
@@ -27,12 +28,7 @@ namespace {
 namespace fs = std::filesystem;
 using namespace std::chrono_literals;
 
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
+using test::read_text;
 
 // Runs the tool as a user would; returns its exit status.
 int run_tool(const std::string& arguments, const fs::path& output) {

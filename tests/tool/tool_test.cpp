@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "command_run.h"
 #include "test_environment.h"
 
 namespace mm {
@@ -40,24 +41,11 @@ std::string s5(const std::string& name) { return (test::h36m_dataset_dir() / "S5
 
 // A run with its standard streams apart, for the commands that write data
 // on stdout; `input` (a file) becomes its standard input when given.
-struct SplitResult {
-  int exit_code;
-  std::string out, err;
-};
-
-std::string read_text(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
+using SplitResult = test::CommandRun;
+using test::read_text;
 
 SplitResult run_tool_split(const std::string& arguments, const std::string& input = "") {
-  test::ScratchDir streams;
-  const std::string command = std::string(MM_TOOL_PATH) + " " + arguments + " >" + streams.file("out") + " 2>" +
-                              streams.file("err") + (input.empty() ? " </dev/null" : " <" + input);
-  const int status = std::system(command.c_str());
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, read_text(streams.file("out")), read_text(streams.file("err"))};
+  return test::run_command(MM_TOOL_PATH, arguments, input);
 }
 
 const std::string kModel = std::string("--model ") + MM_SHIPPED_MODEL;
