@@ -4,6 +4,7 @@
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
+#include <vector>
 
 namespace mm::service {
 namespace {
@@ -11,6 +12,10 @@ namespace {
 namespace fs = std::filesystem;
 
 std::string marker(const std::string& id) { return "Trained by training job `" + id + "`."; }
+
+fs::path staged_folder(const std::string& store, const std::string& id) {
+  return fs::path(store) / (".job-" + id + ".tmp");
+}
 
 bool holds_card_of(const fs::path& folder, const std::string& id) {
   std::ifstream in(folder / "MODEL_CARD.md");
@@ -45,33 +50,63 @@ std::string job_model_card(const JobInfo& job, double training_seconds) {
   return card.str();
 }
 
-void publish_job_model(const std::string& model_dir, const std::string& store, const std::string& name,
-                       const JobInfo& job, const std::string& model_card) {
+bool stage_job_model(const std::string& model_dir, const std::string& store, const std::string& name,
+                     const JobInfo& job, const std::string& model_card) {
   const fs::path source(model_dir), destination = fs::path(store) / name;
   if (!fs::is_regular_file(source / "manifest.json")) {
     throw std::runtime_error("the run exported no model: " + (source / "manifest.json").string() + " is missing");
   }
   fs::create_directories(store);
   if (fs::exists(destination)) {
-    if (holds_card_of(destination, job.id)) return;
+    if (holds_card_of(destination, job.id)) return false;
     throw std::runtime_error("model_name: a model named \"" + name + "\" already exists in the store");
   }
-  const fs::path temporary = fs::path(store) / (".job-" + job.id + ".tmp");
+  const fs::path staged = staged_folder(store, job.id);
   try {
-    fs::remove_all(temporary);
-    fs::copy(source, temporary, fs::copy_options::recursive);
-    std::ofstream card(temporary / "MODEL_CARD.md", std::ios::binary);
+    fs::remove_all(staged);
+    fs::copy(source, staged, fs::copy_options::recursive);
+    std::ofstream card(staged / "MODEL_CARD.md", std::ios::binary);
     card << model_card;
     card.close();
-    if (!card) throw std::runtime_error("cannot write " + (temporary / "MODEL_CARD.md").string());
-    // rename(2) of a folder onto an existing non-empty one fails, so a model
-    // that appeared meanwhile is never replaced.
-    fs::rename(temporary, destination);
+    if (!card) throw std::runtime_error("cannot write " + (staged / "MODEL_CARD.md").string());
   } catch (...) {
     std::error_code ignored;
-    fs::remove_all(temporary, ignored);
+    fs::remove_all(staged, ignored);
     throw;
   }
+  return true;
+}
+
+void commit_staged_model(const std::string& store, const std::string& name, const std::string& job_id) {
+  const fs::path destination = fs::path(store) / name;
+  std::error_code error;
+  // rename(2) of a folder onto an existing non-empty one fails, so a model
+  // that appeared meanwhile is never replaced.
+  fs::rename(staged_folder(store, job_id), destination, error);
+  if (!error) return;
+  if (!holds_card_of(destination, job_id)) {
+    throw std::runtime_error("cannot rename the staged model to " + destination.string() + ": " + error.message());
+  }
+  discard_staged_model(store, job_id);
+}
+
+void discard_staged_model(const std::string& store, const std::string& job_id) {
+  std::error_code ignored;
+  fs::remove_all(staged_folder(store, job_id), ignored);
+}
+
+std::vector<std::string> staged_job_ids(const std::string& store) {
+  std::vector<std::string> ids;
+  std::error_code error;
+  for (const auto& entry : fs::directory_iterator(store, error)) {
+    const std::string name = entry.path().filename().string();
+    const std::string prefix = ".job-", suffix = ".tmp";
+    if (name.size() > prefix.size() + suffix.size() && name.rfind(prefix, 0) == 0 &&
+        name.compare(name.size() - suffix.size(), suffix.size(), suffix) == 0) {
+      ids.push_back(name.substr(prefix.size(), name.size() - prefix.size() - suffix.size()));
+    }
+  }
+  return ids;
 }
 
 }  // namespace mm::service

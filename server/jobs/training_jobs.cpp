@@ -138,6 +138,7 @@ struct TrainingJobs::State {
   RunEnd run_job(JobInfo& job);
   RunEnd run_child(JobInfo& job, const std::vector<std::string>& argv, const std::string& what);
   void finish(JobInfo& job, JobState state, const std::string& error);
+  void recover_staged_publications();
 };
 
 TrainingJobs::TrainingJobs(JobsConfig config, std::function<void(const std::string&)> on_published)
@@ -160,6 +161,7 @@ void TrainingJobs::start() {
   // from its checkpoint when the worker reaches it (oldest first, as it was).
   const int requeued = s.store->requeue_interrupted();
   if (requeued > 0) spdlog::info("training jobs: {} job(s) interrupted by a restart queued again", requeued);
+  s.recover_staged_publications();
   s.started = true;
   s.worker = std::thread([&s] { s.worker_loop(); });
 }
@@ -247,7 +249,13 @@ JobInfo TrainingJobs::cancel(const std::string& id) {
   // a poll interval, and its end can no longer change the record.
   job->state = JobState::kCancelled;
   job->finished_at = unix_now();
-  store.update_state_if(*job, was);
+  if (!store.update_state_if(*job, was)) {
+    // Changed since it was read: another replica finished the job.
+    const auto now = store.find(id);
+    const std::string state = now ? job_state_name(now->state) : "gone";
+    throw ApiError(ErrorCode::kFailedPrecondition, "id",
+                   "training job " + id + " is already " + state + ", expected a queued or running job");
+  }
   if (s.running_id == id) s.cancel_running = true;
   spdlog::info("training job {} cancelled ({})", id, job_state_name(was));
   s.notify_locked();
@@ -338,6 +346,29 @@ void TrainingJobs::State::worker_loop() {
   }
 }
 
+// A staged model whose job's record says succeeded lost its rename to a
+// crash: it is renamed now. Those of cancelled, failed or unknown jobs are
+// removed; a queued or running job's (another replica may be staging it)
+// are left alone. Called with the mutex held.
+void TrainingJobs::State::recover_staged_publications() {
+  for (const std::string& id : staged_job_ids(config.model_store)) {
+    const auto job = store->find(id);
+    if (job && !is_terminal(job->state)) continue;
+    if (job && job->state == JobState::kSucceeded && !job->published_model.empty()) {
+      try {
+        commit_staged_model(config.model_store, job->published_model, id);
+        spdlog::info("training job {}: the model {} staged before a restart is published", id, job->published_model);
+      } catch (const std::exception& e) {
+        spdlog::error("training job {}: cannot publish its staged model: {}", id, e.what());
+      }
+      continue;
+    }
+    discard_staged_model(config.model_store, id);
+    spdlog::info("training job {}: its staged model is removed ({})", id,
+                 job ? job_state_name(job->state) : "no such job");
+  }
+}
+
 // Records the end of a running job, unless a cancel got there first.
 void TrainingJobs::State::finish(JobInfo& job, JobState state, const std::string& error) {
   std::lock_guard<std::mutex> lock(mutex);
@@ -419,18 +450,49 @@ RunEnd TrainingJobs::State::run_job(JobInfo& job) {
     if (cancel_running) return RunEnd::kCancelled;
     // A cancel written by another replica since the last renewal.
     if (!store->renew_lease(job.id)) return RunEnd::kCancelled;
-    publishing = true;  // from here on a cancel is refused
+    publishing = true;  // from here on a cancel sent to this replica is refused
   }
   const std::string name = job.spec.model_name.empty() ? "job-" + job.id : job.spec.model_name;
+  bool staged = false;
   try {
-    publish_job_model((run / "model").string(), config.model_store, name, job,
-                      job_model_card(job, unix_now() - job.started_at));
+    staged = stage_job_model((run / "model").string(), config.model_store, name, job,
+                             job_model_card(job, unix_now() - job.started_at));
   } catch (const std::exception& e) {
     finish(job, JobState::kFailed, std::string("publishing the model failed: ") + e.what());
     return RunEnd::kFailed;
   }
-  job.published_model = name;
-  finish(job, JobState::kSucceeded, "");
+  if (config.before_publication_commit) config.before_publication_commit(job.id);
+  // The record is the commit point: another replica may have written a
+  // cancel since the renewal above, and a cancelled job's model must not
+  // appear. A crash between this and the rename is finished by the next
+  // start (recover_staged_publications).
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    job.state = JobState::kSucceeded;
+    job.error.clear();
+    job.finished_at = unix_now();
+    job.published_model = name;
+    if (!store->update_state_if(job, JobState::kRunning)) {
+      discard_staged_model(config.model_store, job.id);
+      spdlog::info("training job {} cancelled by another replica before its model was published", job.id);
+      return RunEnd::kCancelled;
+    }
+    notify_locked();
+  }
+  if (staged) {
+    try {
+      commit_staged_model(config.model_store, name, job.id);
+    } catch (const std::exception& e) {
+      std::lock_guard<std::mutex> lock(mutex);
+      job.state = JobState::kFailed;
+      job.error = std::string("publishing the model failed: ") + e.what();
+      job.published_model.clear();
+      store->update_state_if(job, JobState::kSucceeded);
+      discard_staged_model(config.model_store, job.id);
+      notify_locked();
+      return RunEnd::kFailed;
+    }
+  }
   spdlog::info("training job {} succeeded: model {} published", job.id, name);
   return RunEnd::kSucceeded;
 }

@@ -20,7 +20,8 @@
 // config.json (the training configuration given to the tool, with
 // checkpoint_every set from JobsConfig), dataset.mmd (prepared from a text
 // tree) and run/ (the tool's output: checkpoint.pt, train_log.csv, model/).
-// The store gets hidden ".job-<id>.tmp" folders while a model is copied.
+// The store gets hidden ".job-<id>.tmp" folders while a model is staged;
+// start() finishes or removes those a crash left behind.
 //
 // Torch-free: it only starts processes and keeps records.
 // Thread safety: every public method may be called from any thread.
@@ -52,6 +53,10 @@ struct JobsConfig {
   // every lease/3 and at most every 2 s, while the replica lives): the time
   // before another replica takes over the job of one that died.
   double lease_seconds = 30;
+  // Called on the worker thread between staging a finished job's model and
+  // committing its record; tests use it to write another replica's cancel
+  // there. Empty in the server.
+  std::function<void(const std::string& job_id)> before_publication_commit;
 };
 
 class TrainingJobs {
@@ -85,7 +90,9 @@ class TrainingJobs {
   // The record says cancelled on return; a running child gets SIGTERM within
   // ~200 ms (within a lease renewal, at most 2 s, when another replica runs
   // it) and exits after its iteration and checkpoint. A job already
-  // publishing its model cannot be cancelled (FAILED_PRECONDITION).
+  // publishing its model cannot be cancelled (FAILED_PRECONDITION); when
+  // another replica runs it, a cancel that reaches the record before the
+  // runner commits it wins, and the model is not published.
   JobInfo cancel(const std::string& id);
   // Calls `on_event` with the job's record now and after every change, until
   // the job is finished (the last call carries the terminal state),

@@ -17,6 +17,7 @@
 
 #include <gtest/gtest.h>
 
+#include "jobs/model_publication.h"
 #include "jobs/sqlite_job_store.h"
 #include "jobs/training_jobs.h"
 #include "command_run.h"
@@ -392,6 +393,69 @@ TEST_F(TrainingJobsTest, FailedJobRecordsTheToolsError) {
   EXPECT_NE(read_text(job_dir(config_, job.id) / "train.log").find("no_such_field"), std::string::npos);
   std::lock_guard<std::mutex> lock(published_mutex_);
   EXPECT_TRUE(published_.empty());
+}
+
+// Another replica's cancel reaching the shared record after this replica's
+// last lease renewal, while the finished model is being staged: the cancel
+// wins, and no model appears (written here through a second connection to
+// the same database, as a replica would).
+TEST_F(TrainingJobsTest, ACancelWrittenBeforeThePublicationIsCommittedWinsAndNoModelAppears) {
+  bool cancel_written = false;
+  config_.before_publication_commit = [&](const std::string& id) {
+    SqliteJobStore other((fs::path(config_.state_dir) / "jobs.sqlite").string());
+    JobInfo record = *other.find(id);
+    record.state = JobState::kCancelled;
+    record.finished_at = 1;
+    cancel_written = other.update_state_if(record, JobState::kRunning);
+  };
+  JobSpec spec = tiny_spec(20);
+  spec.model_name = "cancelled-late";
+  auto jobs = make_jobs();
+  const JobInfo job = wait_finished(*jobs, jobs->submit(spec).id);
+  ASSERT_TRUE(cancel_written);
+  EXPECT_EQ(job_state_name(job.state), std::string("cancelled"));
+  EXPECT_TRUE(job.published_model.empty());
+  EXPECT_FALSE(fs::exists(fs::path(config_.model_store) / "cancelled-late"));
+  EXPECT_FALSE(fs::exists(fs::path(config_.model_store) / (".job-" + job.id + ".tmp")));
+  std::lock_guard<std::mutex> lock(published_mutex_);
+  EXPECT_TRUE(published_.empty());
+}
+
+// A crash between committing the record and renaming the staged model
+// leaves a succeeded record and a staged folder: the next start publishes
+// it. Staged folders of cancelled or unknown jobs are removed.
+TEST_F(TrainingJobsTest, AModelStagedBeforeACrashIsPublishedAtStartAndStaleOnesAreRemoved) {
+  fs::create_directories(config_.state_dir);
+  const fs::path store(config_.model_store);
+  auto record = [&](const std::string& id, JobState state, const std::string& model) {
+    JobInfo job;
+    job.id = id;
+    job.spec = tiny_spec();
+    job.state = state;
+    job.published_model = model;
+    job.created_at = job.finished_at = 1;
+    return job;
+  };
+  auto stage = [&](const std::string& id) {
+    const fs::path folder = store / (".job-" + id + ".tmp");
+    fs::create_directories(folder);
+    std::ofstream(folder / "manifest.json") << "{}";
+    std::ofstream(folder / "MODEL_CARD.md") << job_model_card(record(id, JobState::kRunning, ""), 1);
+  };
+  {
+    SqliteJobStore records((fs::path(config_.state_dir) / "jobs.sqlite").string());
+    ASSERT_TRUE(records.insert_if_room(record("succeeded1", JobState::kSucceeded, "crashed-before-rename"), 10));
+    ASSERT_TRUE(records.insert_if_room(record("cancelled1", JobState::kCancelled, ""), 10));
+  }
+  stage("succeeded1");
+  stage("cancelled1");
+  stage("unknown1");
+  auto jobs = make_jobs();
+  EXPECT_TRUE(fs::is_regular_file(store / "crashed-before-rename" / "manifest.json"));
+  EXPECT_NE(read_text(store / "crashed-before-rename" / "MODEL_CARD.md").find("succeeded1"), std::string::npos);
+  for (const char* id : {"succeeded1", "cancelled1", "unknown1"}) {
+    EXPECT_FALSE(fs::exists(store / (std::string(".job-") + id + ".tmp"))) << id;
+  }
 }
 
 TEST_F(TrainingJobsTest, CancelStopsQueuedAndRunningJobsAndRefusesFinishedOnes) {
