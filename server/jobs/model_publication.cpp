@@ -13,8 +13,12 @@ namespace fs = std::filesystem;
 
 std::string marker(const std::string& id) { return "Trained by training job `" + id + "`."; }
 
+// A job's staging folder: <store>/.job-<id>.tmp.
+const std::string kStagedPrefix = ".job-";
+const std::string kStagedExtension = ".tmp";
+
 fs::path staged_folder(const std::string& store, const std::string& id) {
-  return fs::path(store) / (".job-" + id + ".tmp");
+  return fs::path(store) / (kStagedPrefix + id + kStagedExtension);
 }
 
 bool holds_card_of(const fs::path& folder, const std::string& id) {
@@ -99,11 +103,10 @@ std::vector<std::string> staged_job_ids(const std::string& store) {
   std::vector<std::string> ids;
   std::error_code error;
   for (const auto& entry : fs::directory_iterator(store, error)) {
-    const std::string name = entry.path().filename().string();
-    const std::string prefix = ".job-", suffix = ".tmp";
-    if (name.size() > prefix.size() + suffix.size() && name.rfind(prefix, 0) == 0 &&
-        name.compare(name.size() - suffix.size(), suffix.size(), suffix) == 0) {
-      ids.push_back(name.substr(prefix.size(), name.size() - prefix.size() - suffix.size()));
+    const std::string stem = entry.path().stem().string();
+    if (entry.path().extension() == kStagedExtension && stem.size() > kStagedPrefix.size() &&
+        stem.rfind(kStagedPrefix, 0) == 0) {
+      ids.push_back(stem.substr(kStagedPrefix.size()));
     }
   }
   return ids;

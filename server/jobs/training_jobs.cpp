@@ -137,7 +137,7 @@ struct TrainingJobs::State {
   void worker_loop();
   RunEnd run_job(JobInfo& job);
   RunEnd run_child(JobInfo& job, const std::vector<std::string>& argv, const std::string& what);
-  void finish(JobInfo& job, JobState state, const std::string& error);
+  bool finish(JobInfo& job, JobState state, const std::string& error, JobState expected = JobState::kRunning);
   void recover_staged_publications();
 };
 
@@ -251,8 +251,8 @@ JobInfo TrainingJobs::cancel(const std::string& id) {
   job->finished_at = unix_now();
   if (!store.update_state_if(*job, was)) {
     // Changed since it was read: another replica finished the job.
-    const auto now = store.find(id);
-    const std::string state = now ? job_state_name(now->state) : "gone";
+    const auto current = store.find(id);
+    const std::string state = current ? job_state_name(current->state) : "gone";
     throw ApiError(ErrorCode::kFailedPrecondition, "id",
                    "training job " + id + " is already " + state + ", expected a queued or running job");
   }
@@ -369,14 +369,16 @@ void TrainingJobs::State::recover_staged_publications() {
   }
 }
 
-// Records the end of a running job, unless a cancel got there first.
-void TrainingJobs::State::finish(JobInfo& job, JobState state, const std::string& error) {
+// Records the end of a job still in state `expected`; false when the record
+// was changed meanwhile (a cancel got there first).
+bool TrainingJobs::State::finish(JobInfo& job, JobState state, const std::string& error, JobState expected) {
   std::lock_guard<std::mutex> lock(mutex);
   job.state = state;
   job.error = error;
   if (is_terminal(state)) job.finished_at = unix_now();
-  store->update_state_if(job, JobState::kRunning);
+  const bool written = store->update_state_if(job, expected);
   notify_locked();
+  return written;
 }
 
 RunEnd TrainingJobs::State::run_job(JobInfo& job) {
@@ -466,30 +468,20 @@ RunEnd TrainingJobs::State::run_job(JobInfo& job) {
   // cancel since the renewal above, and a cancelled job's model must not
   // appear. A crash between this and the rename is finished by the next
   // start (recover_staged_publications).
-  {
-    std::lock_guard<std::mutex> lock(mutex);
-    job.state = JobState::kSucceeded;
-    job.error.clear();
-    job.finished_at = unix_now();
-    job.published_model = name;
-    if (!store->update_state_if(job, JobState::kRunning)) {
-      discard_staged_model(config.model_store, job.id);
-      spdlog::info("training job {} cancelled by another replica before its model was published", job.id);
-      return RunEnd::kCancelled;
-    }
-    notify_locked();
+  job.published_model = name;
+  if (!finish(job, JobState::kSucceeded, "")) {
+    job.published_model.clear();
+    discard_staged_model(config.model_store, job.id);
+    spdlog::info("training job {} cancelled by another replica before its model was published", job.id);
+    return RunEnd::kCancelled;
   }
   if (staged) {
     try {
       commit_staged_model(config.model_store, name, job.id);
     } catch (const std::exception& e) {
-      std::lock_guard<std::mutex> lock(mutex);
-      job.state = JobState::kFailed;
-      job.error = std::string("publishing the model failed: ") + e.what();
       job.published_model.clear();
-      store->update_state_if(job, JobState::kSucceeded);
       discard_staged_model(config.model_store, job.id);
-      notify_locked();
+      finish(job, JobState::kFailed, std::string("publishing the model failed: ") + e.what(), JobState::kSucceeded);
       return RunEnd::kFailed;
     }
   }
