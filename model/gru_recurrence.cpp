@@ -3,7 +3,10 @@
 #include <torch/csrc/autograd/custom_function.h>
 
 #include <algorithm>
+#include <string>
 #include <vector>
+
+#include "cuda_graph_replay.h"
 
 namespace mm {
 namespace {
@@ -82,47 +85,70 @@ std::pair<at::Tensor, at::Tensor> weight_and_bias_grad(const at::Tensor& grad_ga
   return {at::mm(g.t(), inputs.reshape({-1, inputs.size(-1)})), g.sum(0)};
 }
 
+// The encoder's recurrence, forward: from (inputs, h0, weight_ih, bias_ih,
+// weight_hh, bias_hh) to (last hidden state, time-major inputs, the steps'
+// workspaces), what the backward pass needs.
+std::vector<at::Tensor> last_hidden_forward(const std::vector<at::Tensor>& in) {
+  const auto &inputs = in[0], &h0 = in[1], &weight_ih = in[2], &bias_ih = in[3], &weight_hh = in[4],
+             &bias_hh = in[5];
+  const int64_t batch = inputs.size(0), frames = inputs.size(1);
+  auto time_major = inputs.transpose(0, 1).contiguous();  // (T, B, I)
+  auto input_gates = at::addmm(bias_ih, time_major.view({frames * batch, -1}), weight_ih.t()).view({frames, batch, -1});
+  const auto weight_hh_t = weight_hh.t();
+  std::vector<at::Tensor> workspaces(frames);
+  at::Tensor hidden = h0;
+  for (int64_t t = 0; t < frames; ++t) {
+    auto step = cell_forward(input_gates[t], at::addmm(bias_hh, hidden, weight_hh_t), hidden);
+    hidden = step.hidden;
+    workspaces[t] = step.workspace;
+  }
+  return {hidden, time_major, at::stack(workspaces)};
+}
+
+// Backward: from (dL/dh_T, time-major inputs, workspaces, weight_ih,
+// weight_hh) to the gradients of forward's six inputs.
+std::vector<at::Tensor> last_hidden_backward(const std::vector<at::Tensor>& in) {
+  const auto &grad_last = in[0], &inputs = in[1], &workspaces = in[2], &weight_ih = in[3], &weight_hh = in[4];
+  const int64_t frames = inputs.size(0);
+  std::vector<at::Tensor> grad_input_gates(frames), grad_hidden_gates(frames);
+  auto grad_hidden = grad_last;
+  for (int64_t t = frames - 1; t >= 0; --t) {
+    auto grad = cell_backward(grad_hidden, workspaces[t]);
+    grad_input_gates[t] = grad.input_gates;
+    grad_hidden_gates[t] = grad.hidden_gates;
+    grad_hidden = at::addmm(grad.hidden_direct, grad.hidden_gates, weight_hh);
+  }
+  auto input_gates = at::stack(grad_input_gates), hidden_gates = at::stack(grad_hidden_gates);
+  auto grad_inputs = at::matmul(input_gates, weight_ih).transpose(0, 1);
+  auto [grad_weight_ih, grad_bias_ih] = weight_and_bias_grad(input_gates, inputs);
+  auto [grad_weight_hh, grad_bias_hh] = weight_and_bias_grad(hidden_gates, previous_hiddens(workspaces));
+  return {grad_inputs, grad_hidden, grad_weight_ih, grad_bias_ih, grad_weight_hh, grad_bias_hh};
+}
+
+// Each direction of a recurrence runs as one CUDA graph on a GPU
+// (cuda_graph_replay.h): hundreds of dependent steps launched at once.
 struct LastHidden : public torch::autograd::Function<LastHidden> {
   static at::Tensor forward(AutogradContext* ctx, const at::Tensor& inputs, const at::Tensor& h0,
                             const at::Tensor& weight_ih, const at::Tensor& bias_ih, const at::Tensor& weight_hh,
                             const at::Tensor& bias_hh) {
-    const int64_t batch = inputs.size(0), frames = inputs.size(1);
-    auto time_major = inputs.transpose(0, 1).contiguous();  // (T, B, I)
-    auto input_gates = at::addmm(bias_ih, time_major.view({frames * batch, -1}), weight_ih.t()).view({frames, batch, -1});
-    const auto weight_hh_t = weight_hh.t();
-    std::vector<at::Tensor> workspaces(frames);
-    at::Tensor hidden = h0;
-    for (int64_t t = 0; t < frames; ++t) {
-      auto step = cell_forward(input_gates[t], at::addmm(bias_hh, hidden, weight_hh_t), hidden);
-      hidden = step.hidden;
-      workspaces[t] = step.workspace;
-    }
+    auto out = run_as_cuda_graph("gru_last_hidden forward", {inputs, h0, weight_ih, bias_ih, weight_hh, bias_hh},
+                                 last_hidden_forward);
     ctx->save_for_backward({weight_ih, weight_hh});
-    ctx->saved_data["inputs"] = time_major;
-    ctx->saved_data["workspaces"] = at::stack(workspaces);
-    return hidden;
+    ctx->saved_data["inputs"] = out[1];
+    ctx->saved_data["workspaces"] = out[2];
+    return out[0];
   }
 
   static variable_list backward(AutogradContext* ctx, variable_list grad_outputs) {
     auto saved = ctx->get_saved_variables();
-    const auto &weight_ih = saved[0], &weight_hh = saved[1];
-    const auto inputs = ctx->saved_data["inputs"].toTensor();
     const auto workspaces = ctx->saved_data["workspaces"].toTensor();
-    const int64_t frames = inputs.size(0), batch = inputs.size(1), size = weight_hh.size(1);
-    std::vector<at::Tensor> grad_input_gates(frames), grad_hidden_gates(frames);
-    auto grad_hidden =
-        grad_outputs[0].defined() ? grad_outputs[0] : at::zeros({batch, size}, workspaces.options());
-    for (int64_t t = frames - 1; t >= 0; --t) {
-      auto grad = cell_backward(grad_hidden, workspaces[t]);
-      grad_input_gates[t] = grad.input_gates;
-      grad_hidden_gates[t] = grad.hidden_gates;
-      grad_hidden = at::addmm(grad.hidden_direct, grad.hidden_gates, weight_hh);
-    }
-    auto input_gates = at::stack(grad_input_gates), hidden_gates = at::stack(grad_hidden_gates);
-    auto grad_inputs = at::matmul(input_gates, weight_ih).transpose(0, 1);
-    auto [grad_weight_ih, grad_bias_ih] = weight_and_bias_grad(input_gates, inputs);
-    auto [grad_weight_hh, grad_bias_hh] = weight_and_bias_grad(hidden_gates, previous_hiddens(workspaces));
-    return {grad_inputs, grad_hidden, grad_weight_ih, grad_bias_ih, grad_weight_hh, grad_bias_hh};
+    const auto& weight_hh = saved[1];
+    auto grad_last = grad_outputs[0].defined()
+                         ? grad_outputs[0]
+                         : at::zeros({workspaces.size(1), weight_hh.size(1)}, workspaces.options());
+    return run_as_cuda_graph("gru_last_hidden backward",
+                             {grad_last, ctx->saved_data["inputs"].toTensor(), workspaces, saved[0], weight_hh},
+                             last_hidden_backward);
   }
 };
 
@@ -176,102 +202,142 @@ struct ResidualPlan {
 // a batched product over the K weight sets, so a step costs the same number
 // of kernels for both decoders of a model as for one. Tensors are (K, B, .)
 // with each decoder's rows contiguous, so (K * B, .) views feed the cell.
+struct AutoregressiveShape {
+  int64_t frames;
+  bool feed_code;
+  std::vector<bool> residual;
+
+  // What fixes the captured work beside the input shapes.
+  std::string name(const char* direction) const {
+    std::string flags;
+    for (bool r : residual) flags += r ? '1' : '0';
+    return std::string("gru_autoregressive ") + direction + " frames " + std::to_string(frames) + " code " +
+           (feed_code ? "1" : "0") + " residual " + flags;
+  }
+};
+
+// Forward: from (h0, code or undefined, weight_ih, bias_ih, weight_hh,
+// bias_hh, weight_out, bias_out) to (outputs (K, T, B, D), workspaces
+// (T, K, B, 5H), hiddens h_1 .. h_T (K, T, B, H)).
+std::vector<at::Tensor> autoregressive_forward(const std::vector<at::Tensor>& in, const AutoregressiveShape& shape) {
+  const auto &h0 = in[0], &code = in[1], &weight_ih = in[2], &bias_ih = in[3], &weight_hh = in[4], &bias_hh = in[5],
+             &weight_out = in[6], &bias_out = in[7];
+  const int64_t decoders = h0.size(0), batch = h0.size(1), size = h0.size(2), dims = weight_out.size(1);
+  // Step t's input is (y_{t-1}, code): the code's share of the input gates
+  // is the same at every step, and y_{-1} is zero.
+  const auto bias_ih_rows = bias_ih.unsqueeze(1);
+  const auto steady_gates = shape.feed_code
+                                ? affine(bias_ih_rows, code.expand({decoders, batch, code.size(1)}),
+                                         weight_ih.narrow(2, dims, weight_ih.size(2) - dims).transpose(1, 2))
+                                : bias_ih_rows.expand({decoders, batch, bias_ih.size(1)}).contiguous();
+  const auto weight_pose_t = weight_ih.narrow(2, 0, dims).transpose(1, 2), weight_hh_t = weight_hh.transpose(1, 2);
+  const auto weight_out_t = weight_out.transpose(1, 2), bias_hh_rows = bias_hh.unsqueeze(1);
+  const auto bias_out_rows = bias_out.unsqueeze(1);
+  const ResidualPlan plan(shape.residual, h0.options());
+  std::vector<at::Tensor> workspaces(shape.frames), hiddens(shape.frames), poses(shape.frames);
+  at::Tensor hidden = h0.contiguous(), pose;
+  for (int64_t t = 0; t < shape.frames; ++t) {
+    auto input_gates = t == 0 ? steady_gates : affine(steady_gates, pose, weight_pose_t);
+    auto hidden_gates = affine(bias_hh_rows, hidden, weight_hh_t);
+    auto step = cell_forward(input_gates.view({decoders * batch, -1}), hidden_gates.view({decoders * batch, -1}),
+                             hidden.view({decoders * batch, size}));
+    hidden = step.hidden.view({decoders, batch, size});
+    auto next = affine(bias_out_rows, hidden, weight_out_t);
+    if (t > 0) plan.add_previous(next, pose);  // the velocity decoder adds its previous output
+    pose = next;
+    workspaces[t] = step.workspace.view({decoders, batch, -1});
+    hiddens[t] = hidden;
+    poses[t] = pose;
+  }
+  return {at::stack(poses, 1), at::stack(workspaces), at::stack(hiddens, 1)};
+}
+
+// Backward: from (dL/d outputs, workspaces, hiddens, poses, code or
+// undefined, weight_ih, weight_hh, weight_out) to the gradients of the
+// forward's eight inputs (that of the code undefined without one).
+std::vector<at::Tensor> autoregressive_backward(const std::vector<at::Tensor>& in, const AutoregressiveShape& shape) {
+  const auto &grad_poses = in[0], &workspaces = in[1], &hiddens = in[2], &poses = in[3], &code = in[4],
+             &weight_ih = in[5], &weight_hh = in[6], &weight_out = in[7];
+  const int64_t decoders = poses.size(0), frames = poses.size(1), batch = poses.size(2), dims = poses.size(3);
+  const int64_t size = weight_hh.size(2);
+  auto opts = poses.options();
+  const auto weight_pose = weight_ih.narrow(2, 0, dims);
+  const ResidualPlan plan(shape.residual, opts);
+  std::vector<at::Tensor> grad_input_gates(frames), grad_hidden_gates(frames), grad_pose_total(frames);
+  auto grad_hidden = at::zeros({decoders, batch, size}, opts);
+  at::Tensor grad_from_later;  // into y_t from step t+1's input and residual
+  for (int64_t t = frames - 1; t >= 0; --t) {
+    auto grad_pose = grad_poses.select(1, t);
+    if (grad_from_later.defined()) grad_pose = grad_pose + grad_from_later;
+    grad_pose_total[t] = grad_pose;
+    auto grad_next = affine(grad_hidden, grad_pose, weight_out);
+    auto grad = cell_backward(grad_next.view({decoders * batch, size}), workspaces[t].view({decoders * batch, -1}));
+    auto input_gates = grad.input_gates.view({decoders, batch, -1});
+    auto hidden_gates = grad.hidden_gates.view({decoders, batch, -1});
+    grad_input_gates[t] = input_gates;
+    grad_hidden_gates[t] = hidden_gates;
+    grad_hidden = affine(grad.hidden_direct.view({decoders, batch, size}), hidden_gates, weight_hh);
+    if (t > 0) {  // step t's input pose is y_{t-1}, and with the residual so is y_t itself
+      grad_from_later = affine(plan.previous_share(grad_pose), input_gates, weight_pose);
+    }
+  }
+  auto input_gates = at::stack(grad_input_gates, 1), hidden_gates = at::stack(grad_hidden_gates, 1);  // (K, T, B, 3H)
+  auto pose_grads = at::stack(grad_pose_total, 1);
+  // dW_ih = sum_t dG_t^T (y_{t-1}, code) with y_{-1} = 0.
+  auto grad_weight_ih = at::zeros_like(weight_ih);
+  if (frames > 1) {
+    grad_weight_ih.narrow(2, 0, dims).copy_(
+        weight_and_bias_grad(input_gates.narrow(1, 1, frames - 1), poses.narrow(1, 0, frames - 1)).first);
+  }
+  auto input_gate_sum = input_gates.sum(1);  // (K, B, 3H)
+  at::Tensor grad_code;
+  if (shape.feed_code) {
+    const int64_t latent = weight_ih.size(2) - dims;
+    const auto weight_code = weight_ih.narrow(2, dims, latent);
+    grad_weight_ih.narrow(2, dims, latent).copy_(at::matmul(input_gate_sum.transpose(1, 2), code));
+    grad_code = at::bmm(input_gate_sum, weight_code).sum(0);
+  }
+  auto grad_bias_ih = input_gate_sum.sum(1);
+  auto [grad_weight_hh, grad_bias_hh] = weight_and_bias_grad(hidden_gates, previous_hiddens(workspaces).transpose(0, 1));
+  auto [grad_weight_out, grad_bias_out] = weight_and_bias_grad(pose_grads, hiddens);
+  return {grad_hidden,    grad_code,      grad_weight_ih,  grad_bias_ih,
+          grad_weight_hh, grad_bias_hh,   grad_weight_out, grad_bias_out};
+}
+
 struct Autoregressive : public torch::autograd::Function<Autoregressive> {
   static at::Tensor forward(AutogradContext* ctx, const at::Tensor& h0, const at::Tensor& code,
                             const at::Tensor& weight_ih, const at::Tensor& bias_ih, const at::Tensor& weight_hh,
                             const at::Tensor& bias_hh, const at::Tensor& weight_out, const at::Tensor& bias_out,
                             int64_t frames, bool feed_code, std::vector<bool> residual) {
-    const int64_t decoders = h0.size(0), batch = h0.size(1), size = h0.size(2), dims = weight_out.size(1);
-    // Step t's input is (y_{t-1}, code): the code's share of the input gates
-    // is the same at every step, and y_{-1} is zero.
-    const auto bias_ih_rows = bias_ih.unsqueeze(1);
-    const auto steady_gates = feed_code ? affine(bias_ih_rows, code.expand({decoders, batch, code.size(1)}),
-                                                 weight_ih.narrow(2, dims, weight_ih.size(2) - dims).transpose(1, 2))
-                                        : bias_ih_rows.expand({decoders, batch, bias_ih.size(1)}).contiguous();
-    const auto weight_pose_t = weight_ih.narrow(2, 0, dims).transpose(1, 2), weight_hh_t = weight_hh.transpose(1, 2);
-    const auto weight_out_t = weight_out.transpose(1, 2), bias_hh_rows = bias_hh.unsqueeze(1);
-    const auto bias_out_rows = bias_out.unsqueeze(1);
-    const ResidualPlan plan(residual, h0.options());
-    std::vector<at::Tensor> workspaces(frames), hiddens(frames), poses(frames);
-    at::Tensor hidden = h0.contiguous(), pose;
-    for (int64_t t = 0; t < frames; ++t) {
-      auto input_gates = t == 0 ? steady_gates : affine(steady_gates, pose, weight_pose_t);
-      auto hidden_gates = affine(bias_hh_rows, hidden, weight_hh_t);
-      auto step = cell_forward(input_gates.view({decoders * batch, -1}), hidden_gates.view({decoders * batch, -1}),
-                               hidden.view({decoders * batch, size}));
-      hidden = step.hidden.view({decoders, batch, size});
-      auto next = affine(bias_out_rows, hidden, weight_out_t);
-      if (t > 0) plan.add_previous(next, pose);  // the velocity decoder adds its previous output
-      pose = next;
-      workspaces[t] = step.workspace.view({decoders, batch, -1});
-      hiddens[t] = hidden;
-      poses[t] = pose;
-    }
-    auto outputs = at::stack(poses, 1);  // (K, T, B, D)
+    const AutoregressiveShape shape{frames, feed_code, residual};
+    auto out = run_as_cuda_graph(
+        shape.name("forward"),
+        {h0, feed_code ? code : at::Tensor(), weight_ih, bias_ih, weight_hh, bias_hh, weight_out, bias_out},
+        [&shape](const std::vector<at::Tensor>& in) { return autoregressive_forward(in, shape); });
     ctx->save_for_backward({weight_ih, weight_hh, weight_out});
+    ctx->saved_data["frames"] = frames;
     ctx->saved_data["residual"] = std::vector<int64_t>(residual.begin(), residual.end());
-    ctx->saved_data["workspaces"] = at::stack(workspaces);  // (T, K, B, 5H): each step's contiguous
-    ctx->saved_data["hiddens"] = at::stack(hiddens, 1);  // h_1 .. h_T, what the poses were computed from
-    ctx->saved_data["poses"] = outputs.clone();          // the inputs of steps 1 .. T, kept apart from the output
+    ctx->saved_data["workspaces"] = out[1];  // each step's contiguous
+    ctx->saved_data["hiddens"] = out[2];     // h_1 .. h_T, what the poses were computed from
+    ctx->saved_data["poses"] = out[0].clone();  // the inputs of steps 1 .. T, kept apart from the output
     ctx->saved_data["code"] = feed_code ? code : at::Tensor();
-    return outputs;
+    return out[0];
   }
 
   static variable_list backward(AutogradContext* ctx, variable_list grad_outputs) {
     auto saved = ctx->get_saved_variables();
-    const auto &weight_ih = saved[0], &weight_hh = saved[1], &weight_out = saved[2];
     const auto flags = ctx->saved_data["residual"].toIntVector();
-    const std::vector<bool> residual(flags.begin(), flags.end());
-    const auto workspaces = ctx->saved_data["workspaces"].toTensor();
-    const auto hiddens = ctx->saved_data["hiddens"].toTensor(), poses = ctx->saved_data["poses"].toTensor();
     const auto code = ctx->saved_data["code"].toTensor();
-    const bool feed_code = code.defined();
-    const int64_t decoders = poses.size(0), frames = poses.size(1), batch = poses.size(2), dims = poses.size(3);
-    const int64_t size = weight_hh.size(2);
-    auto opts = poses.options();
-    auto grad_poses = grad_outputs[0].defined() ? grad_outputs[0] : at::zeros_like(poses);
-    const auto weight_pose = weight_ih.narrow(2, 0, dims);
-    const ResidualPlan plan(residual, opts);
-    std::vector<at::Tensor> grad_input_gates(frames), grad_hidden_gates(frames), grad_pose_total(frames);
-    auto grad_hidden = at::zeros({decoders, batch, size}, opts);
-    at::Tensor grad_from_later;  // into y_t from step t+1's input and residual
-    for (int64_t t = frames - 1; t >= 0; --t) {
-      auto grad_pose = grad_poses.select(1, t);
-      if (grad_from_later.defined()) grad_pose = grad_pose + grad_from_later;
-      grad_pose_total[t] = grad_pose;
-      auto grad_next = affine(grad_hidden, grad_pose, weight_out);
-      auto grad = cell_backward(grad_next.view({decoders * batch, size}), workspaces[t].view({decoders * batch, -1}));
-      auto input_gates = grad.input_gates.view({decoders, batch, -1});
-      auto hidden_gates = grad.hidden_gates.view({decoders, batch, -1});
-      grad_input_gates[t] = input_gates;
-      grad_hidden_gates[t] = hidden_gates;
-      grad_hidden = affine(grad.hidden_direct.view({decoders, batch, size}), hidden_gates, weight_hh);
-      if (t > 0) {  // step t's input pose is y_{t-1}, and with the residual so is y_t itself
-        grad_from_later = affine(plan.previous_share(grad_pose), input_gates, weight_pose);
-      }
-    }
-    auto input_gates = at::stack(grad_input_gates, 1), hidden_gates = at::stack(grad_hidden_gates, 1);  // (K, T, B, 3H)
-    auto pose_grads = at::stack(grad_pose_total, 1);
-    // dW_ih = sum_t dG_t^T (y_{t-1}, code) with y_{-1} = 0.
-    auto grad_weight_ih = at::zeros_like(weight_ih);
-    if (frames > 1) {
-      grad_weight_ih.narrow(2, 0, dims).copy_(
-          weight_and_bias_grad(input_gates.narrow(1, 1, frames - 1), poses.narrow(1, 0, frames - 1)).first);
-    }
-    auto input_gate_sum = input_gates.sum(1);  // (K, B, 3H)
-    at::Tensor grad_code;
-    if (feed_code) {
-      const int64_t latent = weight_ih.size(2) - dims;
-      const auto weight_code = weight_ih.narrow(2, dims, latent);
-      grad_weight_ih.narrow(2, dims, latent).copy_(at::matmul(input_gate_sum.transpose(1, 2), code));
-      grad_code = at::bmm(input_gate_sum, weight_code).sum(0);
-    }
-    auto grad_bias_ih = input_gate_sum.sum(1);
-    auto [grad_weight_hh, grad_bias_hh] =
-        weight_and_bias_grad(hidden_gates, previous_hiddens(workspaces).transpose(0, 1));
-    auto [grad_weight_out, grad_bias_out] = weight_and_bias_grad(pose_grads, hiddens);
-    return {grad_hidden,     grad_code,     grad_weight_ih, grad_bias_ih, grad_weight_hh, grad_bias_hh,
-            grad_weight_out, grad_bias_out, at::Tensor(),   at::Tensor(), at::Tensor()};  // frames, feed_code, residual
+    const auto poses = ctx->saved_data["poses"].toTensor();
+    const AutoregressiveShape shape{ctx->saved_data["frames"].toInt(), code.defined(),
+                                    std::vector<bool>(flags.begin(), flags.end())};
+    auto grads = run_as_cuda_graph(
+        shape.name("backward"),
+        {grad_outputs[0].defined() ? grad_outputs[0] : at::zeros_like(poses), ctx->saved_data["workspaces"].toTensor(),
+         ctx->saved_data["hiddens"].toTensor(), poses, code, saved[0], saved[1], saved[2]},
+        [&shape](const std::vector<at::Tensor>& in) { return autoregressive_backward(in, shape); });
+    grads.insert(grads.end(), {at::Tensor(), at::Tensor(), at::Tensor()});  // frames, feed_code, residual
+    return grads;
   }
 };
 

@@ -1,5 +1,6 @@
 // `bench`: the paper's model size (hidden 1024, 150 frames) on this machine:
-// one full training iteration (Trainer::step, DKGM) and inference (encode,
+// one full training iteration (Trainer::step, DKGM; on a GPU with and
+// without CUDA graphs, and also at batch 256) and inference (encode,
 // rotation decode), with random weights on synthetic or real data. The
 // numbers behind docs/PERFORMANCE.md.
 #include <ATen/Parallel.h>
@@ -13,15 +14,16 @@
 #include <fstream>
 #include <memory>
 #include <nlohmann/json.hpp>
-#include <random>
 #include <thread>
 
 #include "cli_validators.h"
 #include "commands.h"
+#include "cuda_graph_replay.h"
 #include "device_option.h"
 #include "file_arguments.h"
 #include "format/atomic_file.h"
 #include "format/input_error.h"
+#include "synthetic_dataset.h"
 #include "operation_count.h"
 #include "trainer.h"
 
@@ -49,49 +51,18 @@ struct Timing {
   double min() const { return *std::min_element(ms.begin(), ms.end()); }
 };
 
-// The 51 columns of the 99 H3.6M exponential-map values that vary in the
-// data (std >= 1e-4, root translation excluded): what prepare keeps.
-const std::vector<int> kH36mKeptColumns = {3,  4,  5,  6,  7,  8,  9,  12, 13, 14, 15, 21, 22, 23, 24, 27, 28,
-                                           29, 30, 36, 37, 38, 39, 40, 41, 42, 43, 44, 45, 46, 47, 51, 52, 53,
-                                           54, 55, 56, 57, 60, 61, 62, 75, 76, 77, 78, 79, 80, 81, 84, 85, 86};
-
-// Random standardised sequences with an identity normalisation: the cost of
-// an iteration does not depend on the values.
-PreparedDataset synthetic_dataset() {
-  PreparedDataset data;
-  auto& norm = data.normalization;
-  norm.mean.assign(kH36mColumns, 0.0f);
-  norm.stddev.assign(kH36mColumns, 1.0f);
-  norm.kept_columns = kH36mKeptColumns;
-  norm.position_scale_mm = 400;
-  data.train_subjects = {"S1"};
-  data.test_subjects = {"S5"};
-  std::mt19937 engine(7);
-  std::normal_distribution<float> normal;
-  for (int i = 0; i < 4; ++i) {
-    PreparedSequence s;
-    s.subject = "S1";
-    s.action = "synthetic";
-    s.take = 1;
-    s.phase = i;
-    s.normalized.columns = norm.dims();
-    s.normalized.values.resize(static_cast<size_t>(600) * norm.dims());
-    for (auto& v : s.normalized.values) v = normal(engine);
-    data.sequences.push_back(std::move(s));
-  }
-  return data;
-}
-
 void synchronize(c10::Device device) {
   if (device.is_cuda()) torch::cuda::synchronize();
 }
 
+// Two warm-up runs: the allocator, the thread pool and CUDA's kernels settle
+// in the first, and a CUDA graph is captured in the second.
 template <class Work>
 Timing measure(const std::string& operation, int batch, c10::Device device, int repeats, Work&& work) {
   std::fprintf(stderr, "  %s, batch %d, %s ...", operation.c_str(), batch, device.str().c_str());
   std::fflush(stderr);
   Timing timing{operation, batch, device.str(), {}};
-  work();  // warm-up: allocator, thread pool, CUDA kernels
+  for (int i = 0; i < 2; ++i) work();
   synchronize(device);
   for (int i = 0; i < repeats; ++i) {
     const auto started = std::chrono::steady_clock::now();
@@ -111,11 +82,26 @@ void bench_device(const BenchOptions& o, const PreparedDataset& data, c10::Devic
   config.model.pose_dims = data.normalization.dims();
   config.iterations = 1 << 30;
   config.output_dir.clear();  // no checkpoints or logs
-  for (int batch : {4, 30}) {
-    config.batch = batch;
-    Trainer trainer(config, data, device);
-    out.push_back(measure("training iteration (DKGM)", batch, device, o.iterations, [&] { trainer.step(); }));
+  // On a GPU: with and without the recurrences as CUDA graphs, and at a
+  // large batch, which the launch-bound uncaptured step barely notices.
+  std::vector<bool> graph_settings{false};
+  std::vector<int> batches{4, 30};
+  if (device.is_cuda()) {
+    graph_settings = {false, true};
+    batches.push_back(256);
   }
+  for (bool graphs : graph_settings) {
+    set_cuda_graphs_enabled(graphs);
+    const std::string operation = !device.is_cuda() ? "training iteration (DKGM)"
+                                  : graphs           ? "training iteration (DKGM, CUDA graphs)"
+                                                     : "training iteration (DKGM, uncaptured)";
+    for (int batch : batches) {
+      config.batch = batch;
+      Trainer trainer(config, data, device);
+      out.push_back(measure(operation, batch, device, o.iterations, [&] { trainer.step(); }));
+    }
+  }
+  set_cuda_graphs_enabled(true);
 
   MotionManifold model(config.model, data.normalization, Skeleton::h36m());
   model.to(device);
@@ -152,7 +138,7 @@ int run_bench(const BenchOptions& o) {
   }
   if (!o.dataset.empty()) check_input_file(o.dataset, "--dataset");
   if (!o.out.empty()) check_output_file(o.out, "--out", "it carries the table of timings");
-  const PreparedDataset data = o.dataset.empty() ? synthetic_dataset() : load_prepared_dataset(o.dataset);
+  const PreparedDataset data = o.dataset.empty() ? synthetic_h36m_dataset() : load_prepared_dataset(o.dataset);
   const std::string machine = cpu_name() + ", " + std::to_string(std::thread::hardware_concurrency()) +
                               " hardware threads, " + std::to_string(at::get_num_threads()) + " torch threads";
   std::fprintf(stderr, "bench: hidden %d, %s data, %s\n", o.hidden, o.dataset.empty() ? "synthetic" : "prepared",
@@ -190,7 +176,8 @@ void add_bench_command(CLI::App& app, Action& action) {
   auto o = std::make_shared<BenchOptions>();
   auto* command = app.add_subcommand(
       "bench",
-      "Time a full training iteration (DKGM, batch 4 and 30) and inference (encode, rotation decode; batch 1 and "
+      "Time a full training iteration (DKGM, batch 4 and 30; on a GPU also 256, with and without CUDA graphs) and "
+      "inference (encode, rotation decode; batch 1 and "
       "30) at the paper's model size with random weights. Prints a markdown table of median and minimum times and "
       "of the tensor operations one run issues (one kernel launch or a few each on a GPU).");
   command->add_option("--hidden", o->hidden, "GRU hidden size")->check(at_least(1))->capture_default_str();

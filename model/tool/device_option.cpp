@@ -8,6 +8,14 @@ namespace mm::tool {
 
 bool cuda_available() { return torch::cuda::is_available(); }
 
+void add_cuda_graphs_option(CLI::App& command, bool& value) {
+  command
+      .add_option("--cuda-graphs", value,
+                  "on a GPU, run each recurrence (forward and backward) as one CUDA graph: on or off")
+      ->check(CLI::IsMember({"on", "off"}))
+      ->default_str("on");
+}
+
 c10::Device parse_device(const std::string& value) {
   if (value == "cpu") return c10::kCPU;
   if (value == "cuda") {

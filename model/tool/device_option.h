@@ -4,6 +4,8 @@
 
 #include <c10/core/Device.h>
 
+#include <CLI/CLI.hpp>
+
 #include <string>
 
 namespace mm::tool {
@@ -14,5 +16,9 @@ c10::Device parse_device(const std::string& value);
 
 // Whether this LibTorch build sees a CUDA device.
 bool cuda_available();
+
+// --cuda-graphs on|off: whether each recurrence runs as one CUDA graph on a
+// GPU (cuda_graph_replay.h); off gives the uncaptured step, for comparison.
+void add_cuda_graphs_option(CLI::App& command, bool& value);
 
 }  // namespace mm::tool

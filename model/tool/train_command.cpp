@@ -16,6 +16,7 @@
 
 #include "cli_validators.h"
 #include "commands.h"
+#include "cuda_graph_replay.h"
 #include "device_option.h"
 #include "file_arguments.h"
 #include "format/atomic_file.h"
@@ -69,7 +70,7 @@ struct TrainOptions {
   // Loss forms (training_config.h): the preset first, then each form given.
   std::string losses, loss_angle, loss_position, loss_mmd, loss_adversarial;
   int64_t iterations = 0;
-  bool progress_json = false;
+  bool progress_json = false, cuda_graphs = true;
   int batch = 0, hidden = 0;
   uint64_t seed = 0;
   CLI::Option* seed_option = nullptr;
@@ -139,6 +140,7 @@ int train_and_export(Trainer& trainer, c10::Device device, const std::string& da
       {"iterations_this_run", trainer.iteration() - first},
       {"seconds", seconds},
       {"device", device.str()},
+      {"cuda_graphs", device.is_cuda() && cuda_graphs_enabled()},
       {"dataset", dataset_path},
       {"variant", config.variant},
       {"outcome", cancelled ? "cancelled" : "finished"},
@@ -291,12 +293,18 @@ void add_train_commands(CLI::App& app, Action& action, const std::string& comman
       "records, with fresh optimiser moments: for continuing a model whose checkpoint is not at hand");
   init_from->excludes(resume);
   train->add_flag("--progress-json", o->progress_json, kProgressJsonHelp);
-  train->callback([o, &action, &command_line] { action = [o, &command_line] { return run_train(*o, command_line); }; });
+  add_cuda_graphs_option(*train, o->cuda_graphs);
+  train->callback([o, &action, &command_line] {
+    action = [o, &command_line] {
+      set_cuda_graphs_enabled(o->cuda_graphs);
+      return run_train(*o, command_line);
+    };
+  });
 
   struct ResumeOptions {
     std::string checkpoint, dataset, device = "auto";
     int64_t iterations = 0;
-    bool progress_json = false;
+    bool progress_json = false, cuda_graphs = true;
   };
   auto r = std::make_shared<ResumeOptions>();
   auto* resume_command = app.add_subcommand(
@@ -307,8 +315,10 @@ void add_train_commands(CLI::App& app, Action& action, const std::string& comman
       ->check(at_least(1));
   resume_command->add_option("--device", r->device, "cpu, cuda or auto (CUDA when available)")->capture_default_str();
   resume_command->add_flag("--progress-json", r->progress_json, kProgressJsonHelp);
+  add_cuda_graphs_option(*resume_command, r->cuda_graphs);
   resume_command->callback([r, &action, &command_line] {
     action = [r, &command_line] {
+      set_cuda_graphs_enabled(r->cuda_graphs);
       return run_resume(r->checkpoint, r->dataset, r->iterations, r->device, command_line, r->progress_json);
     };
   });
