@@ -24,43 +24,40 @@ mkdir -p runs/losses "$out"
 [ -f runs/h36m.mmd ] || "$tool" prepare --data data --out runs/h36m.mmd
 forms=(${MM_FORMS:-paper reference})
 
-options_of() {
+# The form sets, in the tables' order, and what each is: its training
+# options (`options`) and its name in pictures and tables (`label`).
+known_sets=(paper reference angle position mmd adversarial)
+describe() {
   case $1 in
-    paper | reference) echo "--losses $1" ;;
-    angle) echo "--loss-angle triplet-mean" ;;
-    position) echo "--loss-position standardized-triplet-mean" ;;
-    mmd) echo "--loss-mmd seven-scales" ;;
-    adversarial) echo "--loss-adversarial batch-sum" ;;
+    paper | reference) options="--losses $1" label="DKGM $1's losses" ;;
+    angle) options="--loss-angle triplet-mean" label="DKGM paper's + reference's angle" ;;
+    position) options="--loss-position standardized-triplet-mean" label="DKGM paper's + reference's position" ;;
+    mmd) options="--loss-mmd seven-scales" label="DKGM paper's + reference's MMD" ;;
+    adversarial) options="--loss-adversarial batch-sum" label="DKGM paper's + reference's adversarial" ;;
     *) echo "compare-loss-forms.sh: unknown form set $1" >&2; exit 2 ;;
   esac
 }
 
-label_of() {
-  case $1 in
-    paper | reference) echo "DKGM $1's losses" ;;
-    mmd) echo "DKGM paper's + reference's MMD" ;;
-    *) echo "DKGM paper's + reference's $1" ;;
-  esac
-}
-
 for set in "${forms[@]}"; do
+  describe "$set"
   run=runs/losses/$set
   if [ ! -f "$run/model/manifest.json" ]; then
     # shellcheck disable=SC2046
     OMP_NUM_THREADS=1 "$tool" train --variant DKGM --dataset runs/h36m.mmd --out "$run" --iterations "$iterations" \
-      --hidden 256 --batch 30 --seed 1 $(options_of "$set") 2> "$run.log"
+      --hidden 256 --batch 30 --seed 1 $options 2> "$run.log"
   fi
   [ -f "$run/evaluation.json" ] ||
     "$tool" evaluate --model "$run/model" --dataset runs/h36m.mmd --out "$run/evaluation.json" > /dev/null
   cp "$run/evaluation.json" "$out/$set.json"
   "$tool" plot-log --log "$run/train_log.csv" --columns L_ang,L_pos,L_W,L_G,L_D,D_acc --smooth 10 \
-    --title "$(label_of "$set")" --out "$out/curves-$set.svg"
+    --title "$label" --out "$out/curves-$set.svg"
   "$tool" sample --model "$run/model" --count 3 --seed 7 --out-dir "$run/samples"
 done
 
 named=()
-for set in paper reference angle position mmd adversarial; do
-  if [ -f "$out/$set.json" ]; then named+=("$(label_of "$set")=$out/$set.json"); fi
+for set in "${known_sets[@]}"; do
+  describe "$set"
+  if [ -f "$out/$set.json" ]; then named+=("$label=$out/$set.json"); fi
 done
 for table in paper physical prior; do
   python3 scripts/results_table.py --table "$table" "${named[@]}" > "$out/table-$table.md"
