@@ -249,6 +249,7 @@ JobInfo TrainingJobs::cancel(const std::string& id) {
   // a poll interval, and its end can no longer change the record.
   job->state = JobState::kCancelled;
   job->finished_at = unix_now();
+  if (s.config.before_cancel_commit) s.config.before_cancel_commit(id);
   if (!store.update_state_if(*job, was)) {
     // Changed since it was read: another replica finished the job.
     const auto current = store.find(id);

@@ -57,6 +57,10 @@ struct JobsConfig {
   // committing its record; tests use it to write another replica's cancel
   // there. Empty in the server.
   std::function<void(const std::string& job_id)> before_publication_commit;
+  // Called in cancel() between reading the job's record and committing the
+  // cancel; tests use it to finish the job there as another replica would.
+  // Empty in the server.
+  std::function<void(const std::string& job_id)> before_cancel_commit;
 };
 
 class TrainingJobs {

@@ -421,6 +421,33 @@ TEST_F(TrainingJobsTest, ACancelWrittenBeforeThePublicationIsCommittedWinsAndNoM
   EXPECT_TRUE(published_.empty());
 }
 
+// Another replica finishing the job between this replica's read of the
+// record and its cancel: the cancel is refused with the state the record
+// now has, and that state stays (the cancel never overwrites it).
+TEST_F(TrainingJobsTest, ACancelLosingToAnotherReplicasFinishIsRefusedAndLeavesTheRecord) {
+  bool finish_written = false;
+  config_.before_cancel_commit = [&](const std::string& id) {
+    SqliteJobStore other((fs::path(config_.state_dir) / "jobs.sqlite").string());
+    JobInfo record = *other.find(id);
+    const JobState seen = record.state;
+    record.state = JobState::kSucceeded;
+    record.finished_at = 1;
+    finish_written = other.update_state_if(record, seen);
+  };
+  auto jobs = make_jobs();
+  const JobInfo job = jobs->submit(tiny_spec(100000));
+  try {
+    jobs->cancel(job.id);
+    ADD_FAILURE() << "a cancel after another replica finished the job was accepted";
+  } catch (const ApiError& e) {
+    EXPECT_EQ(e.code(), ErrorCode::kFailedPrecondition);
+    EXPECT_EQ(e.field(), "id");
+    EXPECT_NE(std::string(e.what()).find("already succeeded"), std::string::npos) << e.what();
+  }
+  ASSERT_TRUE(finish_written);
+  EXPECT_EQ(job_state_name(jobs->get(job.id).state), std::string("succeeded"));
+}
+
 // A crash between committing the record and renaming the staged model
 // leaves a succeeded record and a staged folder: the next start publishes
 // it. Staged folders of cancelled or unknown jobs are removed.
