@@ -8,9 +8,10 @@
 // buffers: the inputs are copied in, the graph runs, and the outputs are
 // copied out, so that callers see ordinary fresh tensors.
 //
-// Off CUDA, or with graphs switched off, the function simply runs. A build
-// against a LibTorch without CUDA compiles the same header with that
-// behaviour alone (cuda_graph_replay_none.cpp).
+// Off CUDA, or with graphs switched off, the function simply runs
+// (cuda_graph_replay.cpp). The capture itself is cuda_graph_replay_cuda.cpp;
+// a build against a LibTorch without CUDA, where no tensor is ever on CUDA,
+// links cuda_graph_replay_none.cpp instead.
 //
 // Thread safety: any thread may call; graphs are kept per CUDA stream, and
 // one replay at a time runs per graph.
@@ -40,7 +41,11 @@ std::vector<at::Tensor> run_as_cuda_graph(const std::string& name, const std::ve
 void set_cuda_graphs_enabled(bool enabled);
 bool cuda_graphs_enabled();
 
-// Whether this build can capture CUDA graphs at all.
-bool cuda_graphs_supported();
+namespace detail {
+// run_as_cuda_graph with graphs on and `first`, the first defined input, on
+// CUDA.
+std::vector<at::Tensor> replay_as_cuda_graph(const std::string& name, const std::vector<at::Tensor>& inputs,
+                                             const at::Tensor& first, const TensorFunction& body);
+}  // namespace detail
 
 }  // namespace mm

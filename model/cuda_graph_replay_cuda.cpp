@@ -1,11 +1,10 @@
-// cuda_graph_replay.h for a LibTorch with CUDA (at::cuda::CUDAGraph).
+// The capture and replay of cuda_graph_replay.h (at::cuda::CUDAGraph).
 #include <ATen/cuda/CUDAEvent.h>
 #include <ATen/cuda/CUDAGraph.h>
 #include <c10/cuda/CUDAFunctions.h>
 #include <c10/cuda/CUDAGuard.h>
 #include <c10/cuda/CUDAStream.h>
 
-#include <atomic>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -16,8 +15,6 @@
 
 namespace mm {
 namespace {
-
-std::atomic<bool> enabled{true};
 
 // One captured function for one set of input shapes on one stream: the graph
 // reads `inputs` and writes `outputs`, buffers allocated for it alone.
@@ -93,18 +90,11 @@ void capture(Captured& entry, const std::vector<at::Tensor>& inputs, const Tenso
 
 }  // namespace
 
-std::vector<at::Tensor> run_as_cuda_graph(const std::string& name, const std::vector<at::Tensor>& inputs,
-                                          const TensorFunction& body) {
-  const at::Tensor* first = nullptr;
-  for (const auto& t : inputs) {
-    if (t.defined()) {
-      first = &t;
-      break;
-    }
-  }
-  if (!enabled || first == nullptr || !first->is_cuda()) return body(inputs);
+namespace detail {
 
-  c10::cuda::CUDAGuard device(first->device());
+std::vector<at::Tensor> replay_as_cuda_graph(const std::string& name, const std::vector<at::Tensor>& inputs,
+                                             const at::Tensor& first, const TensorFunction& body) {
+  c10::cuda::CUDAGuard device(first.device());
   const auto current = c10::cuda::getCurrentCUDAStream();
   Captured* entry;
   {
@@ -134,8 +124,5 @@ std::vector<at::Tensor> run_as_cuda_graph(const std::string& name, const std::ve
   return outputs;
 }
 
-void set_cuda_graphs_enabled(bool on) { enabled = on; }
-bool cuda_graphs_enabled() { return enabled; }
-bool cuda_graphs_supported() { return true; }
-
+}  // namespace detail
 }  // namespace mm

@@ -1,20 +1,12 @@
-// cuda_graph_replay.h for a LibTorch without CUDA: every call runs its body.
+// The capture of cuda_graph_replay.h for a LibTorch without CUDA: no tensor
+// is ever on CUDA there, so this is never reached; it runs the body.
 #include "cuda_graph_replay.h"
 
-#include <atomic>
+namespace mm::detail {
 
-namespace mm {
-namespace {
-std::atomic<bool> enabled{true};
-}  // namespace
-
-std::vector<at::Tensor> run_as_cuda_graph(const std::string&, const std::vector<at::Tensor>& inputs,
-                                          const TensorFunction& body) {
+std::vector<at::Tensor> replay_as_cuda_graph(const std::string&, const std::vector<at::Tensor>& inputs,
+                                             const at::Tensor&, const TensorFunction& body) {
   return body(inputs);
 }
 
-void set_cuda_graphs_enabled(bool on) { enabled = on; }
-bool cuda_graphs_enabled() { return enabled; }
-bool cuda_graphs_supported() { return false; }
-
-}  // namespace mm
+}  // namespace mm::detail

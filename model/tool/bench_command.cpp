@@ -23,8 +23,8 @@
 #include "file_arguments.h"
 #include "format/atomic_file.h"
 #include "format/input_error.h"
-#include "synthetic_dataset.h"
 #include "operation_count.h"
+#include "synthetic_dataset.h"
 #include "trainer.h"
 
 namespace mm::tool {
