@@ -11,6 +11,7 @@
 
 #include "format/atomic_file.h"
 #include "format/input_error.h"
+#include "format/json_text.h"
 
 namespace mm {
 namespace {
@@ -180,12 +181,7 @@ void MotionManifold::save(const std::string& dir, const std::string& provenance_
 
 MotionManifold MotionManifold::load(const std::string& dir, at::Device device) {
   const std::string manifest_path = dir + "/manifest.json";
-  nlohmann::json manifest;
-  try {
-    manifest = nlohmann::json::parse(read_whole_file(manifest_path));
-  } catch (const nlohmann::json::parse_error& e) {
-    throw InputError(manifest_path + ": not valid JSON: " + e.what());
-  }
+  const nlohmann::json manifest = parse_json_text(read_whole_file(manifest_path), manifest_path);
   if (!manifest.is_object() || manifest.value("format", "") != kManifestFormat) {
     throw InputError(manifest_path + ": format: expected \"" + std::string(kManifestFormat) + "\"");
   }

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "format/input_error.h"
+#include "format/json_text.h"
 
 namespace mm {
 namespace {
@@ -124,14 +125,6 @@ void read_model(const json& j, ModelConfig& m, const std::string& path, const st
   if (!m.rotation_decoder && !m.velocity_decoder) r.fail(path + "rotation_decoder", "at least one decoder must be on");
 }
 
-json parse(const std::string& text, const std::string& source) {
-  try {
-    return json::parse(text);
-  } catch (const json::parse_error& e) {
-    throw InputError(source + ": not valid JSON: " + e.what());
-  }
-}
-
 }  // namespace
 
 bool LossForms::operator==(const LossForms& o) const {
@@ -210,7 +203,7 @@ std::string to_json_text(const ModelConfig& config) { return model_to_json(confi
 
 ModelConfig model_config_from_json_text(const std::string& text, const std::string& source_name) {
   ModelConfig m;
-  read_model(parse(text, source_name), m, "", source_name);
+  read_model(parse_json_text(text, source_name), m, "", source_name);
   return m;
 }
 
@@ -234,7 +227,7 @@ std::string to_json_text(const TrainConfig& c) {
 }
 
 TrainConfig train_config_from_json_text(const std::string& text, const std::string& source_name) {
-  const json j = parse(text, source_name);
+  const json j = parse_json_text(text, source_name);
   if (!j.is_object()) throw InputError(source_name + ": expected a JSON object");
   std::string variant = "DKGM";
   if (j.contains("variant")) {

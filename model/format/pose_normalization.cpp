@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "format/input_error.h"
+#include "format/json_text.h"
 
 namespace mm {
 
@@ -174,12 +175,7 @@ std::vector<float> float_array(const json& document, const char* field, const st
 
 PoseNormalization PoseNormalization::from_json_text(const std::string& text,
                                                     const std::string& source_name) {
-  json document;
-  try {
-    document = json::parse(text);
-  } catch (const json::parse_error& error) {
-    throw InputError(source_name + ": not valid JSON: " + error.what());
-  }
+  const json document = parse_json_text(text, source_name);
   if (!document.is_object()) throw InputError(source_name + ": expected a JSON object");
   if (document.contains("format") && document["format"] != kFormatName) {
     throw InputError(source_name + ": field \"format\" is " + document["format"].dump() +

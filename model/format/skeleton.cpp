@@ -8,6 +8,7 @@
 
 #include "format/atomic_file.h"
 #include "format/input_error.h"
+#include "format/json_text.h"
 
 namespace mm {
 
@@ -98,12 +99,7 @@ BvhLayout parse_bvh_layout(const json& object, const Skeleton& skeleton, const s
 }  // namespace
 
 Skeleton Skeleton::from_json_text(const std::string& text, const std::string& source_name) {
-  json document;
-  try {
-    document = json::parse(text);
-  } catch (const json::parse_error& error) {
-    throw InputError(source_name + ": not valid JSON: " + error.what());
-  }
+  const json document = parse_json_text(text, source_name);
   if (!document.is_object()) throw InputError(source_name + ": expected a JSON object");
   if (!document.contains("name") || !document["name"].is_string()) {
     throw InputError(source_name + ": field \"name\" is missing or not a string");
