@@ -4,7 +4,6 @@
 // server itself answers, and each command's refusal with its exit status
 // (1: the server refused, 2: bad local input) and the server's message.
 #include <gtest/gtest.h>
-#include <httplib.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -20,6 +19,7 @@
 #include <vector>
 
 #include "command_run.h"
+#include "rest_call.h"
 #include "server_process.h"
 #include "test_environment.h"
 
@@ -97,11 +97,7 @@ class ClientTest : public ::testing::Test {
 
   // The server's own answer over REST, for comparing.
   static json rest_call(const std::string& path, const json& body) {
-    httplib::Client client("127.0.0.1", server_->rest_port());
-    client.set_read_timeout(120, 0);
-    const auto result = client.Post(path.c_str(), body.dump(), "application/json");
-    if (!result) throw std::runtime_error("REST " + path + " failed");
-    return json::parse(result->body);
+    return test::rest_call(server_->rest_port(), kToken, "POST", path, body);
   }
 
   static test::ServerProcess* server_;
@@ -419,13 +415,11 @@ TEST_F(ClientTest, ClipsReadWritesEverySecondRowFromStartAsTheServerAnswers) {
     }
   }
   // --json prints the server's reply, as REST answers it.
-  httplib::Client client("127.0.0.1", server_->rest_port());
-  const auto direct = client.Get("/v1/clips/window?path=small%2FS5%2Fwalking_1.txt&start=7");
-  ASSERT_TRUE(direct);
-  ASSERT_EQ(direct->status, 200) << direct->body;
+  const test::Reply direct = test::get(server_->rest_port(), "/v1/clips/window?path=small%2FS5%2Fwalking_1.txt&start=7");
+  ASSERT_EQ(direct.status, 200) << direct.body;
   const auto run = run_client(grpc() + " --json clips read small/S5/walking_1.txt --start 7");
   ASSERT_EQ(run.exit_code, 0) << run.err;
-  auto printed = json::parse(run.out), answered = json::parse(direct->body);
+  auto printed = json::parse(run.out), answered = direct.document;
   // Floats compared as floats: the server writes each one's shortest form.
   EXPECT_EQ(printed["motion"]["values"].get<std::vector<float>>(), answered["motion"]["values"].get<std::vector<float>>());
   printed["motion"].erase("values");

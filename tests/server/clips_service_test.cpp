@@ -20,6 +20,7 @@
 #include "format/h36m_bvh.h"
 #include "format/motion_text.h"
 #include "motionmanifold/v1/manifold.grpc.pb.h"
+#include "rest_call.h"
 #include "server_process.h"
 #include "test_environment.h"
 
@@ -44,22 +45,6 @@ fs::path make_data_root(const fs::path& root) {
   fs::create_directories(root / "bvh");
   write_bvh_file(h36m_motion_to_bvh(rows, 50), (root / kBvh).string());
   return root;
-}
-
-struct Reply {
-  int status = 0;
-  json body;
-};
-
-Reply rest_get(int port, const std::string& path) {
-  httplib::Client client("127.0.0.1", port);
-  client.set_read_timeout(120, 0);
-  const auto result = client.Get(path.c_str());
-  if (!result) {
-    ADD_FAILURE() << "GET " << path << ": " << httplib::to_string(result.error());
-    return {};
-  }
-  return {result->status, json::parse(result->body, nullptr, false)};
 }
 
 std::string error_field(const grpc::ClientContext& context) {
@@ -136,20 +121,20 @@ TEST_F(ClipsService, BothProtocolsListTheDataRootsFilesWithFormatAndSize) {
   v1::ListClipsReply listed;
   const auto status = stub_->ListClips(&context, v1::ListClipsRequest(), &listed);
   ASSERT_TRUE(status.ok()) << status.error_message();
-  const Reply rest = rest_get(port(), "/v1/clips");
-  ASSERT_EQ(rest.status, 200) << rest.body.dump();
+  const test::Reply rest = test::get(port(), "/v1/clips");
+  ASSERT_EQ(rest.status, 200) << rest.body;
   EXPECT_FALSE(listed.truncated());
-  EXPECT_EQ(rest.body["truncated"], false);
+  EXPECT_EQ(rest.document["truncated"], false);
   const std::vector<std::pair<std::string, std::string>> expected = {
       {kBvh, "bvh"}, {"h36m/S1/eating_1.txt", "h36m-text"}, {kText, "h36m-text"}};
   ASSERT_EQ(listed.clips_size(), 3);
-  ASSERT_EQ(rest.body["clips"].size(), 3u);
+  ASSERT_EQ(rest.document["clips"].size(), 3u);
   for (int i = 0; i < 3; ++i) {
     const auto& clip = listed.clips(i);
     EXPECT_EQ(clip.path(), expected[i].first);
     EXPECT_EQ(clip.format(), expected[i].second);
     EXPECT_EQ(clip.size_bytes(), static_cast<int64_t>(fs::file_size(data_root() / clip.path())));
-    const json& twin = rest.body["clips"][i];
+    const json& twin = rest.document["clips"][i];
     EXPECT_EQ(twin["path"], clip.path());
     EXPECT_EQ(twin["format"], clip.format());
     EXPECT_EQ(twin["size_bytes"], clip.size_bytes());
@@ -189,29 +174,29 @@ TEST_F(ClipsService, AWindowIsEverySecondRowFromStartAndEncodesAsTheRaw50HzRows)
   EXPECT_EQ(code, encode(raw));
 
   // REST answers the same window.
-  const Reply rest = rest_get(port(), "/v1/clips/window?path=h36m%2FS5%2Fwalking_1.txt&start=33");
-  ASSERT_EQ(rest.status, 200) << rest.body.dump();
-  EXPECT_EQ(rest.body["path"], kText);
-  EXPECT_EQ(rest.body["file_frames"], rows.frame_count());
-  EXPECT_EQ(rest.body["last_start"], rows.frame_count() - 300);
-  EXPECT_EQ(rest.body["motion"]["frames"], 150);
-  EXPECT_EQ(rest.body["motion"]["frame_rate"], 25);
-  EXPECT_EQ(rest.body["motion"]["values"].get<std::vector<float>>(), expected);
+  const test::Reply rest = test::get(port(), "/v1/clips/window?path=h36m%2FS5%2Fwalking_1.txt&start=33");
+  ASSERT_EQ(rest.status, 200) << rest.body;
+  EXPECT_EQ(rest.document["path"], kText);
+  EXPECT_EQ(rest.document["file_frames"], rows.frame_count());
+  EXPECT_EQ(rest.document["last_start"], rows.frame_count() - 300);
+  EXPECT_EQ(rest.document["motion"]["frames"], 150);
+  EXPECT_EQ(rest.document["motion"]["frame_rate"], 25);
+  EXPECT_EQ(rest.document["motion"]["values"].get<std::vector<float>>(), expected);
 }
 
 TEST_F(ClipsService, ABvhOfTheModelsSkeletonIsReadInTheModelsLayoutAndEncodes) {
-  const Reply rest = rest_get(port(), "/v1/clips/window?path=bvh/walking.bvh&start=101");
-  ASSERT_EQ(rest.status, 200) << rest.body.dump();
-  EXPECT_EQ(rest.body["format"], "bvh");
-  EXPECT_EQ(rest.body["file_frames"], 400);
-  EXPECT_EQ(rest.body["file_frame_rate"], 50);
-  EXPECT_EQ(rest.body["last_start"], 101);
-  EXPECT_EQ(rest.body["motion"]["layout"], "h36m-expmap-99");
+  const test::Reply rest = test::get(port(), "/v1/clips/window?path=bvh/walking.bvh&start=101");
+  ASSERT_EQ(rest.status, 200) << rest.body;
+  EXPECT_EQ(rest.document["format"], "bvh");
+  EXPECT_EQ(rest.document["file_frames"], 400);
+  EXPECT_EQ(rest.document["file_frame_rate"], 50);
+  EXPECT_EQ(rest.document["last_start"], 101);
+  EXPECT_EQ(rest.document["motion"]["layout"], "h36m-expmap-99");
   grpc::ClientContext context;
   v1::ReadClipReply window;
   ASSERT_TRUE(read_clip(kBvh, 101, &window, &context).ok());
   EXPECT_EQ(std::vector<float>(window.motion().values().begin(), window.motion().values().end()),
-            rest.body["motion"]["values"].get<std::vector<float>>());
+            rest.document["motion"]["values"].get<std::vector<float>>());
   EXPECT_EQ(encode(window.motion()).size(), 64u);
 }
 
@@ -241,30 +226,30 @@ TEST_F(ClipsService, RefusalsNameTheFieldOverBothProtocols) {
     EXPECT_EQ(error_field(context), c.field) << c.path;
     EXPECT_NE(status.error_message().find(c.message), std::string::npos) << status.error_message();
 
-    const Reply rest = rest_get(port(), "/v1/clips/window?path=" + httplib::detail::encode_query_param(c.path) +
+    const test::Reply rest = test::get(port(), "/v1/clips/window?path=" + httplib::detail::encode_query_param(c.path) +
                                             "&start=" + std::to_string(c.start));
-    EXPECT_EQ(rest.status, c.http_status) << rest.body.dump();
-    EXPECT_EQ(rest.body["error"]["field"], c.field) << rest.body.dump();
-    EXPECT_NE(rest.body["error"]["message"].get<std::string>().find(c.message), std::string::npos) << rest.body.dump();
+    EXPECT_EQ(rest.status, c.http_status) << rest.body;
+    EXPECT_EQ(rest.error()["field"], c.field) << rest.body;
+    EXPECT_NE(rest.error()["message"].get<std::string>().find(c.message), std::string::npos) << rest.body;
   }
   // What only a query string can get wrong, named by the parameter.
   for (const auto& [query, field] : std::vector<std::pair<std::string, std::string>>{
            {"path=h36m/S5/walking_1.txt&start=ten", "start"},
            {"path=h36m/S5/walking_1.txt&frame=3", "frame"},
            {"path=h36m/S5/walking_1.txt&path=bvh/walking.bvh", "path"}}) {
-    const Reply rest = rest_get(port(), "/v1/clips/window?" + query);
-    EXPECT_EQ(rest.status, 400) << query << ": " << rest.body.dump();
-    EXPECT_EQ(rest.body["error"]["field"], field) << rest.body.dump();
+    const test::Reply rest = test::get(port(), "/v1/clips/window?" + query);
+    EXPECT_EQ(rest.status, 400) << query << ": " << rest.body;
+    EXPECT_EQ(rest.error()["field"], field) << rest.body;
   }
 }
 
 TEST(ClipsWithoutDataRoot, BothProtocolsAnswerFailedPreconditionNamingTheFlag) {
   MM_REQUIRE_H36M();
   test::ServerProcess server;
-  const Reply rest = rest_get(server.rest_port(), "/v1/clips");
-  EXPECT_EQ(rest.status, 409) << rest.body.dump();
-  EXPECT_EQ(rest.body["error"]["code"], "FAILED_PRECONDITION");
-  EXPECT_NE(rest.body["error"]["message"].get<std::string>().find("--data-root"), std::string::npos);
+  const test::Reply rest = test::get(server.rest_port(), "/v1/clips");
+  EXPECT_EQ(rest.status, 409) << rest.body;
+  EXPECT_EQ(rest.error()["code"], "FAILED_PRECONDITION");
+  EXPECT_NE(rest.error()["message"].get<std::string>().find("--data-root"), std::string::npos);
   auto stub = v1::MotionManifold::NewStub(grpc::CreateChannel(server.grpc_target(), grpc::InsecureChannelCredentials()));
   grpc::ClientContext context;
   v1::ReadClipRequest request;

@@ -14,6 +14,7 @@
 #include "format/bvh_file.h"
 #include "format/h36m_bvh.h"
 #include "format/motion_text.h"
+#include "rest_call.h"
 #include "server_process.h"
 #include "test_environment.h"
 
@@ -45,11 +46,7 @@ class RestBvh : public ::testing::Test {
     delete server_;
     server_ = nullptr;
   }
-  static httplib::Client client() {
-    httplib::Client c("127.0.0.1", server_->rest_port());
-    c.set_read_timeout(120, 0);
-    return c;
-  }
+  static httplib::Client client() { return test::rest_client(server_->rest_port()); }
   static test::ServerProcess* server_;
 };
 test::ServerProcess* RestBvh::server_ = nullptr;

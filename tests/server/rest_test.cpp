@@ -33,6 +33,7 @@
 #include "latent_operations.h"
 #include "motion_manifold.h"
 #include "rest/rest_routes.h"
+#include "rest_call.h"
 #include "server_process.h"
 #include "test_environment.h"
 
@@ -133,51 +134,13 @@ void expect_motions(const json& motions, const std::vector<MotionFrames>& expect
 
 // ---------------------------------------------------------------- HTTP
 
-struct Reply {
-  int status = 0;
-  std::string body;
-  httplib::Headers headers;
-  json document;  // the body parsed, or null when it is not JSON
+using test::bearer;
+using test::get;
+using test::post;
+using test::Reply;
+using test::to_reply;
 
-  const json& error() const { return document.at("error"); }
-  std::string field() const { return error().at("field").get<std::string>(); }
-};
-
-Reply to_reply(const httplib::Result& result) {
-  Reply reply;
-  if (!result) {
-    ADD_FAILURE() << "no HTTP answer: " << httplib::to_string(result.error());
-    return reply;
-  }
-  reply.status = result->status;
-  reply.body = result->body;
-  reply.headers = result->headers;
-  reply.document = json::parse(result->body, nullptr, false);
-  if (reply.document.is_discarded()) reply.document = nullptr;
-  return reply;
-}
-
-httplib::Client client(int port) {
-  httplib::Client c("127.0.0.1", port);
-  c.set_read_timeout(300);
-  c.set_write_timeout(300);
-  c.set_connection_timeout(10);
-  return c;
-}
-
-Reply post(int port, const std::string& path, const std::string& body, const httplib::Headers& headers = {}) {
-  auto c = client(port);
-  return to_reply(c.Post(path.c_str(), headers, body, "application/json"));
-}
-Reply post(int port, const std::string& path, const json& body, const httplib::Headers& headers = {}) {
-  return post(port, path, body.dump(), headers);
-}
-Reply get(int port, const std::string& path, const httplib::Headers& headers = {}) {
-  auto c = client(port);
-  return to_reply(c.Get(path.c_str(), headers));
-}
-
-httplib::Headers bearer(const std::string& token) { return {{"Authorization", "Bearer " + token}}; }
+httplib::Client client(int port) { return test::rest_client(port); }
 
 // An error reply: the status, the JSON error body's code and field.
 void expect_error(const Reply& reply, int status, const std::string& code, const std::string& field) {

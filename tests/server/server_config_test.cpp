@@ -3,13 +3,13 @@
 // precedence (CLI11's: an option the file sets is not read from the
 // environment).
 #include <gtest/gtest.h>
-#include <httplib.h>
 
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "rest_call.h"
 #include "server_process.h"
 
 namespace mm::test {
@@ -17,10 +17,8 @@ namespace {
 
 // The limit the server states when refusing a Sample of `count`.
 std::string sample_refusal(const ServerProcess& server, int count) {
-  httplib::Client client("127.0.0.1", server.rest_port());
-  const auto result = client.Post("/v1/sample", nlohmann::json{{"count", count}}.dump(), "application/json");
-  if (!result) return "no answer";
-  return result->status == 200 ? "accepted" : result->body;
+  const Reply reply = post(server.rest_port(), "/v1/sample", nlohmann::json{{"count", count}});
+  return reply.status == 200 ? "accepted" : reply.body;
 }
 
 TEST(ServerConfig, TheEnvironmentSetsALimitAFileOverridesItAndAFlagOverridesBoth) {

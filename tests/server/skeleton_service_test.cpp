@@ -5,7 +5,6 @@
 // samples BVH of the same hierarchy, interpolates in its layout, and refuses
 // a BVH of another hierarchy or a malformed one naming what is wrong. The
 // tool decodes with the published model into BVH of the same rig too.
-#include <httplib.h>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -21,6 +20,7 @@
 #include "cmu_dance.h"
 #include "format/bvh_file.h"
 #include "format/h36m_bvh.h"
+#include "rest_call.h"
 #include "server_process.h"
 #include "test_environment.h"
 
@@ -39,30 +39,23 @@ std::string six_seconds(const std::string& relative) {
   return write_bvh_text(file);
 }
 
+// The REST calls of these tests, to one server.
 class Rest {
  public:
-  explicit Rest(const ServerProcess& server) : client_("127.0.0.1", server.rest_port()) {
-    client_.set_read_timeout(120, 0);
-  }
-  httplib::Result post(const std::string& path, const std::string& body, const std::string& type,
-                       const std::string& accept = "application/json") {
-    return client_.Post(path.c_str(), {{"Accept", accept}}, body, type.c_str());
+  explicit Rest(const ServerProcess& server) : port_(server.rest_port()) {}
+  test::Reply post(const std::string& path, const std::string& body, const std::string& type,
+                   const std::string& accept = "application/json") {
+    return test::post(port_, path, body, {{"Accept", accept}}, type);
   }
   json post_json(const std::string& path, const json& body) {
-    auto reply = post(path, body.dump(), "application/json");
-    EXPECT_TRUE(reply) << path;
-    if (!reply) return json();
-    EXPECT_EQ(reply->status, 200) << path << ": " << reply->body;
-    return json::parse(reply->body);
+    const test::Reply reply = test::post(port_, path, body);
+    EXPECT_EQ(reply.status, 200) << path << ": " << reply.body;
+    return reply.document;
   }
-  json get(const std::string& path) {
-    auto reply = client_.Get(path.c_str());
-    EXPECT_TRUE(reply) << path;
-    return reply ? json::parse(reply->body) : json();
-  }
+  json get(const std::string& path) { return test::get(port_, path).document; }
 
  private:
-  httplib::Client client_;
+  int port_;
 };
 
 // The hierarchy of a BVH reply is the CMU rig's: names, parents, End Sites,
@@ -96,9 +89,9 @@ TEST(SkeletonService, AJobOnABvhFolderPublishesAModelThatSpeaksBvhOfThatSkeleton
   // A folder that is not under the data root, or holds one file, is refused
   // at submission.
   auto refused = rest.post("/v1/jobs", json{{"dataset", "dances/martial"}}.dump(), "application/json");
-  ASSERT_TRUE(refused);
-  EXPECT_EQ(refused->status, 400);
-  EXPECT_THAT(refused->body, HasSubstr("holds one .bvh file"));
+  ASSERT_NE(refused.status, 0);
+  EXPECT_EQ(refused.status, 400);
+  EXPECT_THAT(refused.body, HasSubstr("holds one .bvh file"));
 
   const json job = rest.post_json("/v1/jobs", {{"dataset", "dances"}, {"variant", "DKGM"}, {"iterations", 3},
                                                {"hidden", 16}, {"batch", 2}, {"seed", 1}, {"model_name", "dances"}});
@@ -121,30 +114,30 @@ TEST(SkeletonService, AJobOnABvhFolderPublishesAModelThatSpeaksBvhOfThatSkeleton
   // Encode: BVH of the CMU rig in, a code out.
   const BvhFile rig = read_bvh_file((cmu_dance_dir() / "martial/03.bvh").string());
   auto encoded = rest.post("/v1/encode", six_seconds("martial/03.bvh"), "application/x-bvh");
-  ASSERT_TRUE(encoded);
-  ASSERT_EQ(encoded->status, 200) << encoded->body;
-  const json code = json::parse(encoded->body)["codes"][0];
+  ASSERT_NE(encoded.status, 0);
+  ASSERT_EQ(encoded.status, 200) << encoded.body;
+  const json code = json::parse(encoded.body)["codes"][0];
   ASSERT_EQ(code.size(), 64u);
   auto other = rest.post("/v1/encode", six_seconds("indian/06.bvh"), "application/x-bvh");
-  ASSERT_TRUE(other);
-  ASSERT_EQ(other->status, 200) << other->body;
-  const json other_code = json::parse(other->body)["codes"][0];
+  ASSERT_NE(other.status, 0);
+  ASSERT_EQ(other.status, 200) << other.body;
+  const json other_code = json::parse(other.body)["codes"][0];
   EXPECT_NE(code, other_code);
 
   // Decode and sample: BVH of the same hierarchy back.
   auto decoded = rest.post("/v1/decode", json{{"codes", {code}}}.dump(), "application/json", "application/x-bvh");
-  ASSERT_TRUE(decoded);
-  ASSERT_EQ(decoded->status, 200) << decoded->body;
-  EXPECT_EQ(decoded->get_header_value("Content-Type"), "application/x-bvh");
-  expect_cmu_rig(decoded->body, rig);
+  ASSERT_NE(decoded.status, 0);
+  ASSERT_EQ(decoded.status, 200) << decoded.body;
+  EXPECT_EQ(decoded.header("Content-Type"), "application/x-bvh");
+  expect_cmu_rig(decoded.body, rig);
   auto sampled = rest.post("/v1/sample", json{{"count", 1}, {"seed", 7}}.dump(), "application/json", "application/x-bvh");
-  ASSERT_TRUE(sampled);
-  ASSERT_EQ(sampled->status, 200) << sampled->body;
-  expect_cmu_rig(sampled->body, rig);
+  ASSERT_NE(sampled.status, 0);
+  ASSERT_EQ(sampled.status, 200) << sampled.body;
+  expect_cmu_rig(sampled.body, rig);
   // A decoded BVH encodes again: the reply is a valid motion of the skeleton.
-  auto again = rest.post("/v1/encode", decoded->body, "application/x-bvh");
-  ASSERT_TRUE(again);
-  EXPECT_EQ(again->status, 200) << again->body;
+  auto again = rest.post("/v1/encode", decoded.body, "application/x-bvh");
+  ASSERT_NE(again.status, 0);
+  EXPECT_EQ(again.status, 200) << again.body;
 
   // Interpolate between the two codes: motions in the model's layout.
   const json path = rest.post_json(
@@ -158,31 +151,31 @@ TEST(SkeletonService, AJobOnABvhFolderPublishesAModelThatSpeaksBvhOfThatSkeleton
   // Any one of them as BVH of the rig.
   auto middle = rest.post("/v1/decode", json{{"codes", {path["codes"][1]}}}.dump(), "application/json",
                           "application/x-bvh");
-  ASSERT_TRUE(middle);
-  expect_cmu_rig(middle->body, rig);
+  ASSERT_NE(middle.status, 0);
+  expect_cmu_rig(middle.body, rig);
 
   // Another hierarchy (H3.6M's) and a malformed BVH are refused, naming why.
   MotionFrames h36m;
   h36m.values.assign(150 * kH36mColumns, 0.0f);
   auto wrong = rest.post("/v1/encode", h36m_motion_to_bvh_text(h36m, 25), "application/x-bvh");
-  ASSERT_TRUE(wrong);
-  EXPECT_EQ(wrong->status, 400);
-  EXPECT_THAT(wrong->body, HasSubstr("not the skeleton \\\"dances\\\": it has 25 joints and 7 end sites"));
-  EXPECT_THAT(wrong->body, HasSubstr("missing joints: hip"));
+  ASSERT_NE(wrong.status, 0);
+  EXPECT_EQ(wrong.status, 400);
+  EXPECT_THAT(wrong.body, HasSubstr("not the skeleton \\\"dances\\\": it has 25 joints and 7 end sites"));
+  EXPECT_THAT(wrong.body, HasSubstr("missing joints: hip"));
   std::string broken = six_seconds("martial/03.bvh");
   broken.replace(broken.find("CHANNELS 3"), 10, "CHANNELS 9");
   auto malformed = rest.post("/v1/encode", broken, "application/x-bvh");
-  ASSERT_TRUE(malformed);
-  EXPECT_EQ(malformed->status, 400);
-  EXPECT_THAT(malformed->body, HasSubstr("request body:9: channel count 9, expected 0 to 6"));
+  ASSERT_NE(malformed.status, 0);
+  EXPECT_EQ(malformed.status, 400);
+  EXPECT_THAT(malformed.body, HasSubstr("request body:9: channel count 9, expected 0 to 6"));
   // An H3.6M motion as JSON: the layout names the model's.
   auto h36m_json = rest.post("/v1/encode",
                              json{{"motions", {{{"frames", 150}, {"columns", 99}, {"frame_rate", 25},
                                                 {"layout", "h36m-expmap-99"}, {"values", h36m.values}}}}}.dump(),
                              "application/json");
-  ASSERT_TRUE(h36m_json);
-  EXPECT_EQ(h36m_json->status, 400);
-  EXPECT_THAT(h36m_json->body, HasSubstr("expected \\\"expmap-174\\\""));
+  ASSERT_NE(h36m_json.status, 0);
+  EXPECT_EQ(h36m_json.status, 400);
+  EXPECT_THAT(h36m_json.body, HasSubstr("expected \\\"expmap-174\\\""));
 
   // The tool with the published model: a code file to BVH of the rig.
   const std::string code_file = scratch.file("code.json");
