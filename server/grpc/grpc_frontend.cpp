@@ -62,6 +62,9 @@ void GrpcFrontend::start() {
 
   grpc::ServerBuilder builder;
   builder.AddListeningPort(address, credentials(options_), &port_);
+  // gRPC sets SO_REUSEPORT by default: a second server on the same port
+  // would start without an error and take half the connections.
+  builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
   builder.RegisterService(service_.get());
   builder.SetMaxReceiveMessageSize(options_.max_message_bytes);
   builder.SetMaxSendMessageSize(options_.max_message_bytes);

@@ -1,6 +1,7 @@
 #include "rest/rest_frontend.h"
 
 #include <httplib.h>
+#include <sys/socket.h>
 
 #include <algorithm>
 #include <atomic>
@@ -375,6 +376,14 @@ void RestFrontend::start() {
   // httplib writes a reply's headers and body separately: with Nagle's
   // algorithm the body then waits for the client's delayed ACK (40 ms).
   server.set_tcp_nodelay(true);
+  // httplib's default sets SO_REUSEPORT, with which a second server on the
+  // same port starts without an error and the kernel shares the
+  // connections between the two. SO_REUSEADDR alone still lets a restarted
+  // server bind while old connections linger in TIME_WAIT.
+  server.set_socket_options([](socket_t sock) {
+    int yes = 1;
+    setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof(yes));
+  });
   s.install_error_handlers();
   if (!s.options.web_root.empty() && !server.set_mount_point("/", s.options.web_root))
     throw std::runtime_error("the web root " + s.options.web_root + " is not a folder (--web-root)");
@@ -407,7 +416,7 @@ void RestFrontend::start() {
   }
   if (port < 0) {
     s.server.reset();
-    throw std::runtime_error("the REST frontend cannot listen on " + where);
+    throw std::runtime_error("the REST frontend cannot listen on " + where + " (address in use or not available)");
   }
   s.port = port;
   s.serve_thread = std::thread([&server] { server.listen_after_bind(); });

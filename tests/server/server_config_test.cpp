@@ -9,6 +9,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "command_run.h"
 #include "rest_call.h"
 #include "server_process.h"
 
@@ -54,6 +55,29 @@ TEST(ServerConfig, AnUnknownKeyOrABadValueStopsTheServerNamingIt) {
     EXPECT_NE(std::string(e.what()).find("max-sample-count"), std::string::npos) << e.what();
   }
   std::filesystem::remove(file);
+}
+
+// A second server given a port the first one serves on stops with an error
+// naming it, instead of sharing the port (SO_REUSEPORT) and half the
+// connections with the first.
+TEST(ServerConfig, APortInUseStopsASecondServerNamingTheAddress) {
+  ServerProcess first;
+  const std::string common = std::string("--model-store ") + first.model_store() + " --address 127.0.0.1 --web-root ''";
+  // `timeout` ends a second server that did start (exit 124).
+  const std::string second = std::string("timeout 60 ") + MM_SERVER_BINARY;
+  const CommandRun rest_clash =
+      run_command(second, common + " --grpc-port 0 --rest-port " + std::to_string(first.rest_port()));
+  EXPECT_EQ(rest_clash.exit_code, 1) << rest_clash.err;
+  // The log (standard output) says why.
+  EXPECT_NE(rest_clash.out.find("cannot listen on 127.0.0.1:" + std::to_string(first.rest_port())), std::string::npos)
+      << rest_clash.out;
+  const CommandRun grpc_clash =
+      run_command(second, common + " --rest-port 0 --grpc-port " + std::to_string(first.grpc_port()));
+  EXPECT_EQ(grpc_clash.exit_code, 1) << grpc_clash.err;
+  EXPECT_NE(grpc_clash.out.find("cannot listen on 127.0.0.1:" + std::to_string(first.grpc_port())), std::string::npos)
+      << grpc_clash.out;
+  // The first serves on.
+  EXPECT_EQ(get(first.rest_port(), "/v1/models").status, 200);
 }
 
 }  // namespace
