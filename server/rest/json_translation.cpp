@@ -1,5 +1,6 @@
 #include "rest/json_translation.h"
 
+
 #include <cfloat>
 #include <cmath>
 #include <cstdint>
@@ -7,6 +8,8 @@
 #include <set>
 
 #include <nlohmann/json.hpp>
+
+#include "format/json_text.h"
 
 namespace mm::service::rest {
 
@@ -32,16 +35,27 @@ std::string index_path(const std::string& parent, size_t index) {
 }
 
 json parse_body(const std::string& body) {
+  // Refused before parsing: the translation prints parts of a body (a job's
+  // configuration), which recurses once per level of nesting.
+  if (json_nesting_depth(body) > kMaxJsonDepth) {
+    throw ApiError(ErrorCode::kInvalidArgument, "",
+                   "the JSON body nests arrays and objects deeper than " + std::to_string(kMaxJsonDepth) +
+                       " levels, expected a request of a few");
+  }
   try {
     return json::parse(body);
-  } catch (const json::parse_error& e) {
-    // e.what() reads "[json.exception.parse_error.101] parse error at line 1,
-    // column 7: syntax error ..."; the bracketed id means nothing to a client.
+  } catch (const json::exception& e) {
+    // A syntax error (parse_error, with its byte) or a number beyond a
+    // double's range (out_of_range). e.what() reads "[json.exception.
+    // parse_error.101] parse error at line 1, column 7: ..."; the bracketed
+    // id means nothing to a client.
     std::string what = e.what();
     const size_t close = what.find("] ");
     if (close != std::string::npos && what.rfind("[json.exception", 0) == 0) what = what.substr(close + 2);
+    const auto* syntax = dynamic_cast<const json::parse_error*>(&e);
     throw ApiError(ErrorCode::kInvalidArgument, "",
-                   "malformed JSON (byte " + std::to_string(e.byte) + "): " + what);
+                   "malformed JSON" + (syntax ? " (byte " + std::to_string(syntax->byte) + ")" : std::string()) + ": " +
+                       what);
   }
 }
 
@@ -66,25 +80,31 @@ T read_integer(const json& value, const std::string& path, bool strings_allowed)
   }
   if (value.is_number_float()) {
     const double v = value.get<double>();
+    // Below 2^digits, exclusive: a 64-bit max converted to double rounds up
+    // to that power of two, which is itself out of range.
     if (!(std::floor(v) == v) || v < static_cast<double>(std::numeric_limits<T>::min()) ||
-        v > static_cast<double>(std::numeric_limits<T>::max()))
+        v >= std::ldexp(1.0, std::numeric_limits<T>::digits))
       throw ApiError(ErrorCode::kInvalidArgument, path, "expected " + std::string(expected) + ", got " + value.dump());
     return static_cast<T>(v);
   }
   if (value.is_string() && strings_allowed) {
     const std::string& text = value.get_ref<const std::string&>();
+    // Digits only, with a minus sign where T is signed: stoll and stoull
+    // would also take leading blanks and a plus sign, and stoull a minus
+    // sign, negating the number into a huge one.
+    const size_t first_digit = std::is_signed<T>::value && !text.empty() && text[0] == '-' ? 1 : 0;
+    const bool digits = text.size() > first_digit &&
+                        text.find_first_not_of("0123456789", first_digit) == std::string::npos;
     try {
-      size_t used = 0;
-      if (std::is_signed<T>::value) {
-        const long long v = std::stoll(text, &used);
-        if (used == text.size() && v >= static_cast<long long>(std::numeric_limits<T>::min()) &&
+      if (digits && std::is_signed<T>::value) {
+        const long long v = std::stoll(text);
+        if (v >= static_cast<long long>(std::numeric_limits<T>::min()) &&
             v <= static_cast<long long>(std::numeric_limits<T>::max()))
           return static_cast<T>(v);
-      } else if (!text.empty() && text[0] != '-') {
-        const unsigned long long v = std::stoull(text, &used);
-        if (used == text.size()) return static_cast<T>(v);
+      } else if (digits) {
+        return static_cast<T>(std::stoull(text));
       }
-    } catch (const std::exception&) {
+    } catch (const std::out_of_range&) {
     }
     throw ApiError(ErrorCode::kInvalidArgument, path,
                    "expected " + std::string(expected) + " (a number or its decimal string), got \"" + text + "\"");

@@ -37,7 +37,10 @@ int64_t integer(const QueryParameters& parameters, const std::string& name) {
   errno = 0;
   char* end = nullptr;
   const long long parsed = std::strtoll(value.c_str(), &end, 10);
-  if (value.empty() || end != value.c_str() + value.size() || errno == ERANGE) {
+  // strtoll also takes leading blanks and a plus sign: digits only.
+  const size_t first_digit = !value.empty() && value[0] == '-' ? 1 : 0;
+  const bool digits = value.size() > first_digit && value.find_first_not_of("0123456789", first_digit) == std::string::npos;
+  if (!digits || end != value.c_str() + value.size() || errno == ERANGE) {
     throw invalid(name, "expected a 64-bit integer, got \"" + value + "\"");
   }
   return parsed;

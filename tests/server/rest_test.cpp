@@ -365,12 +365,31 @@ TEST_F(RestApi, AnUnknownModelIsNotFound) {
 }
 
 TEST_F(RestApi, MalformedJsonIsRefusedWithTheParsersPosition) {
-  const Reply reply = post(port(), "/v1/encode", std::string(R"({"motions": [ {"frames": 150,, }]})"));
+  Reply reply = post(port(), "/v1/encode", std::string(R"({"motions": [ {"frames": 150,, }]})"));
   expect_error(reply, 400, "INVALID_ARGUMENT", "");
   EXPECT_NE(reply.error()["message"].get<std::string>().find("column"), std::string::npos) << reply.body;
   expect_error(post(port(), "/v1/sample", std::string("")), 400, "INVALID_ARGUMENT", "");
   expect_error(post(port(), "/v1/sample", std::string("[1, 2]")), 400, "INVALID_ARGUMENT", "");
+  // A number beyond a double's range is malformed JSON too, not an internal error.
+  reply = post(port(), "/v1/sample", std::string(R"({"count": 1e400})"));
+  expect_error(reply, 400, "INVALID_ARGUMENT", "");
+  EXPECT_NE(reply.error()["message"].get<std::string>().find("1e400"), std::string::npos) << reply.body;
   expect_still_serving(port());
+}
+
+// Nesting is refused before a body is parsed: printing a deep document (a
+// job's configuration) once overflowed a worker's stack and ended the server,
+// even on a call without a token.
+TEST_F(RestApi, AJsonBodyNestedTooDeeplyIsRefusedAndTheServerServesOn) {
+  const std::string deep = "{\"dataset\": \"h36m\", \"config\": {\"a\": " + std::string(150000, '[') +
+                           std::string(150000, ']') + "}}";
+  const Reply reply = post(port(), "/v1/jobs", deep);
+  expect_error(reply, 400, "INVALID_ARGUMENT", "");
+  EXPECT_NE(reply.error()["message"].get<std::string>().find("deeper than 64 levels"), std::string::npos) << reply.body;
+  expect_still_serving(port());
+  // Brackets inside strings are text, not nesting.
+  expect_error(post(port(), "/v1/sample", json{{"model", std::string(1000, '[')}, {"count", 1}}), 400,
+               "INVALID_ARGUMENT", "model");
 }
 
 TEST_F(RestApi, AFieldOfTheWrongJsonTypeIsRefusedNamingItsPathAndType) {
@@ -388,6 +407,14 @@ TEST_F(RestApi, AFieldOfTheWrongJsonTypeIsRefusedNamingItsPathAndType) {
   expect_error(post(port(), "/v1/encode", json{{"motions", walk}}), 400, "INVALID_ARGUMENT", "motions");
   expect_error(post(port(), "/v1/sample", json{{"count", 1.5}}), 400, "INVALID_ARGUMENT", "count");
   expect_error(post(port(), "/v1/sample", json{{"seed", -1}}), 400, "INVALID_ARGUMENT", "seed");
+  // Integers exactly: no wrap past 2^64, no blanks, signs or negated strings.
+  for (const std::string seed : {"18446744073709551616", "1.8446744073709551616e19", "\" -1\"", "\"-1\"", "\"+5\"",
+                                 "\" 5\"", "\"18446744073709551616\""}) {
+    expect_error(post(port(), "/v1/sample", "{\"count\": 1, \"seed\": " + seed + "}"), 400, "INVALID_ARGUMENT", "seed");
+  }
+  EXPECT_EQ(post(port(), "/v1/sample", std::string(R"({"count": 1, "seed": "18446744073709551615"})")).status, 200);
+  expect_error(post(port(), "/v1/sample", std::string(R"({"count": 9223372036854775808.0})")), 400, "INVALID_ARGUMENT",
+               "count");
   expect_error(post(port(), "/v1/denoise", json{{"motions", {walk}}, {"keep_observed", "yes"}}), 400,
                "INVALID_ARGUMENT", "keep_observed");
   expect_error(post(port(), "/v1/interpolate", json{{"from", {{"code", "zero"}}}}), 400, "INVALID_ARGUMENT",
