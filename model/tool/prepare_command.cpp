@@ -2,6 +2,7 @@
 // skeleton, to one prepared dataset file (Sec. 4): at 25 Hz, normalised on
 // the training subjects (files), with the position-loss scale measured on them.
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -49,7 +50,13 @@ int run_prepare(const PrepareOptions& options) {
     bvh.millimetres_per_unit = millimetres_per_unit(options.unit);
     data = prepare_bvh_folder(options.bvh_dir, bvh);
   } else {
-    data = prepare_h36m(options.data_dir, options.split);
+    // "--test ''" means no test subjects (a dataset of the user's own
+    // subjects, none held out): CLI11 reads it as one empty name.
+    SplitOptions split = options.split;
+    for (auto* list : {&split.train_subjects, &split.test_subjects}) {
+      list->erase(std::remove(list->begin(), list->end(), std::string()), list->end());
+    }
+    data = prepare_h36m(options.data_dir, split);
   }
   data.normalization.position_scale_mm = position_scale_for(data, data.skeleton);
   save_prepared_dataset(data, options.out);
@@ -96,7 +103,7 @@ void add_prepare_command(CLI::App& app, Action& action) {
   command->add_option("--train", options->split.train_subjects, "training subjects, comma-separated")
       ->delimiter(',')
       ->capture_default_str();
-  command->add_option("--test", options->split.test_subjects, "test subjects, comma-separated")
+  command->add_option("--test", options->split.test_subjects, "test subjects, comma-separated ('' for none)")
       ->delimiter(',')
       ->capture_default_str();
   command->callback([options, &action, data, bvh] {

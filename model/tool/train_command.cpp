@@ -146,6 +146,17 @@ int train_and_export(Trainer& trainer, c10::Device device, const std::string& da
       {"outcome", cancelled ? "cancelled" : "finished"},
   };
   provenance.update(origin);
+  // A run that diverged exports nothing: a model of NaN weights would load
+  // and answer every call with NaN (a training job would publish it).
+  for (const at::Tensor& parameter : trainer.model().generator_parameters()) {
+    if (!at::isfinite(parameter).all().item<bool>()) {
+      std::fprintf(stderr,
+                   "error: training diverged: after %lld iterations the weights hold NaN or infinite values; no model "
+                   "exported (try a smaller learning_rate or a larger batch)\n",
+                   static_cast<long long>(trainer.iteration()));
+      return kExitFailure;
+    }
+  }
   // A model is always exported from the CPU so that it loads on machines
   // without a GPU.
   trainer.model().to(c10::kCPU);
@@ -267,7 +278,8 @@ void add_train_commands(CLI::App& app, Action& action, const std::string& comman
   train->add_option("--dataset", o->dataset, "prepared dataset file (overrides the configuration)");
   auto* out = train->add_option("--out", o->out, "output folder (overrides the configuration)");
   train->add_option("--iterations", o->iterations, "iterations in total (overrides)")->check(at_least(1));
-  auto* batch = train->add_option("--batch", o->batch, "clips per batch (overrides)")->check(at_least(1));
+  // Two clips at least: the MMD estimate needs two samples (as in a configuration file).
+  auto* batch = train->add_option("--batch", o->batch, "clips per batch (overrides)")->check(at_least(2));
   auto* hidden = train->add_option("--hidden", o->hidden, "GRU hidden size (overrides)")->check(at_least(1));
   o->seed_option = train->add_option("--seed", o->seed, "random seed (overrides)");
   auto* losses = train->add_option("--losses", o->losses,

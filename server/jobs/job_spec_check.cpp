@@ -9,6 +9,8 @@
 #include "core/data_root_path.h"
 #include "format/bvh_dataset.h"
 #include "format/input_error.h"
+#include "format/json_text.h"
+#include "training_config.h"
 
 namespace mm::service {
 namespace {
@@ -33,7 +35,8 @@ bool has_prepared_dataset_header(const fs::path& path) {
   return version == 1;
 }
 
-bool is_subject_name(const std::string& name) { return std::regex_match(name, std::regex("S[0-9]+")); }
+// S1 to S999999999: a number that fits an int, so that subjects sort by it.
+bool is_subject_name(const std::string& name) { return std::regex_match(name, std::regex("S[0-9]{1,9}")); }
 
 // A subject folder's motion files are <action>_<take>.txt.
 bool holds_motion_files(const fs::path& folder) {
@@ -130,35 +133,50 @@ JobDataset resolve_job_dataset(const std::string& data_root, const std::string& 
 
 void check_job_spec(const JobSpec& spec) {
   const auto& variants = job_variants();
-  nlohmann::json config;
-  if (!spec.config_json.empty()) {
-    try {
-      config = nlohmann::json::parse(spec.config_json);
-    } catch (const nlohmann::json::exception& e) {
-      refuse("config", std::string("config is not valid JSON (") + e.what() + "), expected a JSON object");
-    }
-    if (!config.is_object()) refuse("config", "config is JSON " + std::string(config.type_name()) + ", expected an object");
-    if (config.contains("variant")) {
-      const auto& v = config["variant"];
-      if (!v.is_string() || std::find(variants.begin(), variants.end(), v.get<std::string>()) == variants.end()) {
-        refuse("config", "config's \"variant\" is " + v.dump() + ", expected one of S, D, DK, DKG, DKGM, DKGMZ, Seq2seq");
-      }
-    }
-  }
   // A configuration replaces the variant, which may then be left empty.
   const bool variant_needed = spec.config_json.empty() || !spec.variant.empty();
   if (variant_needed && std::find(variants.begin(), variants.end(), spec.variant) == variants.end()) {
     refuse("variant", "variant " + quoted(spec.variant) + " is unknown, expected one of S, D, DK, DKG, DKGM, DKGMZ, Seq2seq");
   }
-  if (spec.iterations < 0 || spec.iterations > 10'000'000) {
-    refuse("iterations", "iterations " + std::to_string(spec.iterations) +
-                             " is out of range, expected 0 (the configuration's) to 10000000");
+  if (spec.iterations < 0 || spec.iterations > kMaxJobIterations) {
+    refuse("iterations", "iterations " + std::to_string(spec.iterations) + " is out of range, expected 0 (the configuration's) to " +
+                             std::to_string(kMaxJobIterations));
   }
-  if (spec.hidden != 0 && (spec.hidden < 8 || spec.hidden > 4096)) {
-    refuse("hidden", "hidden " + std::to_string(spec.hidden) + " is out of range, expected 0 (the configuration's) or 8 to 4096");
+  if (spec.hidden != 0 && (spec.hidden < kMinJobHidden || spec.hidden > kMaxJobHidden)) {
+    refuse("hidden", "hidden " + std::to_string(spec.hidden) + " is out of range, expected 0 (the configuration's) or " +
+                         std::to_string(kMinJobHidden) + " to " + std::to_string(kMaxJobHidden));
   }
-  if (spec.batch != 0 && (spec.batch < 1 || spec.batch > 1024)) {
-    refuse("batch", "batch " + std::to_string(spec.batch) + " is out of range, expected 0 (the configuration's) or 1 to 1024");
+  // Two clips at least: the MMD estimate needs two samples.
+  if (spec.batch != 0 && (spec.batch < 2 || spec.batch > kMaxJobBatch)) {
+    refuse("batch", "batch " + std::to_string(spec.batch) + " is out of range, expected 0 (the configuration's) or 2 to " +
+                        std::to_string(kMaxJobBatch));
+  }
+  if (!spec.config_json.empty()) {
+    // Read as the tool will read it, so that a bad configuration is refused
+    // now, naming its field, and not after the dataset has been prepared;
+    // and held to the limits of the fields it sets.
+    TrainConfig config;
+    try {
+      const nlohmann::json document = parse_json_text(spec.config_json, "config");
+      if (!document.is_object()) {
+        refuse("config", "config is JSON " + std::string(document.type_name()) + ", expected an object");
+      }
+      config = train_config_from_json_text(spec.config_json, "config");
+    } catch (const InputError& e) {
+      refuse("config", e.what());
+    }
+    if (spec.iterations == 0 && config.iterations > kMaxJobIterations) {
+      refuse("config", "config: iterations: " + std::to_string(config.iterations) + " is out of range, expected at most " +
+                           std::to_string(kMaxJobIterations));
+    }
+    if (spec.hidden == 0 && (config.model.hidden < kMinJobHidden || config.model.hidden > kMaxJobHidden)) {
+      refuse("config", "config: model.hidden: " + std::to_string(config.model.hidden) + " is out of range, expected " +
+                           std::to_string(kMinJobHidden) + " to " + std::to_string(kMaxJobHidden));
+    }
+    if (spec.batch == 0 && config.batch > kMaxJobBatch) {
+      refuse("config", "config: batch: " + std::to_string(config.batch) + " is out of range, expected at most " +
+                           std::to_string(kMaxJobBatch));
+    }
   }
   if (!spec.model_name.empty()) {
     static const std::regex name("[A-Za-z0-9._-]{1,64}");
@@ -167,6 +185,13 @@ void check_job_spec(const JobSpec& spec) {
       refuse("model_name", "model_name " + quoted(spec.model_name) +
                                " is not a model name, expected 1 to 64 of A-Z a-z 0-9 . _ - not starting with a dot "
                                "(or empty for job-<id>)");
+    }
+    // An unnamed job publishes job-<its id>: a name of that form could be
+    // taken by one and then refused to the other after all its training.
+    if (spec.model_name.rfind("job-", 0) == 0) {
+      refuse("model_name", "model_name " + quoted(spec.model_name) +
+                               " starts with \"job-\", which names the models of jobs submitted without a model_name; "
+                               "expected another name");
     }
   }
 }

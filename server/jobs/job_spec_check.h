@@ -8,6 +8,7 @@
 // files, a BVH folder by its .bvh files, without reading any. Thread safe (no shared state).
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -36,12 +37,19 @@ struct JobDataset {
 // with field "dataset" otherwise.
 JobDataset resolve_job_dataset(const std::string& data_root, const std::string& dataset);
 
+// The limits of a job's size, whether the spec or its configuration sets it.
+constexpr int64_t kMaxJobIterations = 10'000'000;
+constexpr int kMinJobHidden = 8, kMaxJobHidden = 4096;
+constexpr int kMaxJobBatch = 1024;
+
 // Checks the spec's other fields: variant (one of S D DK DKG DKGM DKGMZ
-// Seq2seq, unless a configuration replaces it), iterations 0..10,000,000,
-// hidden 0 or 8..4096, batch 0 or 1..1024, config (empty or a JSON object
-// whose "variant", if any, is a known one) and the form of model_name
-// ([A-Za-z0-9._-]{1,64}, not "." or "..", or empty). ApiError
-// INVALID_ARGUMENT naming the field otherwise.
+// Seq2seq, unless a configuration replaces it), iterations 0 (the
+// configuration's) to kMaxJobIterations, hidden 0 or kMinJobHidden to
+// kMaxJobHidden, batch 0 or 2 to kMaxJobBatch, config (empty, or a training
+// configuration as the tool reads it, whose sizes keep the same limits) and
+// the form of model_name ([A-Za-z0-9._-]{1,64}, not starting with a dot or
+// with "job-", or empty). ApiError INVALID_ARGUMENT naming the field
+// otherwise.
 void check_job_spec(const JobSpec& spec);
 
 // The Table 1 variants the tool trains.

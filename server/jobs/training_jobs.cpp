@@ -412,7 +412,8 @@ RunEnd TrainingJobs::State::run_job(JobInfo& job) {
       }
       std::vector<std::string> argv{config.tool_path, "prepare", "--data", dataset.path.string(),
                                     "--out",          dataset_file, "--train", train};
-      if (!test.empty()) argv.insert(argv.end(), {"--test", test});
+      // No S5: no test subjects (the tool's default would be S5).
+      argv.insert(argv.end(), {"--test", test});
       const RunEnd end = run_child(job, argv, "prepare");
       if (end != RunEnd::kSucceeded) return end;
     }

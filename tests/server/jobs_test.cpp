@@ -231,9 +231,21 @@ TEST_F(TrainingJobsTest, SubmissionRefusesBadFieldsNamingThem) {
       {[](JobSpec& s) { s.config_json = "{\"variant\": \"D\""; }, "config"},
       {[](JobSpec& s) { s.config_json = "[1, 2]"; }, "config"},
       {[](JobSpec& s) { s.config_json = "{\"variant\": \"Q\"}"; }, "config"},
+      // Read as the tool reads it: unknown fields, wrong types, its ranges.
+      {[](JobSpec& s) { s.config_json = R"({"variant": "D", "no_such_field": 1})"; }, "config"},
+      {[](JobSpec& s) { s.config_json = R"({"model": {"hidden": "wide"}})"; }, "config"},
+      {[](JobSpec& s) { s.config_json = R"({"batch": 1})"; }, "config"},
+      // The limits of the spec's own fields hold for the configuration's,
+      // where the spec does not set the field.
+      {[](JobSpec& s) { s.iterations = 0, s.config_json = R"({"iterations": 1000000000000})"; }, "config"},
+      {[](JobSpec& s) { s.hidden = 0, s.config_json = R"({"model": {"hidden": 65536}})"; }, "config"},
+      {[](JobSpec& s) { s.batch = 0, s.config_json = R"({"batch": 100000})"; }, "config"},
+      {[](JobSpec& s) { s.config_json = std::string(100, '[') + std::string(100, ']'); }, "config"},
+      {[](JobSpec& s) { s.batch = 1; }, "batch"},  // the MMD estimate needs two samples
       {[](JobSpec& s) { s.model_name = "a/b"; }, "model_name"},
       {[](JobSpec& s) { s.model_name = ".."; }, "model_name"},
       {[](JobSpec& s) { s.model_name = std::string(65, 'm'); }, "model_name"},
+      {[](JobSpec& s) { s.model_name = "job-0123456789ab"; }, "model_name"},  // an unnamed job's
       {[](JobSpec& s) { s.model_name = "taken"; }, "model_name", ErrorCode::kFailedPrecondition},
   };
   for (const auto& c : cases) {
@@ -254,6 +266,23 @@ TEST_F(TrainingJobsTest, SubmissionRefusesBadFieldsNamingThem) {
   EXPECT_EQ(job.id.size(), 12u);
   EXPECT_EQ(job.id.find_first_not_of("0123456789abcdef"), std::string::npos) << job.id;
   jobs->cancel(job.id);
+}
+
+// A user's own tree may hold no S5: it trains without a test set. A folder
+// named like a subject with a number past an int's range is no subject.
+TEST_F(TrainingJobsTest, TextTreeWithoutTheTestSubjectTrainsWithoutATestSet) {
+  const fs::path tree = data_root_ / "own";
+  fs::create_directories(tree / "S1");
+  fs::create_symlink(mm::test::h36m_dataset_dir() / "S1" / "posing_2.txt", tree / "S1" / "posing_2.txt");
+  fs::create_directories(tree / "S99999999999");
+  fs::create_symlink(mm::test::h36m_dataset_dir() / "S1" / "posing_1.txt", tree / "S99999999999" / "walking_1.txt");
+  auto jobs = make_jobs();
+  JobSpec spec = tiny_spec(4);
+  spec.dataset = "own";
+  const JobInfo job = wait_finished(*jobs, jobs->submit(spec).id);
+  ASSERT_EQ(job_state_name(job.state), std::string("succeeded")) << job.error;
+  const std::string log = read_text(job_dir(config_, job.id) / "train.log");
+  EXPECT_NE(log.find("test:  0 sequences"), std::string::npos) << log;
 }
 
 TEST_F(TrainingJobsTest, TextTreeJobSucceedsAndPublishesALoadableModel) {
@@ -383,14 +412,17 @@ TEST_F(TrainingJobsTest, RecordsSurviveANewTrainingJobsOnTheSameStateDir) {
 TEST_F(TrainingJobsTest, FailedJobRecordsTheToolsError) {
   auto jobs = make_jobs();
   JobSpec spec = tiny_spec();
-  spec.config_json = R"({"variant": "D", "no_such_field": 1})";  // valid JSON the trainer refuses
+  // A prepared dataset's header, then not the rest: the tool refuses it when
+  // it loads it.
+  std::ofstream(data_root_ / "truncated.mmd", std::ios::binary) << std::string("MMPREP\r\n\x01\0\0\0garbage", 19);
+  spec.dataset = "truncated.mmd";
   const JobInfo job = wait_finished(*jobs, jobs->submit(spec).id);
   ASSERT_EQ(job_state_name(job.state), std::string("failed"));
   EXPECT_NE(job.error.find("exited with status 2"), std::string::npos) << job.error;
-  EXPECT_NE(job.error.find("no_such_field"), std::string::npos) << job.error;
+  EXPECT_NE(job.error.find("truncated file"), std::string::npos) << job.error;
   EXPECT_TRUE(job.published_model.empty());
   EXPECT_GT(job.finished_at, 0);
-  EXPECT_NE(read_text(job_dir(config_, job.id) / "train.log").find("no_such_field"), std::string::npos);
+  EXPECT_NE(read_text(job_dir(config_, job.id) / "train.log").find("truncated file"), std::string::npos);
   std::lock_guard<std::mutex> lock(published_mutex_);
   EXPECT_TRUE(published_.empty());
 }
