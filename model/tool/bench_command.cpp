@@ -40,7 +40,7 @@ struct Timing {
   std::string operation;
   int batch = 0;
   std::string device;
-  std::vector<double> ms;  // one per repeat, after one warm-up
+  std::vector<double> ms;  // one per repeat, after two warm-ups
   int64_t operations = 0;  // tensor operations of one run (count_operations)
   double median() const {
     auto sorted = ms;
@@ -181,7 +181,7 @@ void add_bench_command(CLI::App& app, Action& action) {
       "30) at the paper's model size with random weights. Prints a markdown table of median and minimum times and "
       "of the tensor operations one run issues (one kernel launch or a few each on a GPU).");
   command->add_option("--hidden", o->hidden, "GRU hidden size")->check(at_least(1))->capture_default_str();
-  command->add_option("--iterations", o->iterations, "timed repeats after one warm-up (inference: at least 10)")
+  command->add_option("--iterations", o->iterations, "timed repeats after two warm-ups (inference: at least 10)")
       ->check(at_least(1))
       ->capture_default_str();
   command->add_option("--dataset", o->dataset, "prepared dataset to draw clips from (default: synthetic data)");
