@@ -154,6 +154,16 @@ class TrainingJobsTest : public ::testing::Test {
     return "prepared/h36m.mmd";
   }
 
+  // A job that passes submission and fails in the tool: its dataset is a
+  // prepared dataset's header, then not the rest, which the tool refuses
+  // when it loads it ("truncated file").
+  JobSpec failing_spec() const {
+    std::ofstream(data_root_ / "truncated.mmd", std::ios::binary) << std::string("MMPREP\r\n\x01\0\0\0garbage", 19);
+    JobSpec spec = tiny_spec();
+    spec.dataset = "truncated.mmd";
+    return spec;
+  }
+
   fs::path job_dir(const JobsConfig& config, const std::string& id) const {
     return fs::path(config.state_dir) / "jobs" / id;
   }
@@ -384,9 +394,7 @@ TEST_F(TrainingJobsTest, RecordsSurviveANewTrainingJobsOnTheSameStateDir) {
   std::string finished_id;
   {
     auto jobs = make_jobs();
-    JobSpec failing = tiny_spec();
-    failing.config_json = R"({"variant": "D", "no_such_field": 1})";
-    const std::string failed_id = jobs->submit(failing).id;
+    const std::string failed_id = jobs->submit(failing_spec()).id;
     finished_id = jobs->submit(tiny_spec(20)).id;
     wait_finished(*jobs, failed_id);
     wait_finished(*jobs, finished_id);
@@ -411,12 +419,7 @@ TEST_F(TrainingJobsTest, RecordsSurviveANewTrainingJobsOnTheSameStateDir) {
 
 TEST_F(TrainingJobsTest, FailedJobRecordsTheToolsError) {
   auto jobs = make_jobs();
-  JobSpec spec = tiny_spec();
-  // A prepared dataset's header, then not the rest: the tool refuses it when
-  // it loads it.
-  std::ofstream(data_root_ / "truncated.mmd", std::ios::binary) << std::string("MMPREP\r\n\x01\0\0\0garbage", 19);
-  spec.dataset = "truncated.mmd";
-  const JobInfo job = wait_finished(*jobs, jobs->submit(spec).id);
+  const JobInfo job = wait_finished(*jobs, jobs->submit(failing_spec()).id);
   ASSERT_EQ(job_state_name(job.state), std::string("failed"));
   EXPECT_NE(job.error.find("exited with status 2"), std::string::npos) << job.error;
   EXPECT_NE(job.error.find("truncated file"), std::string::npos) << job.error;
