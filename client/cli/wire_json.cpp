@@ -154,7 +154,8 @@ json to_json(const v1::ModelInfo& model) {
           {"load_seconds", model.load_seconds()},
           {"provenance", embedded(model.provenance_json())},
           {"evaluation", embedded(model.evaluation_json())},
-          {"model_card", model.model_card()}};
+          {"model_card", model.model_card()},
+          {"skeleton", embedded(model.skeleton_json())}};
 }
 
 json to_json(const v1::ListModelsReply& reply) {
@@ -241,6 +242,7 @@ v1::ModelInfo model_from_json(const json& body) {
   model.set_provenance_json(embedded_text(body, "provenance"));
   model.set_evaluation_json(embedded_text(body, "evaluation"));
   model.set_model_card(body.value("model_card", ""));
+  model.set_skeleton_json(embedded_text(body, "skeleton"));
   return model;
 }
 

@@ -150,6 +150,10 @@ struct ModelInfo {
   std::string provenance_json = "{}";
   std::string evaluation_json = "{}";
   std::string model_card;
+  // Describe only: the skeleton of its motions, the manifest's JSON text
+  // (format/skeleton.h: joints, offsets, and the BVH layout of a rig learnt
+  // from BVH files; "{}" when absent), so that a client converts BVH itself.
+  std::string skeleton_json = "{}";
 };
 
 // Clips of the data root (--data-root): the motion files a client may pick

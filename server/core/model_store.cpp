@@ -217,6 +217,7 @@ ModelInfo ModelStore::info(const std::string& name, bool details) const {
     const auto provenance = manifest.value("provenance", nlohmann::json::object());
     info.variant = provenance.value("variant", "");
     if (details) info.provenance_json = provenance.dump();
+    if (details && manifest.contains("skeleton")) info.skeleton_json = manifest["skeleton"].dump();
   }
   if (loaded) {
     info.columns = loaded->shape.columns;

@@ -171,6 +171,7 @@ void to_wire(const ModelInfo& info, v1::ModelInfo* out) {
   out->set_provenance_json(info.provenance_json);
   out->set_evaluation_json(info.evaluation_json);
   out->set_model_card(info.model_card);
+  out->set_skeleton_json(info.skeleton_json);
 }
 
 void to_wire(const ListClipsReply& reply, v1::ListClipsReply* out) {

@@ -296,7 +296,8 @@ json model_json(const ModelInfo& model) {
               {"load_seconds", model.load_seconds},
               {"provenance", embedded_json(model.provenance_json)},
               {"evaluation", embedded_json(model.evaluation_json)},
-              {"model_card", model.model_card}};
+              {"model_card", model.model_card},
+              {"skeleton", embedded_json(model.skeleton_json)}};
 }
 
 json job_spec_json(const JobSpec& spec) {

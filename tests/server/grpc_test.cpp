@@ -33,6 +33,7 @@
 #include <vector>
 
 #include "format/motion_text.h"
+#include "format/skeleton.h"
 #include "latent_operations.h"
 #include "motion_manifold.h"
 #include "motionmanifold/v1/manifold.grpc.pb.h"
@@ -472,6 +473,9 @@ TEST_F(GrpcApiTest, DescribeModelGivesTheActiveModelsCardAndEvaluation) {
     EXPECT_NE(info.model_card().find("h36m"), std::string::npos) << "model card:\n" << info.model_card();
     EXPECT_NE(info.evaluation_json().find("decoders"), std::string::npos);
     EXPECT_EQ(info.provenance_json().front(), '{');
+    // The skeleton its motions are in, as a client converts BVH with it.
+    EXPECT_EQ(Skeleton::from_json_text(info.skeleton_json(), "skeleton_json").to_json_text(),
+              Skeleton::h36m().to_json_text());
   }
   grpc::ClientContext context;
   with_deadline(context);

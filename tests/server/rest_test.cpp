@@ -535,6 +535,10 @@ TEST_F(RestApi, ModelsAreListedAndDescribed) {
   EXPECT_TRUE(m["evaluation"].is_object());
   EXPECT_FALSE(m["evaluation"].empty());
   EXPECT_FALSE(m["model_card"].get<std::string>().empty());
+  EXPECT_EQ(m["skeleton"]["name"], "h36m-32");
+  EXPECT_EQ(m["skeleton"]["joints"].size(), 32u);
+  EXPECT_FALSE(m["skeleton"].contains("bvh"));  // H3.6M's rig came from no BVH file
+  for (const auto& listed : list.document["models"]) EXPECT_EQ(listed["skeleton"], json::object());  // describe only
   EXPECT_TRUE(std::regex_match(m["version"].get<std::string>(), std::regex("[0-9a-f]{16}")));
 }
 
