@@ -92,7 +92,10 @@ class RestConnection : public ServerConnection {
   v1::ModelInfo describe_model(const std::string& name) override {
     // REST names the model in the path; the active one is found in the list.
     if (name.empty()) {
-      for (const auto& model : list_models().models()) {
+      // Held here: a range-for over a member of the temporary reply would
+      // read it after its destruction.
+      const v1::ListModelsReply listed = list_models();
+      for (const auto& model : listed.models()) {
         if (model.active()) return model_from_json(get("/v1/models/" + segment(model.name())));
       }
       throw ServerError("UNAVAILABLE", "model", "the server has no active model");

@@ -337,6 +337,13 @@ TEST_F(ClientTest, ModelsListAndDescribeShowTheStore) {
     EXPECT_EQ(model["latent"], 64);
     EXPECT_EQ(model["frames"], 150);
     EXPECT_TRUE(model["provenance"].is_object());
+    EXPECT_EQ(model["skeleton"]["name"], "h36m-32");
+
+    // Without a name: the active model.
+    const auto active = run_client(protocol + " --json models describe");
+    ASSERT_EQ(active.exit_code, 0) << active.err;
+    EXPECT_EQ(json::parse(active.out)["name"], "h36m-dkgm-h100");
+    EXPECT_TRUE(json::parse(active.out)["active"].get<bool>());
   }
   const auto plain = run_client(grpc() + " models list");
   EXPECT_NE(plain.out.find("h36m-dkgm-cpu"), std::string::npos) << plain.out;
