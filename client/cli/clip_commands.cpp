@@ -55,8 +55,10 @@ void add_clip_commands(CLI::App& app, const ClientSettings& settings, Action& ac
       request.set_path(o->path);
       request.set_start(o->start);
       request.set_model(o->model);
-      const auto reply = connect(settings.connection)->read_clip(request);
-      if (!o->out.empty()) write_motion(reply.motion(), o->out);
+      const auto server = connect(settings.connection);
+      const auto reply = server->read_clip(request);
+      ModelRigs rigs(*server);
+      if (!o->out.empty()) write_motion(reply.motion(), o->out, rigs, o->model);
       if (settings.json) {
         print_json(to_json(reply));
       } else if (o->out != "-") {

@@ -1,6 +1,7 @@
 // encode, decode, sample, interpolate, analogy, denoise: a request built
 // from local files and flags, one call, and the reply written as motion
-// files (or printed with --json).
+// files (or printed with --json). Motion files are read and written in the
+// rig of the model (model_rig.h), which a request then names.
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <memory>
@@ -34,13 +35,14 @@ void add_rate(CLI::App* command, std::vector<MotionSource*> sources) {
   rate->check(CLI::IsMember({25, 50}));
 }
 
-// A file that is a motion (.txt) or a code (.json), for interpolate and analogy.
-v1::MotionOrCode motion_or_code(const MotionSource& source) {
+// A file that is a motion (.txt, .bvh) or a code (.json), for interpolate
+// and analogy.
+v1::MotionOrCode motion_or_code(const MotionSource& source, ModelRigs& rigs, const std::string& model) {
   v1::MotionOrCode input;
   if (is_code_file(source.path)) {
     *input.mutable_code() = read_code(source.path);
   } else {
-    *input.mutable_motion() = read_motion(source);
+    *input.mutable_motion() = read_motion(source, rigs, model);
   }
   return input;
 }
@@ -51,10 +53,10 @@ void require_output(const ClientSettings& settings, const std::string& out, cons
 }
 
 // Writes a MotionsReply's motions (files named on stdout) or prints it.
-int finish_motions(const ClientSettings& settings, const v1::MotionsReply& reply, const std::string& out,
-                   const std::string& out_dir, const std::string& stem) {
+int finish_motions(const ClientSettings& settings, const v1::MotionsReply& reply, ModelRigs& rigs,
+                   const std::string& out, const std::string& out_dir, const std::string& stem) {
   if (!out.empty() && reply.motions_size() > 0) {
-    write_motion(reply.motions(0), out);
+    write_motion(reply.motions(0), out, rigs, reply.answered_by().model());
     if (out != "-" && !settings.json) std::printf("%s\n", out.c_str());
   }
   if (!out_dir.empty()) {
@@ -81,10 +83,12 @@ void add_encode(CLI::App& app, const ClientSettings& settings, Action& action) {
   command->add_option("--start", o->input.start, "first 25 Hz frame of the clip");
   command->callback([o, &settings, &action] {
     action = [o, &settings] {
+      const auto server = connect(settings.connection);
+      ModelRigs rigs(*server);
       v1::EncodeRequest request;
-      request.set_model(o->model.model);
-      *request.add_motions() = read_motion(o->input);
-      const auto reply = connect(settings.connection)->encode(request);
+      *request.add_motions() = read_motion(o->input, rigs, o->model.model);
+      request.set_model(rigs.pinned(o->model.model));
+      const auto reply = server->encode(request);
       if (settings.json) {
         print_json(to_json(reply));
       } else {
@@ -124,8 +128,10 @@ void add_decode(CLI::App& app, const ClientSettings& settings, Action& action) {
       request.set_model(o->model.model);
       request.set_decoder(o->model.decoder);
       for (const auto& path : o->codes) *request.add_codes() = read_code(path);
-      const auto reply = connect(settings.connection)->decode(request);
-      return finish_motions(settings, reply, o->out, o->out_dir, "decode");
+      const auto server = connect(settings.connection);
+      ModelRigs rigs(*server);
+      const auto reply = server->decode(request);
+      return finish_motions(settings, reply, rigs, o->out, o->out_dir, "decode");
     };
   });
 }
@@ -153,8 +159,10 @@ void add_sample(CLI::App& app, const ClientSettings& settings, Action& action) {
       request.set_decoder(o->model.decoder);
       request.set_count(o->count);
       request.set_seed(o->seed);
-      const auto reply = connect(settings.connection)->sample(request);
-      return finish_motions(settings, reply, "", o->out_dir, "sample");
+      const auto server = connect(settings.connection);
+      ModelRigs rigs(*server);
+      const auto reply = server->sample(request);
+      return finish_motions(settings, reply, rigs, "", o->out_dir, "sample");
     };
   });
 }
@@ -171,8 +179,8 @@ void add_interpolate(CLI::App& app, const ClientSettings& settings, Action& acti
       "interpolate", std::string("Interpolate between two motions or codes (Sec. 5.3) and write the --steps motions "
                                  "(ends included) as <out-dir>/interpolate_000.txt, .... ") + kMotionInputNote);
   o->model.add_to(command, true);
-  command->add_option("--from", o->from.path, "first motion (.txt) or code (.json)")->required();
-  command->add_option("--to", o->to.path, "last motion (.txt) or code (.json)")->required();
+  command->add_option("--from", o->from.path, "first motion (.txt, .bvh) or code (.json)")->required();
+  command->add_option("--to", o->to.path, "last motion (.txt, .bvh) or code (.json)")->required();
   add_rate(command, {&o->from, &o->to});
   command->add_option("--start-from", o->from.start, "first 25 Hz frame of the clip in --from");
   command->add_option("--start-to", o->to.start, "first 25 Hz frame of the clip in --to");
@@ -183,15 +191,17 @@ void add_interpolate(CLI::App& app, const ClientSettings& settings, Action& acti
   command->callback([o, &settings, &action] {
     action = [o, &settings] {
       require_output(settings, o->out_dir, "--out-dir");
+      const auto server = connect(settings.connection);
+      ModelRigs rigs(*server);
       v1::InterpolateRequest request;
-      request.set_model(o->model.model);
+      *request.mutable_from() = motion_or_code(o->from, rigs, o->model.model);
+      *request.mutable_to() = motion_or_code(o->to, rigs, o->model.model);
+      request.set_model(rigs.pinned(o->model.model));
       request.set_decoder(o->model.decoder);
-      *request.mutable_from() = motion_or_code(o->from);
-      *request.mutable_to() = motion_or_code(o->to);
       request.set_steps(o->steps);
       request.set_method(o->method);
-      const auto reply = connect(settings.connection)->interpolate(request);
-      return finish_motions(settings, reply, "", o->out_dir, "interpolate");
+      const auto reply = server->interpolate(request);
+      return finish_motions(settings, reply, rigs, "", o->out_dir, "interpolate");
     };
   });
 }
@@ -207,7 +217,7 @@ void add_analogy(CLI::App& app, const ClientSettings& settings, Action& action) 
       "analogy", std::string("Write the motion of a - b + c (Sec. 5.5): a has a feature b lacks, c receives it. ") +
                      kMotionInputNote);
   o->model.add_to(command, true);
-  command->add_option("--a", o->a.path, "motion (.txt) or code (.json) with the feature")->required();
+  command->add_option("--a", o->a.path, "motion (.txt, .bvh) or code (.json) with the feature")->required();
   command->add_option("--b", o->b.path, "motion or code without it (subtracted)")->required();
   command->add_option("--c", o->c.path, "motion or code to give it to")->required();
   add_rate(command, {&o->a, &o->b, &o->c});
@@ -218,14 +228,16 @@ void add_analogy(CLI::App& app, const ClientSettings& settings, Action& action) 
   command->callback([o, &settings, &action] {
     action = [o, &settings] {
       require_output(settings, o->out, "--out");
+      const auto server = connect(settings.connection);
+      ModelRigs rigs(*server);
       v1::AnalogyRequest request;
-      request.set_model(o->model.model);
+      *request.mutable_a() = motion_or_code(o->a, rigs, o->model.model);
+      *request.mutable_b() = motion_or_code(o->b, rigs, o->model.model);
+      *request.mutable_c() = motion_or_code(o->c, rigs, o->model.model);
+      request.set_model(rigs.pinned(o->model.model));
       request.set_decoder(o->model.decoder);
-      *request.mutable_a() = motion_or_code(o->a);
-      *request.mutable_b() = motion_or_code(o->b);
-      *request.mutable_c() = motion_or_code(o->c);
-      const auto reply = connect(settings.connection)->analogy(request);
-      return finish_motions(settings, reply, o->out, "", "analogy");
+      const auto reply = server->analogy(request);
+      return finish_motions(settings, reply, rigs, o->out, "", "analogy");
     };
   });
 }
@@ -254,16 +266,18 @@ void add_denoise(CLI::App& app, const ClientSettings& settings, Action& action) 
   command->callback([o, &settings, &action] {
     action = [o, &settings] {
       require_output(settings, o->out, "--out");
+      const auto server = connect(settings.connection);
+      ModelRigs rigs(*server);
       v1::DenoiseRequest request;
-      request.set_model(o->model.model);
+      *request.add_motions() = read_motion(o->input, rigs, o->model.model);
+      request.set_model(rigs.pinned(o->model.model));
       request.set_decoder(o->model.decoder);
-      *request.add_motions() = read_motion(o->input);
       request.set_zeros_are_missing(o->zeros_are_missing);
       request.set_means_are_missing(o->means_are_missing);
       request.set_iterations(o->iterations);
       request.set_keep_observed(o->keep_observed);
-      const auto reply = connect(settings.connection)->denoise(request);
-      return finish_motions(settings, reply, o->out, "", "denoise");
+      const auto reply = server->denoise(request);
+      return finish_motions(settings, reply, rigs, o->out, "", "denoise");
     };
   });
 }

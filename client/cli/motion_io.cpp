@@ -9,8 +9,9 @@
 #include <sstream>
 
 #include "format/atomic_file.h"
-#include "format/h36m_bvh.h"
+#include "format/bvh_file.h"
 #include "format/input_error.h"
+#include "format/skeleton_bvh.h"
 
 namespace mm::client {
 namespace {
@@ -30,7 +31,7 @@ MotionFormat format_of(const std::string& path, const std::string& what) {
   if (ext == ".txt") return MotionFormat::kText;
   if (ext == ".bvh") return MotionFormat::kBvh;
   throw InputError(what + " " + path + ": unknown motion file type \"" + ext +
-                   "\", expected .txt (H3.6M exponential-map text) or .bvh");
+                   "\", expected .txt (exponential-map text) or .bvh");
 }
 
 std::string read_all(const std::string& path) {
@@ -44,15 +45,34 @@ std::string read_all(const std::string& path) {
 
 std::string display_name(const std::string& path) { return path == "-" ? "<stdin>" : path; }
 
+MotionFrames frames_of(const v1::Motion& motion) {
+  MotionFrames frames;
+  frames.columns = motion.columns();
+  frames.values.assign(motion.values().begin(), motion.values().end());
+  return frames;
+}
+
+// Text of any column count, to a file (written whole, then renamed) or "-".
+void write_text(const MotionFrames& frames, const std::string& path) {
+  if (path == "-") {
+    write_motion_text(frames, std::cout);
+    std::cout.flush();
+    return;
+  }
+  write_motion_text_file(frames, path);
+}
+
 }  // namespace
 
 const char* const kMotionInputNote =
-    "Input motions are H3.6M exponential-map text files (.txt), at 50 Hz (the data set; the default) or at 25 Hz "
-    "(what this client writes): give --rate 25 for the latter. At 50 Hz every second frame is kept. A clip of "
-    "150 frames (6 s at 25 Hz) is taken from --start (in 25 Hz frames). BVH files (.bvh) of the H3.6M skeleton are "
-    "read at their own frame time and resampled to 25 Hz. Output motions are text, or BVH for a .bvh name, at 25 Hz.";
+    "Input motions are exponential-map text files (.txt) of the model's layout (H3.6M's 99 values a line), at "
+    "50 Hz (the H3.6M data set; the default) or at 25 Hz (what this client writes): give --rate 25 for the latter. "
+    "At 50 Hz every second frame is kept. A clip of the model's length (150 frames, 6 s at 25 Hz) is taken from "
+    "--start (in 25 Hz frames). BVH files (.bvh) of the model's skeleton (H3.6M's, or the rig a model learnt from "
+    "BVH files) are read at their own frame time and resampled to 25 Hz. Output motions are text, or BVH of the "
+    "model's skeleton for a .bvh name, at 25 Hz.";
 
-v1::Motion read_motion(const MotionSource& source, int frames) {
+v1::Motion read_motion(const MotionSource& source, ModelRigs& rigs, const std::string& model) {
   const std::string name = display_name(source.path);
   const bool bvh = format_of(source.path, "motion") == MotionFormat::kBvh;
   if (!bvh && source.rate != 25 && source.rate != 50) {
@@ -60,27 +80,34 @@ v1::Motion read_motion(const MotionSource& source, int frames) {
   }
   if (source.start < 0) throw InputError(name + ": start frame must be >= 0, found " + std::to_string(source.start));
   const std::string text = read_all(source.path);
-  // A BVH file states its own frame time and comes back at 25 Hz.
-  const MotionFrames file =
-      bvh ? h36m_motion_from_bvh_text(text, name) : parse_motion_text_buffer(text.data(), text.size(), name);
+  // A BVH file states its own frame time and comes back at 25 Hz. Its syntax
+  // is checked before the server is asked for the model's skeleton.
+  MotionFrames file;
+  if (bvh) {
+    const BvhFile parsed = parse_bvh_text(text, name);
+    file = skeleton_motion_from_bvh(rigs.of(model).skeleton, parsed, name);
+  } else {
+    file = parse_motion_text_buffer(text.data(), text.size(), name, rigs.of(model).columns);
+  }
+  const ModelRig& rig = rigs.of(model);
   // The server would keep every second frame of a 50 Hz motion too; doing it
   // here lets --start count 25 Hz frames, as in the tool.
   const MotionFrames motion = !bvh && source.rate == 50 ? split_phases(file, 2)[0] : file;
-  const int64_t needed = static_cast<int64_t>(source.start) + frames;
+  const int64_t needed = static_cast<int64_t>(source.start) + rig.frames;
   if (motion.frame_count() < needed) {
     throw InputError(name + ": too short: " + std::to_string(motion.frame_count()) + " frames at 25 Hz, need " +
-                     std::to_string(needed) + " (" + std::to_string(frames) + " frames from frame " +
+                     std::to_string(needed) + " (" + std::to_string(rig.frames) + " frames from frame " +
                      std::to_string(source.start) + ")" +
                      (!bvh && source.rate == 50 && file.frame_count() >= needed ? "; if the file is at 25 Hz, give --rate 25"
                                                                         : ""));
   }
   v1::Motion message;
-  message.set_frames(frames);
+  message.set_frames(rig.frames);
   message.set_columns(motion.columns);
   message.set_frame_rate(kModelRate);
-  message.set_layout(kLayout);
+  message.set_layout(rig.layout);
   const float* first = motion.frame(source.start);
-  message.mutable_values()->Add(first, first + static_cast<size_t>(frames) * motion.columns);
+  message.mutable_values()->Add(first, first + static_cast<size_t>(rig.frames) * motion.columns);
   return message;
 }
 
@@ -110,20 +137,16 @@ v1::Code read_code(const std::string& path) {
 
 void check_motion_output(const std::string& path, const std::string& option) { format_of(path, option); }
 
-void write_motion(const v1::Motion& motion, const std::string& path) {
-  MotionFrames frames;
-  frames.columns = motion.columns();
-  frames.values.assign(motion.values().begin(), motion.values().end());
+void write_motion(const v1::Motion& motion, const std::string& path, ModelRigs& rigs, const std::string& model) {
+  const MotionFrames frames = frames_of(motion);
   if (format_of(path, "--out") == MotionFormat::kBvh) {
-    write_file_atomically(path, h36m_motion_to_bvh_text(frames, motion.frame_rate()));
+    // As the server writes it for Accept: application/x-bvh.
+    const Skeleton& skeleton = rigs.of(model).skeleton;
+    write_file_atomically(path, write_bvh_text(skeleton_motion_to_bvh(skeleton, bvh_layout_of(skeleton), frames,
+                                                                      motion.frame_rate())));
     return;
   }
-  if (path == "-") {
-    write_motion_text(frames, std::cout);
-    std::cout.flush();
-    return;
-  }
-  write_motion_text_file(frames, path);
+  write_text(frames, path);
 }
 
 std::vector<std::string> write_numbered_motions(const google::protobuf::RepeatedPtrField<v1::Motion>& motions,
@@ -136,7 +159,7 @@ std::vector<std::string> write_numbered_motions(const google::protobuf::Repeated
     char number[16];
     std::snprintf(number, sizeof number, "%03d", i);
     paths.push_back(dir + "/" + stem + "_" + number + ".txt");
-    write_motion(motions[i], paths.back());
+    write_text(frames_of(motions[i]), paths.back());
   }
   return paths;
 }

@@ -1,24 +1,26 @@
 // Motion files on the client's side, the reader and writer picked by the
-// file's extension: ".txt" is H3.6M exponential-map text (model/format's
-// motion_text); ".bvh" a BVH of the H3.6M skeleton (model/format's
-// h36m_bvh); "-" is text on standard input or output.
-// Inputs are brought to the models' 25 Hz and cut to one clip, as the
-// motion-manifold tool does (model/tool/motion_files.h). Torch-free.
+// file's extension: ".txt" is exponential-map text of the model's layout
+// (model/format's motion_text: 99 values a line for H3.6M); ".bvh" a BVH of
+// the model's skeleton, H3.6M's or a rig learnt from BVH files
+// (model/format's skeleton_bvh, as the server's REST frontend converts it);
+// "-" is text on standard input or output. The model's layout and skeleton
+// come from the server (model_rig.h). Inputs are brought to the models'
+// 25 Hz and cut to one clip, as the motion-manifold tool does
+// (model/tool/motion_files.h). Torch-free.
 #pragma once
 
 #include <string>
 #include <vector>
 
 #include "format/motion_text.h"
+#include "model_rig.h"
 #include "motionmanifold/v1/manifold.pb.h"
 
 namespace mm::client {
 
 namespace v1 = motionmanifold::v1;
 
-constexpr int kModelRate = 25;        // Hz of the models' clips and of every motion written
-constexpr int kClipFrames = 150;      // frames of one clip at 25 Hz (6 s), the shipped models'
-constexpr const char* kLayout = "h36m-expmap-99";
+constexpr int kModelRate = 25;  // Hz of the models' clips and of every motion written
 
 // Which motion input the user gave: a file, its rate (25 or 50 Hz) and the
 // first 25 Hz frame of the clip.
@@ -28,11 +30,14 @@ struct MotionSource {
   int start = 0;
 };
 
-// Reads `source`, brings it to 25 Hz (every second frame at 50 Hz) and
-// returns its `frames` frames from `start` as a Motion message (25 Hz,
-// h36m-expmap-99). Throws InputError naming the file when it cannot be read,
-// is malformed or too short (a BVH of another skeleton names what differs).
-v1::Motion read_motion(const MotionSource& source, int frames = kClipFrames);
+// Reads `source` as a motion of `model` ("" the active one; its rig asked of
+// `rigs` once the file has been read and, for BVH, parsed), brings it to
+// 25 Hz (every second frame of text at 50 Hz) and returns the model's clip
+// length of frames from `start` as a Motion message (25 Hz, the model's
+// layout). Throws InputError naming the file when it cannot be read, is
+// malformed or too short (a BVH of another skeleton names what differs);
+// ServerError when the model cannot be described.
+v1::Motion read_motion(const MotionSource& source, ModelRigs& rigs, const std::string& model);
 
 // Reads a code file: JSON {"code": [...]} as `encode` prints it, a reply of
 // encode --json ({"codes": [[...]]}, its first code) or a bare array.
@@ -42,9 +47,10 @@ v1::Code read_code(const std::string& path);
 // Whether `path` names a code (".json") rather than a motion.
 bool is_code_file(const std::string& path);
 
-// Writes a motion (as the server returns it) to `path`, the writer picked
-// by extension as above. Throws InputError for an unwritable path.
-void write_motion(const v1::Motion& motion, const std::string& path);
+// Writes a motion (as the server returns it) of `model` to `path`, the
+// writer picked by extension as above (BVH in the layout of the model's rig,
+// asked of `rigs`). Throws InputError for an unwritable path.
+void write_motion(const v1::Motion& motion, const std::string& path, ModelRigs& rigs, const std::string& model);
 
 // Writes the motions to "<dir>/<stem>_000.txt", "_001", ... (the tool's
 // numbering), creating `dir`; returns the paths written.

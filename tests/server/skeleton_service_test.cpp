@@ -4,7 +4,9 @@
 // publishes it; activated, it encodes BVH of that skeleton, decodes and
 // samples BVH of the same hierarchy, interpolates in its layout, and refuses
 // a BVH of another hierarchy or a malformed one naming what is wrong. The
-// tool decodes with the published model into BVH of the same rig too.
+// tool decodes with the published model into BVH of the same rig too, and
+// the command-line client reads and writes BVH and text of that rig over
+// either protocol, as REST converts them.
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -18,8 +20,10 @@
 #include <thread>
 
 #include "cmu_dance.h"
+#include "command_run.h"
 #include "format/bvh_file.h"
 #include "format/h36m_bvh.h"
+#include "format/motion_text.h"
 #include "rest_call.h"
 #include "server_process.h"
 #include "test_environment.h"
@@ -75,24 +79,24 @@ void expect_cmu_rig(const std::string& text, const BvhFile& rig) {
   for (double value : file.values) ASSERT_TRUE(std::isfinite(value));
 }
 
-TEST(SkeletonService, AJobOnABvhFolderPublishesAModelThatSpeaksBvhOfThatSkeleton) {
-  ScratchDir scratch;
-  const fs::path dances = scratch.path() / "data" / "dances";
+// A data root holding three CMU dances under dances/.
+fs::path dance_data_root(const ScratchDir& scratch) {
+  const fs::path root = scratch.path() / "data";
   for (const char* file : {"indian/04.bvh", "indian/06.bvh", "martial/03.bvh"}) {
-    fs::create_directories((dances / file).parent_path());
-    fs::copy_file(cmu_dance_dir() / file, dances / file);
+    fs::create_directories((root / "dances" / file).parent_path());
+    fs::copy_file(cmu_dance_dir() / file, root / "dances" / file);
   }
-  ServerProcess server({"--state-dir", (scratch.path() / "state").string(), "--data-root",
-                        (scratch.path() / "data").string(), "--training-threads", "2"});
-  Rest rest(server);
+  return root;
+}
 
-  // A folder that is not under the data root, or holds one file, is refused
-  // at submission.
-  auto refused = rest.post("/v1/jobs", json{{"dataset", "dances/martial"}}.dump(), "application/json");
-  ASSERT_NE(refused.status, 0);
-  EXPECT_EQ(refused.status, 400);
-  EXPECT_THAT(refused.body, HasSubstr("holds one .bvh file"));
+std::vector<std::string> dance_server_args(const ScratchDir& scratch) {
+  return {"--state-dir", (scratch.path() / "state").string(), "--data-root", dance_data_root(scratch).string(),
+          "--training-threads", "2"};
+}
 
+// Trains a tiny manifold of the dances through a job and publishes it as
+// "dances" (not activated).
+void train_dances_model(Rest& rest, const ServerProcess& server) {
   const json job = rest.post_json("/v1/jobs", {{"dataset", "dances"}, {"variant", "DKGM"}, {"iterations", 3},
                                                {"hidden", 16}, {"batch", 2}, {"seed", 1}, {"model_name", "dances"}});
   const std::string id = job.value("id", "");
@@ -105,6 +109,22 @@ TEST(SkeletonService, AJobOnABvhFolderPublishesAModelThatSpeaksBvhOfThatSkeleton
   }
   ASSERT_EQ(record.value("state", ""), "succeeded") << record.dump() << "\n" << server.log();
   EXPECT_EQ(record["published_model"], "dances");
+}
+
+TEST(SkeletonService, AJobOnABvhFolderPublishesAModelThatSpeaksBvhOfThatSkeleton) {
+  ScratchDir scratch;
+  ServerProcess server(dance_server_args(scratch));
+  Rest rest(server);
+
+  // A folder that is not under the data root, or holds one file, is refused
+  // at submission.
+  auto refused = rest.post("/v1/jobs", json{{"dataset", "dances/martial"}}.dump(), "application/json");
+  ASSERT_NE(refused.status, 0);
+  EXPECT_EQ(refused.status, 400);
+  EXPECT_THAT(refused.body, HasSubstr("holds one .bvh file"));
+
+  train_dances_model(rest, server);
+  if (HasFatalFailure()) return;
 
   const json activated = rest.post_json("/v1/models/dances:activate", json::object());
   EXPECT_TRUE(activated.value("active", false)) << activated.dump();
@@ -187,6 +207,93 @@ TEST(SkeletonService, AJobOnABvhFolderPublishesAModelThatSpeaksBvhOfThatSkeleton
   ASSERT_EQ(std::system(command.c_str()), 0) << command;
   std::ifstream in(out);
   expect_cmu_rig(std::string(std::istreambuf_iterator<char>(in), {}), rig);
+}
+
+// The command-line client with a model of the user's rig: it asks the
+// server for the model's skeleton and converts BVH and text of that rig as
+// REST does, over either protocol, named with --model or active.
+TEST(SkeletonService, TheClientReadsAndWritesBvhAndTextOfTheModelsRigOverEitherProtocol) {
+  ScratchDir scratch;
+  ServerProcess server(dance_server_args(scratch));
+  Rest rest(server);
+  train_dances_model(rest, server);
+  if (HasFatalFailure()) return;
+  const auto client = [&](const std::string& arguments) { return run_command(MM_CLIENT_PATH, arguments); };
+  const std::vector<std::string> protocols{"--server " + server.grpc_target(), "--rest --rest-url " + server.rest_url()};
+
+  // The description carries the rig: 57 joints, cm, the BVH channels.
+  const CommandRun described = client(protocols[0] + " --json models describe dances");
+  ASSERT_EQ(described.exit_code, 0) << described.err;
+  const json skeleton = json::parse(described.out)["skeleton"];
+  EXPECT_EQ(skeleton["name"], "dances");
+  EXPECT_EQ(skeleton["joints"].size(), 57u);
+  EXPECT_EQ(skeleton["bvh"]["millimetres_per_unit"], 10);
+
+  // Encode: the code REST gives for the same BVH body, while the H3.6M model
+  // is the active one (--model dances), then with dances active.
+  const std::string dance = scratch.write("dance.bvh", six_seconds("martial/03.bvh"));
+  const auto rest_code = [&](const std::string& model) {
+    const test::Reply reply = rest.post("/v1/encode" + model, read_text(dance), "application/x-bvh");
+    EXPECT_EQ(reply.status, 200) << reply.body;
+    return json::parse(reply.body)["codes"][0].get<std::vector<double>>();
+  };
+  const auto expect_code = [](const CommandRun& run, const std::vector<double>& want, double tolerance = 1e-5) {
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    const auto code = json::parse(run.out)["code"].get<std::vector<double>>();
+    ASSERT_EQ(code.size(), want.size());
+    for (size_t i = 0; i < code.size(); ++i) EXPECT_NEAR(code[i], want[i], tolerance) << i;
+    EXPECT_EQ(json::parse(run.out)["model"], "dances");
+  };
+  const std::vector<double> want = rest_code("?model=dances");
+  ASSERT_EQ(want.size(), 64u);
+  for (const auto& protocol : protocols) {
+    SCOPED_TRACE(protocol + ", --model dances");
+    expect_code(client(protocol + " encode --model dances --input " + dance), want);
+  }
+  rest.post_json("/v1/models/dances:activate", json::object());
+  for (const auto& protocol : protocols) {
+    SCOPED_TRACE(protocol + ", dances active");
+    expect_code(client(protocol + " encode --input " + dance), want);
+  }
+
+  // Decode: byte for byte the BVH REST answers for the same code, of the
+  // CMU rig; text of its 174 columns, which reads back at 25 Hz.
+  const std::string code_file = scratch.write("code.json", json{{"code", want}}.dump());
+  const test::Reply rest_bvh =
+      rest.post("/v1/decode", json{{"codes", {want}}}.dump(), "application/json", "application/x-bvh");
+  ASSERT_EQ(rest_bvh.status, 200) << rest_bvh.body;
+  const BvhFile rig = read_bvh_file((cmu_dance_dir() / "martial/03.bvh").string());
+  for (const auto& protocol : protocols) {
+    SCOPED_TRACE(protocol + ", decode");
+    const std::string out = scratch.file("decoded.bvh");
+    const CommandRun decoded = client(protocol + " decode --code " + code_file + " --out " + out);
+    ASSERT_EQ(decoded.exit_code, 0) << decoded.err;
+    EXPECT_EQ(read_text(out), rest_bvh.body);
+    expect_cmu_rig(read_text(out), rig);
+    const std::string text = scratch.file("decoded.txt");
+    ASSERT_EQ(client(protocol + " decode --code " + code_file + " --out " + text).exit_code, 0);
+    const MotionFrames rows = read_motion_text(text, 174);
+    EXPECT_EQ(rows.frame_count(), 150);
+    const CommandRun from_text = client(protocol + " encode --rate 25 --input " + text);
+    const CommandRun from_bvh = client(protocol + " encode --input " + out);
+    ASSERT_EQ(from_text.exit_code, 0) << from_text.err;
+    ASSERT_EQ(from_bvh.exit_code, 0) << from_bvh.err;
+    // BVH holds Euler angles in degrees with a few decimals: near, not equal.
+    expect_code(from_bvh, json::parse(from_text.out)["code"].get<std::vector<double>>(), 1e-3);
+  }
+
+  // Another hierarchy (H3.6M's) is refused locally, naming what differs; so
+  // is text of H3.6M's 99 columns.
+  MotionFrames h36m;
+  h36m.values.assign(150 * kH36mColumns, 0.0f);
+  const CommandRun wrong = client(protocols[0] + " encode --input " +
+                                  scratch.write("h36m.bvh", h36m_motion_to_bvh_text(h36m, 25)));
+  EXPECT_EQ(wrong.exit_code, 2);
+  EXPECT_THAT(wrong.err, HasSubstr("not the skeleton \"dances\": it has 25 joints and 7 end sites"));
+  const CommandRun text_99 = client(protocols[1] + " encode --rate 25 --input " +
+                                    (h36m_dataset_dir() / "S5" / "walking_1.txt").string());
+  EXPECT_EQ(text_99.exit_code, 2);
+  EXPECT_THAT(text_99.err, HasSubstr("walking_1.txt:1"));
 }
 
 }  // namespace
