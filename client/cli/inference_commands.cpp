@@ -47,6 +47,20 @@ v1::MotionOrCode motion_or_code(const MotionSource& source, ModelRigs& rigs, con
   return input;
 }
 
+// Where the motions of a reply go, one file each: --out-dir and the files'
+// type.
+struct OutputDir {
+  std::string dir, type = "txt";
+
+  void add_to(CLI::App* command, const std::string& what) {
+    command->add_option("--out-dir", dir, what);
+    command->add_option("--out-type", type, "type of the --out-dir files: txt (exponential-map text) or bvh (BVH of the "
+                                            "model's skeleton)")
+        ->check(CLI::IsMember({"txt", "bvh"}))
+        ->capture_default_str();
+  }
+};
+
 void require_output(const ClientSettings& settings, const std::string& out, const std::string& option) {
   if (out.empty() && !settings.json) throw InputError(option + " is required (or --json to print the reply)");
   if (!out.empty() && option == "--out") check_motion_output(out, option);
@@ -54,13 +68,14 @@ void require_output(const ClientSettings& settings, const std::string& out, cons
 
 // Writes a MotionsReply's motions (files named on stdout) or prints it.
 int finish_motions(const ClientSettings& settings, const v1::MotionsReply& reply, ModelRigs& rigs,
-                   const std::string& out, const std::string& out_dir, const std::string& stem) {
+                   const std::string& out, const OutputDir& out_dir, const std::string& stem) {
   if (!out.empty() && reply.motions_size() > 0) {
     write_motion(reply.motions(0), out, rigs, reply.answered_by().model());
     if (out != "-" && !settings.json) std::printf("%s\n", out.c_str());
   }
-  if (!out_dir.empty()) {
-    for (const auto& path : write_numbered_motions(reply.motions(), out_dir, stem)) {
+  if (!out_dir.dir.empty()) {
+    for (const auto& path : write_numbered_motions(reply.motions(), out_dir.dir, stem, out_dir.type, rigs,
+                                                   reply.answered_by().model())) {
       if (!settings.json) std::printf("%s\n", path.c_str());
     }
   }
@@ -107,7 +122,8 @@ void add_decode(CLI::App& app, const ClientSettings& settings, Action& action) {
   struct Options {
     ModelChoice model;
     std::vector<std::string> codes;
-    std::string out, out_dir;
+    std::string out;
+    OutputDir out_dir;
   };
   auto o = std::make_shared<Options>();
   auto* command = app.add_subcommand(
@@ -116,11 +132,11 @@ void add_decode(CLI::App& app, const ClientSettings& settings, Action& action) {
   o->model.add_to(command, true);
   command->add_option("--code", o->codes, "code file(s) (.json; - for standard input)")->required();
   command->add_option("--out", o->out, "motion file of the first code (.txt or .bvh; - for standard output)");
-  command->add_option("--out-dir", o->out_dir, "folder for every code's motion: decode_000.txt, ...");
+  o->out_dir.add_to(command, "folder for every code's motion: decode_000.txt, ...");
   command->callback([o, &settings, &action] {
     action = [o, &settings] {
-      if (o->out_dir.empty()) require_output(settings, o->out, "--out");
-      if (o->codes.size() > 1 && o->out_dir.empty() && !o->out.empty()) {
+      if (o->out_dir.dir.empty()) require_output(settings, o->out, "--out");
+      if (o->codes.size() > 1 && o->out_dir.dir.empty() && !o->out.empty()) {
         throw InputError("--out takes one code's motion; give --out-dir for " + std::to_string(o->codes.size()) +
                          " codes");
       }
@@ -141,19 +157,19 @@ void add_sample(CLI::App& app, const ClientSettings& settings, Action& action) {
     ModelChoice model;
     int count = 1;
     uint64_t seed = 0;
-    std::string out_dir;
+    OutputDir out_dir;
   };
   auto o = std::make_shared<Options>();
   auto* command = app.add_subcommand(
       "sample", "Draw codes from the prior N(0, I) and write their motions (25 Hz) as <out-dir>/sample_000.txt, "
-                "...; the same seed, count and model give the same motions.");
+                "... (or .bvh with --out-type bvh); the same seed, count and model give the same motions.");
   o->model.add_to(command, true);
   command->add_option("--count", o->count, "number of motions")->check(CLI::PositiveNumber)->capture_default_str();
   command->add_option("--seed", o->seed, "seed of the codes")->capture_default_str();
-  command->add_option("--out-dir", o->out_dir, "folder for the motion files");
+  o->out_dir.add_to(command, "folder for the motion files");
   command->callback([o, &settings, &action] {
     action = [o, &settings] {
-      require_output(settings, o->out_dir, "--out-dir");
+      require_output(settings, o->out_dir.dir, "--out-dir");
       v1::SampleRequest request;
       request.set_model(o->model.model);
       request.set_decoder(o->model.decoder);
@@ -172,7 +188,8 @@ void add_interpolate(CLI::App& app, const ClientSettings& settings, Action& acti
     ModelChoice model;
     MotionSource from, to;
     int steps = 2;
-    std::string method = "linear", out_dir;
+    std::string method = "linear";
+    OutputDir out_dir;
   };
   auto o = std::make_shared<Options>();
   auto* command = app.add_subcommand(
@@ -187,10 +204,10 @@ void add_interpolate(CLI::App& app, const ClientSettings& settings, Action& acti
   command->add_option("--steps", o->steps, "number of motions, both ends included")->capture_default_str();
   command->add_option("--method", o->method, "linear or spherical")->capture_default_str();
   command->add_flag_callback("--spherical", [o] { o->method = "spherical"; }, "same as --method spherical");
-  command->add_option("--out-dir", o->out_dir, "folder for the motion files");
+  o->out_dir.add_to(command, "folder for the motion files");
   command->callback([o, &settings, &action] {
     action = [o, &settings] {
-      require_output(settings, o->out_dir, "--out-dir");
+      require_output(settings, o->out_dir.dir, "--out-dir");
       const auto server = connect(settings.connection);
       ModelRigs rigs(*server);
       v1::InterpolateRequest request;
@@ -237,7 +254,7 @@ void add_analogy(CLI::App& app, const ClientSettings& settings, Action& action) 
       request.set_model(rigs.pinned(o->model.model));
       request.set_decoder(o->model.decoder);
       const auto reply = server->analogy(request);
-      return finish_motions(settings, reply, rigs, o->out, "", "analogy");
+      return finish_motions(settings, reply, rigs, o->out, {}, "analogy");
     };
   });
 }
@@ -277,7 +294,7 @@ void add_denoise(CLI::App& app, const ClientSettings& settings, Action& action) 
       request.set_iterations(o->iterations);
       request.set_keep_observed(o->keep_observed);
       const auto reply = server->denoise(request);
-      return finish_motions(settings, reply, rigs, o->out, "", "denoise");
+      return finish_motions(settings, reply, rigs, o->out, {}, "denoise");
     };
   });
 }

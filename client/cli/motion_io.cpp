@@ -150,7 +150,9 @@ void write_motion(const v1::Motion& motion, const std::string& path, ModelRigs& 
 }
 
 std::vector<std::string> write_numbered_motions(const google::protobuf::RepeatedPtrField<v1::Motion>& motions,
-                                                const std::string& dir, const std::string& stem) {
+                                                const std::string& dir, const std::string& stem,
+                                                const std::string& extension, ModelRigs& rigs,
+                                                const std::string& model) {
   std::error_code error;
   std::filesystem::create_directories(dir, error);
   if (error) throw InputError("--out-dir " + dir + ": cannot create the directory: " + error.message());
@@ -158,8 +160,8 @@ std::vector<std::string> write_numbered_motions(const google::protobuf::Repeated
   for (int i = 0; i < motions.size(); ++i) {
     char number[16];
     std::snprintf(number, sizeof number, "%03d", i);
-    paths.push_back(dir + "/" + stem + "_" + number + ".txt");
-    write_text(frames_of(motions[i]), paths.back());
+    paths.push_back(dir + "/" + stem + "_" + number + "." + extension);
+    write_motion(motions[i], paths.back(), rigs, model);
   }
   return paths;
 }

@@ -52,10 +52,13 @@ bool is_code_file(const std::string& path);
 // asked of `rigs`). Throws InputError for an unwritable path.
 void write_motion(const v1::Motion& motion, const std::string& path, ModelRigs& rigs, const std::string& model);
 
-// Writes the motions to "<dir>/<stem>_000.txt", "_001", ... (the tool's
-// numbering), creating `dir`; returns the paths written.
+// Writes the motions of `model` to "<dir>/<stem>_000.<extension>", "_001",
+// ... (the tool's numbering), creating `dir`, each as write_motion() does
+// ("txt" or "bvh"); returns the paths written.
 std::vector<std::string> write_numbered_motions(const google::protobuf::RepeatedPtrField<v1::Motion>& motions,
-                                                const std::string& dir, const std::string& stem);
+                                                const std::string& dir, const std::string& stem,
+                                                const std::string& extension, ModelRigs& rigs,
+                                                const std::string& model);
 
 // Checks before any call that `path` can be written by a built-in writer,
 // so a mistyped extension fails before the server does the work.

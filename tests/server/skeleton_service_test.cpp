@@ -282,6 +282,28 @@ TEST(SkeletonService, TheClientReadsAndWritesBvhAndTextOfTheModelsRigOverEitherP
     expect_code(from_bvh, json::parse(from_text.out)["code"].get<std::vector<double>>(), 1e-3);
   }
 
+  // Samples as BVH files of the rig: one is REST's sample of the same seed
+  // byte for byte; of two (decoded as one batch, so equal to rounding only)
+  // each is a motion of the rig.
+  const test::Reply rest_sample =
+      rest.post("/v1/sample", json{{"count", 1}, {"seed", 7}}.dump(), "application/json", "application/x-bvh");
+  ASSERT_EQ(rest_sample.status, 200) << rest_sample.body;
+  for (const auto& protocol : protocols) {
+    SCOPED_TRACE(protocol + ", sample");
+    const fs::path dir = scratch.path() / "samples";
+    fs::remove_all(dir);
+    const auto sample = [&](int count) {
+      return client(protocol + " sample --count " + std::to_string(count) + " --seed 7 --out-dir " + dir.string() +
+                    " --out-type bvh");
+    };
+    const CommandRun one = sample(1);
+    ASSERT_EQ(one.exit_code, 0) << one.err;
+    EXPECT_EQ(read_text((dir / "sample_000.bvh").string()), rest_sample.body);
+    const CommandRun two = sample(2);
+    ASSERT_EQ(two.exit_code, 0) << two.err;
+    for (const char* name : {"sample_000.bvh", "sample_001.bvh"}) expect_cmu_rig(read_text((dir / name).string()), rig);
+  }
+
   // Another hierarchy (H3.6M's) is refused locally, naming what differs; so
   // is text of H3.6M's 99 columns.
   MotionFrames h36m;
