@@ -1,9 +1,9 @@
-// Forward kinematics of H3.6M exponential-map frames, as the model computes
-// it (model/forward_kinematics.h): the row-vector convention of the skeleton
+// Forward kinematics of exponential-map frames of a skeleton (H3.6M's, or a
+// rig learnt from BVH files; model_skeletons.js), as the model computes it
+// (model/forward_kinematics.h): the row-vector convention of the skeleton
 // file, R_world[j] = R_local[j] . R_world[parent] and
 // p[j] = offset[j] . R_world[parent] + p[parent], root at the origin (the
 // model does not learn the root translation, columns 0..2).
-import { H36M_COLUMNS, H36M_JOINT_COUNT, H36M_OFFSETS_MM, H36M_PARENTS } from './h36m_skeleton.js';
 
 // Rotation matrix (row-major, 9 numbers) of an exponential map, with the
 // skew matrix of Martinez et al.'s expmap2rotmat ([[0,-z,y],[z,0,-x],[-y,x,0]]).
@@ -29,16 +29,18 @@ function multiply(p, q) {
   return r;
 }
 
-// Joint positions (mm) of one frame: a Float64Array of 32 x 3.
-export function framePositions(values, frameIndex) {
-  const base = frameIndex * H36M_COLUMNS;
-  const world = new Array(H36M_JOINT_COUNT);
-  const positions = new Float64Array(3 * H36M_JOINT_COUNT);
-  for (let j = 0; j < H36M_JOINT_COUNT; ++j) {
+// Joint positions (mm) of one frame of `skeleton`: a Float64Array of joints x 3.
+export function framePositions(values, frameIndex, skeleton) {
+  const { parents, offsetsMm, columns } = skeleton;
+  const count = parents.length;
+  const base = frameIndex * columns;
+  const world = new Array(count);
+  const positions = new Float64Array(3 * count);
+  for (let j = 0; j < count; ++j) {
     const c = base + 3 + 3 * j;
     const local = expmapToMatrix(values[c], values[c + 1], values[c + 2]);
-    const parent = H36M_PARENTS[j];
-    const offset = H36M_OFFSETS_MM[j];
+    const parent = parents[j];
+    const offset = offsetsMm[j];
     if (parent < 0) {
       world[j] = local;
       positions.set(offset, 0);
@@ -54,22 +56,28 @@ export function framePositions(values, frameIndex) {
   return positions;
 }
 
-// Positions of every frame of a wire motion in the H3.6M layout.
-export function motionPositions(motion) {
+// Positions of every frame of a wire motion of `skeleton`.
+export function motionPositions(motion, skeleton) {
+  if (motion.columns !== skeleton.columns) {
+    throw new Error(`a motion of ${motion.columns} values a frame is not one of the skeleton ${skeleton.name} ` +
+                    `(${skeleton.columns})`);
+  }
   const frames = [];
-  for (let f = 0; f < motion.frames; ++f) frames.push(framePositions(motion.values, f));
+  for (let f = 0; f < motion.frames; ++f) frames.push(framePositions(motion.values, f, skeleton));
   return frames;
 }
 
-// Mean per-joint position error (mm) of two motions over their common frames.
+// Mean per-joint position error (mm) of two motions of one skeleton over
+// their common frames.
 export function meanJointErrorMm(a, b) {
   const frames = Math.min(a.length, b.length);
+  const joints = frames ? a[0].length / 3 : 0;
   let sum = 0;
   for (let f = 0; f < frames; ++f) {
-    for (let j = 0; j < H36M_JOINT_COUNT; ++j) {
+    for (let j = 0; j < joints; ++j) {
       const dx = a[f][3 * j] - b[f][3 * j], dy = a[f][3 * j + 1] - b[f][3 * j + 1], dz = a[f][3 * j + 2] - b[f][3 * j + 2];
       sum += Math.hypot(dx, dy, dz);
     }
   }
-  return sum / (frames * H36M_JOINT_COUNT);
+  return sum / (frames * joints);
 }

@@ -1,11 +1,12 @@
 // The manifold at work: each button is one operation of the REST API
 // (encode and decode for a reconstruction, two denoise calls for projected
-// and filled), its result drawn in the view and kept on the shelf.
+// and filled), its result drawn in the view, with the skeleton of the model
+// that answered, and kept on the shelf.
 import { callApi } from './api_client.js';
 import { runAction } from './call_log.js';
 import { clipWindowPath, showClipBounds } from './data_root_clips.js';
 import { meanJointErrorMm, motionPositions } from './forward_kinematics.js';
-import { H36M_PARENTS } from './h36m_skeleton.js';
+import { skeletonOf } from './model_skeletons.js';
 import { corruptZeroed } from './paper_corruption.js';
 import { atModelRate, bvhToModelRateMotion, textWindow } from './motion_files.js';
 import { bindMenu, operand, shelfEntry, shelve } from './motion_shelf.js';
@@ -13,8 +14,18 @@ import { bindMenu, operand, shelfEntry, shelve } from './motion_shelf.js';
 const $ = (id) => document.getElementById(id);
 const decoder = () => $('decoder').value;  // '' is the model's default
 
-function figure(label, motion) {
-  return { label, positions: motionPositions(atModelRate(motion)), parents: H36M_PARENTS, frameRate: 25 };
+function figure(label, motion, skeleton) {
+  return { label, positions: motionPositions(atModelRate(motion), skeleton), parents: skeleton.parents, frameRate: 25 };
+}
+
+// The skeleton of the model that answered `reply`.
+function skeletonOfReply(reply) {
+  return skeletonOf(reply.answered_by.model);
+}
+
+// A shelf entry drawn as a figure.
+function entryFigure(label, entry) {
+  return figure(label, entry.motion, entry.skeleton);
 }
 
 function say(text) {
@@ -30,36 +41,38 @@ async function decodeCode(code) {
   return reply.motions[0];
 }
 
-// A reconstruction: the code the server encoded `original` (a 25 Hz motion)
-// into is decoded back; both are drawn side by side, with the
+// A reconstruction: the code the server encoded `original` (a 25 Hz motion
+// of `skeleton`) into is decoded back; both are drawn side by side, with the
 // reconstruction's error, and shelved.
-async function showReconstruction(view, name, original, encoded) {
+async function showReconstruction(view, name, original, skeleton, encoded) {
   const code = encoded.codes[0];
   const reconstruction = await decodeCode(code);
-  shelve(name, original, code);
-  shelve(`${name} reconstructed`, reconstruction, code);
-  const error = meanJointErrorMm(motionPositions(original), motionPositions(reconstruction));
-  view.show([figure(name, original), figure(`reconstruction (${error.toFixed(1)} mm)`, reconstruction)]);
+  shelve(name, original, skeleton, code);
+  shelve(`${name} reconstructed`, reconstruction, skeleton, code);
+  const error = meanJointErrorMm(motionPositions(original, skeleton), motionPositions(reconstruction, skeleton));
+  view.show([figure(name, original, skeleton), figure(`reconstruction (${error.toFixed(1)} mm)`, reconstruction, skeleton)]);
   say(`reconstruction error ${error.toFixed(1)} mm (mean per-joint position error); ${answeredBy(encoded)}`);
 }
 
 // Upload: the file goes to the server as it is (JSON for text, the BVH
-// itself for .bvh).
+// itself for .bvh); the page reads a BVH in the skeleton of the model that
+// encoded it, to draw it.
 async function reconstructUpload(view) {
   const file = $('upload-file').files[0];
-  if (!file) throw new Error('choose an H3.6M text file or a BVH file first');
+  if (!file) throw new Error('choose a text file (H3.6M exponential maps) or a BVH file first');
   const text = await file.text();
   const isBvh = file.name.toLowerCase().endsWith('.bvh');
   let encoded, original;
   if (isBvh) {
     encoded = await callApi('POST', 'v1/encode', { body: text, contentType: 'application/x-bvh', summary: file.name });
-    original = bvhToModelRateMotion(text);
+    original = bvhToModelRateMotion(text, await skeletonOfReply(encoded));
   } else {
     original = textWindow(text, Number($('upload-rate').value), Number($('upload-start').value));
     encoded = await callApi('POST', 'v1/encode', { body: { motions: [original] }, summary: file.name });
     original = atModelRate(original);
   }
-  await showReconstruction(view, `${file.name}${isBvh ? '' : ` @${$('upload-start').value}`}`, original, encoded);
+  await showReconstruction(view, `${file.name}${isBvh ? '' : ` @${$('upload-start').value}`}`, original,
+                           await skeletonOfReply(encoded), encoded);
 }
 
 // A file of the server's data root: the server reads its window (the
@@ -70,17 +83,18 @@ async function reconstructClip(view) {
   const clip = await callApi('GET', clipWindowPath(path, Number($('clip-start').value)));
   showClipBounds(clip);
   const encoded = await callApi('POST', 'v1/encode', { body: { motions: [clip.motion] }, summary: path });
-  await showReconstruction(view, `${clip.path} @${clip.start}`, clip.motion, encoded);
+  await showReconstruction(view, `${clip.path} @${clip.start}`, clip.motion, await skeletonOfReply(encoded), encoded);
 }
 
 async function sample(view) {
   const seed = $('sample-seed').value;
   const reply = await callApi('POST', 'v1/sample', {
     body: { count: Number($('sample-count').value), seed, decoder: decoder() } });
+  const skeleton = await skeletonOfReply(reply);
   const figures = reply.motions.map((motion, i) => {
     const name = `sample ${i + 1} (seed ${seed})`;
-    shelve(name, motion, reply.codes[i]);
-    return figure(name, motion);
+    shelve(name, motion, skeleton, reply.codes[i]);
+    return figure(name, motion, skeleton);
   });
   view.show(figures);
   say(`${reply.motions.length} samples; ${answeredBy(reply)}`);
@@ -92,17 +106,19 @@ async function interpolate(view) {
   const method = $('interpolate-method').value;
   const reply = await callApi('POST', 'v1/interpolate', {
     body: { from: operand(from), to: operand(to), steps: Number($('interpolate-steps').value), method, decoder: decoder() } });
-  const steps = reply.motions.map((motion) => motionPositions(motion));
+  const skeleton = await skeletonOfReply(reply);
+  const steps = reply.motions.map((motion) => motionPositions(motion, skeleton));
   const slider = $('interpolate-slider');
   slider.max = String(steps.length - 1);
   slider.value = String(Math.floor((steps.length - 1) / 2));
   const stepLabel = () => `${method} step ${Number(slider.value) + 1} of ${steps.length}`;
-  view.show([figure(from.name, from.motion),
-             { label: stepLabel(), positions: steps[Number(slider.value)], parents: H36M_PARENTS, frameRate: 25 },
-             figure(to.name, to.motion)]);
+  view.show([entryFigure(from.name, from),
+             { label: stepLabel(), positions: steps[Number(slider.value)], parents: skeleton.parents, frameRate: 25 },
+             entryFigure(to.name, to)]);
   slider.disabled = false;
   slider.oninput = () => view.replacePositions(1, steps[Number(slider.value)], stepLabel());
-  reply.motions.forEach((motion, i) => shelve(`${from.name} → ${to.name} ${method} ${i + 1}/${steps.length}`, motion, reply.codes[i]));
+  reply.motions.forEach((motion, i) => shelve(`${from.name} → ${to.name} ${method} ${i + 1}/${steps.length}`, motion, skeleton,
+                                              reply.codes[i]));
   say(`${steps.length} steps; move the slider to walk along the path; ${answeredBy(reply)}`);
 }
 
@@ -111,9 +127,10 @@ async function analogy(view) {
   if (!a || !b || !c) throw new Error('analogy needs three motions: sample or upload some first');
   const reply = await callApi('POST', 'v1/analogy', { body: { a: operand(a), b: operand(b), c: operand(c), decoder: decoder() } });
   const name = `${a.name} − ${b.name} + ${c.name}`;
-  shelve(name, reply.motions[0], reply.codes[0]);
-  view.show([figure(`a: ${a.name}`, a.motion), figure(`b: ${b.name}`, b.motion), figure(`c: ${c.name}`, c.motion),
-             figure('a − b + c', reply.motions[0])]);
+  const skeleton = await skeletonOfReply(reply);
+  shelve(name, reply.motions[0], skeleton, reply.codes[0]);
+  view.show([entryFigure(`a: ${a.name}`, a), entryFigure(`b: ${b.name}`, b), entryFigure(`c: ${c.name}`, c),
+             figure('a − b + c', reply.motions[0], skeleton)]);
   say(`analogy; ${answeredBy(reply)}`);
 }
 
@@ -127,11 +144,13 @@ async function denoise(view) {
   const request = { motions: [corrupted], decoder: decoder(), zeros_are_missing: true };
   const projected = (await callApi('POST', 'v1/denoise', { body: request, summary: 'projected' })).motions[0];
   const filled = (await callApi('POST', 'v1/denoise', { body: { ...request, keep_observed: true }, summary: 'filled' })).motions[0];
-  const truth = motionPositions(source.motion);
-  const error = (motion) => meanJointErrorMm(truth, motionPositions(motion)).toFixed(1);
-  view.show([figure(source.name, source.motion), figure(`corrupted (${error(corrupted)} mm)`, corrupted),
-             figure(`projected (${error(projected)} mm)`, projected), figure(`filled (${error(filled)} mm)`, filled)]);
-  shelve(`${source.name} denoised`, projected);
+  const { skeleton } = source;  // the server refuses a motion of another rig than its model's
+  const truth = motionPositions(source.motion, skeleton);
+  const error = (motion) => meanJointErrorMm(truth, motionPositions(motion, skeleton)).toFixed(1);
+  view.show([entryFigure(source.name, source), figure(`corrupted (${error(corrupted)} mm)`, corrupted, skeleton),
+             figure(`projected (${error(projected)} mm)`, projected, skeleton),
+             figure(`filled (${error(filled)} mm)`, filled, skeleton)]);
+  shelve(`${source.name} denoised`, projected, skeleton);
   say(`values dropped with probability ${probability} (set to zero, the paper's corruption); errors against the original`);
 }
 

@@ -1,13 +1,13 @@
-// Motions read from files the user picks: H3.6M text (comma-separated
-// values, a frame a line) and BVH of the H3.6M skeleton. The page never
-// judges a file itself: what it reads goes to the server, whose error (a
-// wrong column count, too few frames, another skeleton) is the one shown.
+// Motions read from files the user picks: exponential-map text
+// (comma-separated values, a frame a line: H3.6M's 99, or a rig's) and BVH
+// of a model's skeleton. The page never judges a file itself: what it reads
+// goes to the server, whose error (a wrong column count, too few frames,
+// another skeleton) is the one shown.
 import { BVHLoader } from 'three/addons/loaders/BVHLoader.js';
-import { H36M_COLUMNS, H36M_JOINT_NAMES } from './h36m_skeleton.js';
+import { layoutOfColumns } from './model_skeletons.js';
 
 export const MODEL_RATE = 25;
 export const MODEL_FRAMES = 150;
-export const H36M_LAYOUT = 'h36m-expmap-99';
 
 // The wire motion of the model's window of a text file: 150 frames at 25 Hz,
 // or 300 at 50 Hz (the data set's rate; the server keeps every second
@@ -18,7 +18,7 @@ export function textWindow(text, rate, start) {
   const wanted = rate === 50 ? 2 * MODEL_FRAMES : MODEL_FRAMES;
   const window = rows.slice(start, start + wanted).map((line) => line.split(',').map(Number));
   const columns = window.length ? window[0].length : 0;
-  return { frames: window.length, columns, frame_rate: rate, layout: H36M_LAYOUT, values: window.flat() };
+  return { frames: window.length, columns, frame_rate: rate, layout: layoutOfColumns(columns), values: window.flat() };
 }
 
 // A wire motion at the model's 25 Hz, as the server takes a 50 Hz one:
@@ -33,14 +33,17 @@ export function atModelRate(motion) {
   return { ...motion, frames, frame_rate: MODEL_RATE, values };
 }
 
-// A BVH of the H3.6M skeleton as a 25 Hz wire motion, through three.js's
-// BVHLoader: the inverse of model/format/h36m_bvh.h. A joint's local
+// A BVH of `skeleton` (model_skeletons.js) as a 25 Hz wire motion, through
+// three.js's BVHLoader: the inverse of model/format/skeleton_bvh.h, joints
+// matched by name (the root's translation is left at zero: the model does
+// not learn it). A joint's local
 // rotation in the row-vector convention is the transpose of the BVH's
 // (column-vector) rotation, so its exponential map is minus the axis-angle
 // of the BVH quaternion. Frames are resampled to 25 Hz by taking the file's
 // frame nearest in time (ties to the later), as the server does. Joints
 // absent from the file (the leaves written as End Sites) are unrotated.
-export function bvhToModelRateMotion(text) {
+export function bvhToModelRateMotion(text, skeleton) {
+  const { columns, jointNames } = skeleton;
   const { clip } = new BVHLoader().parse(text);
   const tracks = new Map(clip.tracks.map((track) => [track.name, track]));
   const anyTrack = clip.tracks[0];
@@ -48,10 +51,10 @@ export function bvhToModelRateMotion(text) {
   // From the text: the loader's times are float32, whose rounding can lose a frame here.
   const frameTime = Number(/Frame Time:\s*(\S+)/i.exec(text)?.[1] ?? 1 / MODEL_RATE);
   const outFrames = Math.floor((fileFrames - 1) * frameTime * MODEL_RATE + 1e-6) + 1;
-  const values = new Array(outFrames * H36M_COLUMNS).fill(0);
+  const values = new Array(outFrames * columns).fill(0);
   for (let k = 0; k < outFrames; ++k) {
     const source = Math.min(fileFrames - 1, Math.floor(k / MODEL_RATE / frameTime + 0.5));
-    H36M_JOINT_NAMES.forEach((name, j) => {
+    jointNames.forEach((name, j) => {
       const track = tracks.get(`${name}.quaternion`);
       if (!track) return;
       const [x, y, z, w] = track.values.slice(4 * source, 4 * source + 4);
@@ -59,8 +62,8 @@ export function bvhToModelRateMotion(text) {
       // Angle in [0, pi]: q and -q are the same rotation.
       const angle = 2 * Math.atan2(s, Math.abs(w));
       const scale = s < 1e-12 ? 0 : -Math.sign(w || 1) * angle / s;
-      values.splice(k * H36M_COLUMNS + 3 + 3 * j, 3, scale * x, scale * y, scale * z);
+      values.splice(k * columns + 3 + 3 * j, 3, scale * x, scale * y, scale * z);
     });
   }
-  return { frames: outFrames, columns: H36M_COLUMNS, frame_rate: MODEL_RATE, layout: H36M_LAYOUT, values };
+  return { frames: outFrames, columns, frame_rate: MODEL_RATE, layout: layoutOfColumns(columns), values };
 }

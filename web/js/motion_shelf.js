@@ -1,12 +1,13 @@
 // The motions the page holds (uploads, samples, reconstructions, results),
-// each a 25 Hz wire motion with its code when known, and the menus that
-// pick one of them as an operation's input.
+// each a 25 Hz wire motion with the skeleton it is drawn with and its code
+// when known, and the menus that pick one of them as an operation's input.
 const entries = [];
 const listeners = [];
 
-// Adds a motion; returns its entry. `code` is the 64 floats it decodes from, if known.
-export function shelve(name, motion, code) {
-  const entry = { id: entries.length, name, motion, code };
+// Adds a motion of `skeleton` (model_skeletons.js); returns its entry.
+// `code` is the 64 floats it decodes from, if known.
+export function shelve(name, motion, skeleton, code) {
+  const entry = { id: entries.length, name, motion, skeleton, code };
   entries.push(entry);
   listeners.forEach((refresh) => refresh());
   return entry;
