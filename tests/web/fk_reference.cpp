@@ -1,9 +1,12 @@
 // The reference the web tests compare with: the model library's forward
-// kinematics (model/forward_kinematics.h, the server's) of a 25 Hz H3.6M
-// text motion, and optionally the library's BVH export of it
-// (format/h36m_bvh.h, the code behind the tool's and the REST API's BVH).
+// kinematics (model/forward_kinematics.h, the server's) of a 25 Hz text
+// motion, or of a BVH file read as the server reads one
+// (format/skeleton_bvh.h), of H3.6M's skeleton or of the skeleton in a JSON
+// file (format/skeleton.h, as DescribeModel gives it); and optionally the
+// library's BVH export of an H3.6M motion (format/h36m_bvh.h, the code behind
+// the tool's and the REST API's BVH).
 //
-//   web_fk_reference MOTION.txt                      -> JSON [frames][32][3] positions, mm, on stdout
+//   web_fk_reference MOTION.txt|MOTION.bvh [--skeleton S.json]  -> JSON [frames][joints][3] positions, mm, on stdout
 //   web_fk_reference MOTION.txt --bvh OUT.bvh [--rotation-order XYZ] [--position-channels]
 //
 // Exit status 2 with the reason on stderr for bad input.
@@ -14,14 +17,16 @@
 #include <fstream>
 #include <string>
 
+#include "format/bvh_file.h"
 #include "format/h36m_bvh.h"
 #include "format/motion_text.h"
+#include "format/skeleton_bvh.h"
 #include "forward_kinematics.h"
 
 namespace {
 
-void print_positions(const mm::MotionFrames& motion) {
-  const mm::ForwardKinematics fk(mm::Skeleton::h36m());
+void print_positions(const mm::MotionFrames& motion, const mm::Skeleton& skeleton) {
+  const mm::ForwardKinematics fk(skeleton);
   const at::Tensor frames = at::from_blob(const_cast<float*>(motion.values.data()),
                                           {motion.frame_count(), motion.columns}, at::kFloat)
                                 .to(at::kDouble);  // the reference in float64
@@ -44,8 +49,12 @@ void print_positions(const mm::MotionFrames& motion) {
 
 int main(int argc, char** argv) {
   try {
-    if (argc < 2) throw std::runtime_error("usage: web_fk_reference MOTION.txt [--bvh OUT.bvh [--rotation-order XYZ] [--position-channels]]");
-    const mm::MotionFrames motion = mm::read_motion_text(argv[1]);
+    if (argc < 2) {
+      throw std::runtime_error("usage: web_fk_reference MOTION.txt|MOTION.bvh [--skeleton S.json] "
+                               "[--bvh OUT.bvh [--rotation-order XYZ] [--position-channels]]");
+    }
+    const std::string motion_path = argv[1];
+    mm::Skeleton skeleton = mm::Skeleton::h36m();
     std::string bvh_path;
     mm::H36mBvhExportOptions options;
     for (int i = 2; i < argc; ++i) {
@@ -57,12 +66,18 @@ int main(int argc, char** argv) {
           throw std::runtime_error(std::string("--rotation-order: not an order of X, Y, Z: ") + argv[i]);
       } else if (arg == "--position-channels") {
         options.position_channels_on_every_joint = true;
+      } else if (arg == "--skeleton" && i + 1 < argc) {
+        skeleton = mm::read_skeleton_file(argv[++i]);
       } else {
         throw std::runtime_error("unknown argument " + arg);
       }
     }
+    const bool bvh_in = motion_path.size() > 4 && motion_path.substr(motion_path.size() - 4) == ".bvh";
+    const mm::MotionFrames motion =
+        bvh_in ? mm::skeleton_motion_from_bvh(skeleton, mm::read_bvh_file(motion_path), motion_path)
+               : mm::read_motion_text(motion_path, mm::skeleton_motion_columns(skeleton));
     if (bvh_path.empty()) {
-      print_positions(motion);
+      print_positions(motion, skeleton);
       return 0;
     }
     std::ofstream out(bvh_path);

@@ -5,16 +5,19 @@ import fs from 'node:fs';
 import path from 'node:path';
 import { environment } from './server_harness.mjs';
 
-// Writes a 25 Hz wire motion (or rows of 99 values) as H3.6M text.
+// Writes a 25 Hz wire motion as text of its columns.
 export function writeMotionText(file, motion) {
   const rows = [];
   for (let f = 0; f < motion.frames; ++f) rows.push(motion.values.slice(f * motion.columns, (f + 1) * motion.columns).join(','));
   fs.writeFileSync(file, `${rows.join('\n')}\n`);
 }
 
-// Positions [frame][joint][xyz] in mm of a 25 Hz H3.6M text file.
-export function referencePositions(textFile) {
-  return JSON.parse(execFileSync(environment('MM_FK_REFERENCE'), [textFile], { maxBuffer: 64 << 20 }).toString());
+// Positions [frame][joint][xyz] in mm of a 25 Hz text file, or of a BVH file
+// read as the server reads one, of H3.6M's skeleton or of the skeleton in
+// the JSON file `skeletonFile`.
+export function referencePositions(motionFile, skeletonFile) {
+  const args = skeletonFile ? [motionFile, '--skeleton', skeletonFile] : [motionFile];
+  return JSON.parse(execFileSync(environment('MM_FK_REFERENCE'), args, { maxBuffer: 256 << 20 }).toString());
 }
 
 // The library's BVH of a 25 Hz text file, with export options.

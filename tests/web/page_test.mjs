@@ -8,7 +8,9 @@
 // picked from its list plays from the window start chosen (drawn as the FK
 // of the file's rows) beside its reconstruction and error; a bad upload and
 // a start past the file's last window show the server's own message; a job submitted from the page (token asked for on the 401)
-// shows progress from its event stream; the models show their Table 1 mm.
+// shows progress from its event stream; the models show their Table 1 mm;
+// with a model of another rig (CMU dances, 43 joints) active, samples and an
+// uploaded BVH of that rig are drawn with its skeleton, as the library's FK.
 // Screenshots go to MM_WEB_SCREENSHOT_DIR (docs/ for the README) or the
 // build tree.
 //
@@ -21,7 +23,7 @@ import os from 'node:os';
 import path from 'node:path';
 import { pathToFileURL } from 'node:url';
 import { largestDistanceMm, referencePositions, writeMotionText } from './fk_reference.mjs';
-import { TOKEN, environment, h36mDatasetDir, startServer } from './server_harness.mjs';
+import { TOKEN, environment, h36mDatasetDir, startServer, trainDanceModel } from './server_harness.mjs';
 
 const TOLERANCE_MM = 0.1;
 const nodeModules = process.argv[2];
@@ -35,6 +37,7 @@ function step(text) {
 }
 
 const server = await startServer();
+let rigServer;
 const browser = await puppeteer.launch({
   executablePath: environment('MM_CHROMIUM'),
   headless: true,
@@ -293,6 +296,55 @@ try {
   assert.ok((await server.call('GET', 'v1/models')).models.find((m) => m.name === 'h36m-dkgm-h100').active);
   assert.equal(promptsAnswered, 1, 'the page asked for the token again');
 
+  step("a model of another rig: samples and an uploaded BVH drawn with its skeleton, as the library's FK");
+  const rigScratch = path.join(scratch, 'rig');
+  fs.mkdirSync(rigScratch);
+  const { model: danceModel, dances } = trainDanceModel(rigScratch);
+  rigServer = await startServer({ models: { dances: danceModel }, defaultModel: 'dances' });
+  const { skeleton: rig } = await rigServer.call('GET', 'v1/models/dances');
+  assert.equal(rig.joints.length, 57);  // 43 joints and 14 End Sites
+  const rigFile = path.join(scratch, 'dances-skeleton.json');
+  fs.writeFileSync(rigFile, JSON.stringify(rig));
+  await page.goto(rigServer.pageUrl, { waitUntil: 'load' });
+  await page.waitForSelector('body[data-loaded=true]', { timeout: 60000 });
+  await page.$eval('#sample-count', (e) => (e.value = '1'));
+  await page.$eval('#sample-seed', (e) => (e.value = '7'));
+  await page.click('#sample-button');
+  await waitForFigure('sample 1 (seed 7)');
+  const { motions: [rigSample] } = await rigServer.call('POST', 'v1/sample', { count: 1, seed: 7 });
+  assert.equal(rigSample.columns, 174);
+  const rigSampleFile = path.join(scratch, 'dance-sample.txt');
+  writeMotionText(rigSampleFile, rigSample);
+  const rigSampleReference = referencePositions(rigSampleFile, rigFile);
+  // The first 6 s of a dance: 720 frames at 120 Hz, the model's 150 at 25 Hz.
+  const danceLines = fs.readFileSync(path.join(dances, 'martial', '03.bvh'), 'utf8').split('\n');
+  const motionStart = danceLines.findIndex((line) => line.startsWith('Frame Time')) + 1;
+  const danceFile = path.join(scratch, 'dance.bvh');
+  fs.writeFileSync(danceFile, `${danceLines.slice(0, motionStart + 720).map((line) => line.replace(/^Frames:.*/, 'Frames: 720')).join('\n')}\n`);
+  const danceReference = referencePositions(danceFile, rigFile);
+  await page.click('#play');  // pause
+  const expectDrawn = async (figureIndex, reference, what) => {
+    for (const frame of [0, 75, 149]) {
+      await setRange('#frame', frame);
+      const drawn = (await describe()).figures[figureIndex];
+      assert.equal(drawn.joints, 57, `${what}: joints drawn`);
+      const distance = largestDistanceMm(drawn.drawnPositionsMm, reference[frame]);
+      console.log(`   ${what}, frame ${frame}: largest distance ${distance.toExponential(2)} mm`);
+      assert.ok(distance < TOLERANCE_MM, `${what}, frame ${frame}: a drawn joint lies ${distance} mm from the library's FK`);
+    }
+  };
+  await expectDrawn(0, rigSampleReference, 'dance sample');
+  await (await page.$('#upload-file')).uploadFile(danceFile);
+  await page.click('#upload-button');
+  await waitForFigure('reconstruction');
+  view = await describe();
+  assert.equal(view.figures[0].label, 'dance.bvh');
+  assert.equal(view.figures[1].joints, 57);
+  if (view.playing) await page.click('#play');
+  await expectDrawn(0, danceReference, 'uploaded dance');
+  await setRange('#frame', 40);
+  await page.screenshot({ path: path.join(screenshotDir, 'web-rig.png') });
+
   // The only console errors since loading are the browser's own notes of the 400 and 401 replies.
   const unexpected = consoleErrors.filter((e) => !/status of (400|401)/.test(e));
   assert.deepEqual(unexpected, [], 'unexpected console errors');
@@ -303,5 +355,6 @@ try {
 } finally {
   await browser.close();
   await server.stop();
+  await rigServer?.stop();
   fs.rmSync(scratch, { recursive: true, force: true });
 }

@@ -4,8 +4,10 @@
 // takes; S5: one; copies, since a link out of the data root is not one of
 // its clips) and a token,
 // behind a path prefix served by a small proxy, as a reverse proxy would
-// put it. Paths come from the environment ctest sets (tests/web/CMakeLists.txt).
-import { spawn } from 'node:child_process';
+// put it; and a small model of a rig other than H3.6M's, trained by the tool
+// on CMU dances. Paths come from the environment ctest sets
+// (tests/web/CMakeLists.txt).
+import { execFileSync, spawn } from 'node:child_process';
 import fs from 'node:fs';
 import http from 'node:http';
 import os from 'node:os';
@@ -71,16 +73,38 @@ function startPrefixProxy(serverPort) {
   return new Promise((resolve) => proxy.listen(0, '127.0.0.1', () => resolve(proxy)));
 }
 
-export async function startServer() {
+// A tiny manifold (hidden 16, 3 iterations) of the CMU dances' 43-joint rig
+// (cm, 120 Hz), trained by the motion-manifold tool on three of the dances
+// under `scratch`; returns { model: its folder, dances: the BVH folder }.
+export function trainDanceModel(scratch) {
+  execFileSync('tar', ['xJf', path.join(environment('MM_SHARED_DIR'), 'data', 'cmu-dance-bvh.tar.xz'), '-C', scratch]);
+  const all = path.join(scratch, 'cmu-dance-bvh');
+  const dances = path.join(scratch, 'dances');
+  for (const file of ['indian/04.bvh', 'indian/06.bvh', 'martial/03.bvh']) {
+    fs.mkdirSync(path.dirname(path.join(dances, file)), { recursive: true });
+    fs.copyFileSync(path.join(all, file), path.join(dances, file));
+  }
+  const tool = environment('MM_TOOL');
+  const prepared = path.join(scratch, 'dances.mmd');
+  execFileSync(tool, ['prepare', '--bvh', dances, '--name', 'dances', '--out', prepared]);
+  execFileSync(tool, ['train', '--variant', 'DKGM', '--dataset', prepared, '--hidden', '16', '--batch', '2',
+                      '--iterations', '3', '--seed', '1', '--out', path.join(scratch, 'dances-run')]);
+  return { model: path.join(scratch, 'dances-run', 'model'), dances: all };
+}
+
+// The server with the shipped models and `models` ({name: folder}) linked
+// into its store, `defaultModel` active.
+export async function startServer({ models = {}, defaultModel = 'h36m-dkgm-cpu' } = {}) {
   const scratch = fs.mkdtempSync(path.join(os.tmpdir(), 'mm-web-test-'));
   const source = environment('MM_SOURCE_DIR');
   const store = path.join(scratch, 'models');
   fs.mkdirSync(store);
   for (const name of ['h36m-dkgm-h100', 'h36m-dkgm-cpu']) fs.symlinkSync(path.join(source, 'models', name), path.join(store, name));
+  for (const [name, folder] of Object.entries(models)) fs.symlinkSync(folder, path.join(store, name));
   const log = path.join(scratch, 'server.log');
   const ready = path.join(scratch, 'ready.json');
   const args = ['--grpc-port', '0', '--rest-port', '0', '--address', '127.0.0.1', '--ready-file', ready,
-                '--model-store', store, '--default-model', 'h36m-dkgm-cpu', '--auth-token', TOKEN,
+                '--model-store', store, '--default-model', defaultModel, '--auth-token', TOKEN,
                 '--state-dir', path.join(scratch, 'state'), '--data-root', smallDataRoot(scratch),
                 '--web-root', path.join(source, 'web'), '--training-threads', '1'];
   const out = fs.openSync(log, 'a');
