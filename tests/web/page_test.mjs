@@ -69,6 +69,11 @@ try {
     const banner = await page.$eval('#error', (e) => (e.hidden ? '' : e.textContent));
     assert.equal(banner, '', `waiting for "${label}", the page shows an error`);
   };
+  // Uploads `file` and presses Encode + decode.
+  const upload = async (file) => {
+    await (await page.$('#upload-file')).uploadFile(file);
+    await page.click('#upload-button');
+  };
 
   step('the static mount serves web/ and nothing above it');
   const rawGet = (rawPath) => new Promise((resolve, reject) => {
@@ -154,8 +159,7 @@ try {
     headers: { Accept: 'application/x-bvh', 'Content-Type': 'application/json' } });
   assert.equal(bvhReply.status, 200);
   fs.writeFileSync(bvhFile, await bvhReply.text());
-  await (await page.$('#upload-file')).uploadFile(bvhFile);
-  await page.click('#upload-button');
+  await upload(bvhFile);
   await waitForFigure('reconstruction');
   view = await describe();
   assert.equal(view.figures[0].label, 'sample_seed21.bvh');
@@ -177,8 +181,7 @@ try {
   fs.writeFileSync(paddedFile, `${[...clipRows.slice(140), ...clipRows].join('\n')}\n`);  // 10 rows before the window
   await page.select('#upload-rate', '25');
   await page.$eval('#upload-start', (e) => (e.value = '10'));
-  await (await page.$('#upload-file')).uploadFile(paddedFile);
-  await page.click('#upload-button');
+  await upload(paddedFile);
   await waitForFigure('padded.txt @10');
   await page.click('#play');
   for (const frame of [0, 149]) {
@@ -257,8 +260,7 @@ try {
   const direct = await fetch(`${server.direct}/v1/encode`, { method: 'POST', headers: { 'Content-Type': 'application/x-bvh' },
                                                               body: fs.readFileSync(badBvh) });
   const serverMessage = (await direct.json()).error.message;
-  await (await page.$('#upload-file')).uploadFile(badBvh);
-  await page.click('#upload-button');
+  await upload(badBvh);
   await page.waitForSelector('#error:not([hidden])', { timeout: 30000 });
   const banner = await page.$eval('#error', (e) => e.textContent);
   assert.ok(banner.includes(serverMessage), `banner "${banner}" lacks the server's message "${serverMessage}"`);
@@ -334,8 +336,7 @@ try {
     }
   };
   await expectDrawn(0, rigSampleReference, 'dance sample');
-  await (await page.$('#upload-file')).uploadFile(danceFile);
-  await page.click('#upload-button');
+  await upload(danceFile);
   await waitForFigure('reconstruction');
   view = await describe();
   assert.equal(view.figures[0].label, 'dance.bvh');
