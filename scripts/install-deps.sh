@@ -23,8 +23,9 @@ if [ "${1:-}" != "--build-only" ]; then
   # Node.js and npm run the OpenAPI validator of the tests; a machine that
   # already has them (a newer Node.js) keeps its own.
   command -v npm > /dev/null || packages+=(nodejs npm)
-  # The web page's browser test drives Debian's Chromium headless.
-  packages+=(chromium)
+  # The web page's browser test drives Debian's Chromium headless; Blender's
+  # own BVH importer reads the BVH the library writes.
+  packages+=(chromium blender)
 fi
 missing=()
 for p in "${packages[@]}"; do
