@@ -20,7 +20,7 @@ function figure(label, motion, skeleton) {
 
 // The skeleton of the model that answered `reply`.
 function skeletonOfReply(reply) {
-  return skeletonOf(reply.answered_by.model);
+  return skeletonOf(reply.answered_by.model, reply.answered_by.version);
 }
 
 // A shelf entry drawn as a figure.

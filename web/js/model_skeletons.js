@@ -2,14 +2,16 @@
 // v1/models/NAME: joint names, parents and offsets in mm): H3.6M's 32
 // joints, or the rig a model learnt from BVH files. The page draws every
 // motion with the skeleton of the model that answered for it, asked once a
-// model.
+// model version (a folder replaced under the same name is asked again).
 import { callApi } from './api_client.js';
 
-const described = new Map();  // model name -> Promise of its skeleton
+const described = new Map();  // "<model> <version>" -> Promise of its skeleton
 
-// { name, jointNames, parents, offsetsMm, columns } of `model`'s motions.
-export function skeletonOf(model) {
-  if (!described.has(model)) {
+// { name, jointNames, parents, offsetsMm, columns } of the motions of
+// `model` at `version` (as a reply's answered_by names them).
+export function skeletonOf(model, version) {
+  const key = `${model} ${version}`;
+  if (!described.has(key)) {
     const asked = callApi('GET', `v1/models/${encodeURIComponent(model)}`).then((info) => {
       const joints = info.skeleton?.joints;
       if (!Array.isArray(joints) || joints.length === 0) throw new Error(`the server describes no skeleton for model ${model}`);
@@ -22,10 +24,10 @@ export function skeletonOf(model) {
       };
     });
     // A failed description is asked again next time.
-    asked.catch(() => described.delete(model));
-    described.set(model, asked);
+    asked.catch(() => described.delete(key));
+    described.set(key, asked);
   }
-  return described.get(model);
+  return described.get(key);
 }
 
 // The layout of motions of `columns` values a frame, as the server names it.
