@@ -259,6 +259,9 @@ class PythonClientTest(unittest.TestCase):
         self.assertEqual(info.name, DEFAULT_MODEL)
         self.assertIsInstance(json.loads(info.evaluation_json), dict)
         self.assertTrue(info.model_card)
+        skeleton = json.loads(info.skeleton_json)
+        self.assertEqual(skeleton["name"], "h36m-32")
+        self.assertEqual(len(skeleton["joints"]), 32)
         self.assert_refused(self.stub.DescribeModel, self.pb.DescribeModelRequest(model="nope"),
                             grpc.StatusCode.NOT_FOUND, "model")
         # Activating the model that is already active changes nothing but still needs the token.
