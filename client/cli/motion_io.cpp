@@ -45,23 +45,6 @@ std::string read_all(const std::string& path) {
 
 std::string display_name(const std::string& path) { return path == "-" ? "<stdin>" : path; }
 
-MotionFrames frames_of(const v1::Motion& motion) {
-  MotionFrames frames;
-  frames.columns = motion.columns();
-  frames.values.assign(motion.values().begin(), motion.values().end());
-  return frames;
-}
-
-// Text of any column count, to a file (written whole, then renamed) or "-".
-void write_text(const MotionFrames& frames, const std::string& path) {
-  if (path == "-") {
-    write_motion_text(frames, std::cout);
-    std::cout.flush();
-    return;
-  }
-  write_motion_text_file(frames, path);
-}
-
 }  // namespace
 
 const char* const kMotionInputNote =
@@ -138,7 +121,9 @@ v1::Code read_code(const std::string& path) {
 void check_motion_output(const std::string& path, const std::string& option) { format_of(path, option); }
 
 void write_motion(const v1::Motion& motion, const std::string& path, ModelRigs& rigs, const std::string& model) {
-  const MotionFrames frames = frames_of(motion);
+  MotionFrames frames;
+  frames.columns = motion.columns();
+  frames.values.assign(motion.values().begin(), motion.values().end());
   if (format_of(path, "--out") == MotionFormat::kBvh) {
     // As the server writes it for Accept: application/x-bvh.
     const Skeleton& skeleton = rigs.of(model).skeleton;
@@ -146,7 +131,12 @@ void write_motion(const v1::Motion& motion, const std::string& path, ModelRigs& 
                                                                       motion.frame_rate())));
     return;
   }
-  write_text(frames, path);
+  if (path == "-") {
+    write_motion_text(frames, std::cout);
+    std::cout.flush();
+    return;
+  }
+  write_motion_text_file(frames, path);  // text of any column count, written whole then renamed
 }
 
 std::vector<std::string> write_numbered_motions(const google::protobuf::RepeatedPtrField<v1::Motion>& motions,
