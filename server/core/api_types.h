@@ -168,6 +168,11 @@ struct ListClipsReply {
   bool truncated = false;       // the root holds more files than the server lists
 };
 
+struct UploadClipRequest {
+  std::string path;     // the new file, relative to the data root, '/' separators
+  std::string content;  // its bytes: H3.6M text (*.txt) or BVH (*.bvh)
+};
+
 struct ReadClipRequest {
   std::string model;  // whose clip length and skeleton; empty: the active model
   std::string path;   // relative to the data root (as ListClips gives it), or absolute under it

@@ -1,6 +1,9 @@
 #include "core/data_root_clips.h"
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <atomic>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -11,7 +14,9 @@
 #include "core/data_root_path.h"
 #include "format/bvh_dataset.h"
 #include "format/bvh_file.h"
+#include "format/atomic_file.h"
 #include "format/input_error.h"
+#include "format/motion_text.h"
 #include "format/skeleton_bvh.h"
 
 namespace mm::service {
@@ -52,7 +57,7 @@ std::string clip_format(const fs::path& path) {
 fs::path data_root_folder(const std::string& data_root) {
   if (data_root.empty()) {
     throw ApiError(ErrorCode::kFailedPrecondition, "",
-                   "this server was started without --data-root: it has no folder of clips to list or read");
+                   "this server was started without --data-root: it has no folder of clips to list, read or write");
   }
   const fs::path root = canonical_data_root(data_root);
   std::error_code error;
@@ -272,6 +277,99 @@ ReadClipReply read_data_root_clip(const std::string& data_root, const ReadClipRe
     throw invalid("path", e.what());
   }
   return reply;
+}
+
+namespace {
+
+// The path an upload names, checked for its form: relative, '/'-separated
+// components that are neither empty nor hidden (which also rules out `.`
+// and `..`), a clip's extension.
+void check_upload_path(const std::string& path) {
+  const auto refuse = [&](const std::string& why) {
+    throw invalid("path", "path " + quoted(path) + " " + why);
+  };
+  if (path.empty()) refuse("is empty, expected a file's path relative to the data root (\"mine/walk_01.bvh\")");
+  if (path.size() > 1024) refuse("is longer than 1024 characters");
+  if (path.front() == '/') refuse("is absolute, expected a path relative to the data root");
+  size_t begin = 0;
+  while (begin <= path.size()) {
+    const size_t end = std::min(path.find('/', begin), path.size());
+    const std::string component = path.substr(begin, end - begin);
+    if (component.empty()) refuse("has an empty component, expected names separated by single '/'");
+    if (component.front() == '.') refuse("has a component starting with '.' (" + quoted(component) + "), which names hidden or parent folders");
+    if (component.find('\0') != std::string::npos) refuse("holds a NUL character");
+    begin = end + 1;
+  }
+  if (clip_format(fs::path(path)).empty()) refuse("has neither extension .txt (H3.6M text) nor .bvh");
+}
+
+// The content parsed as its format says; INVALID_ARGUMENT "content" naming
+// the file and the parser's message otherwise.
+void check_upload_content(const std::string& content, const std::string& format, const std::string& path) {
+  if (content.empty()) throw invalid("content", path + ": the content is empty, expected a motion file");
+  if (content.size() > kMaxUploadedClipBytes) {
+    throw ApiError(ErrorCode::kResourceExhausted, "content",
+                   path + ": " + std::to_string(content.size()) + " bytes, expected at most " +
+                       std::to_string(kMaxUploadedClipBytes),
+                   /*too_large=*/true);
+  }
+  try {
+    if (format == kBvhFormat) {
+      parse_bvh_text(content, path);
+    } else {
+      parse_motion_text_buffer(content.data(), content.size(), path);
+    }
+  } catch (const InputError& error) {
+    throw invalid("content", error.what());
+  }
+}
+
+}  // namespace
+
+ClipFile write_data_root_clip(const std::string& data_root, const UploadClipRequest& request) {
+  const fs::path root = data_root_folder(data_root);
+  check_upload_path(request.path);
+  const std::string format = clip_format(fs::path(request.path));
+  // A folder of the path may be a link out of the root.
+  const auto target = resolve_under_data_root(root, request.path);
+  if (!target) throw invalid("path", "path " + quoted(request.path) + " leads out of the data root");
+  std::error_code error;
+  if (fs::exists(fs::symlink_status(*target, error))) {
+    throw ApiError(ErrorCode::kFailedPrecondition, "path",
+                   "path " + quoted(request.path) + " exists already; an upload never replaces a file, expected a new path");
+  }
+  check_upload_content(request.content, format, request.path);
+
+  const auto fail = [&](const std::string& what, const std::error_code& cause) {
+    throw ApiError(ErrorCode::kInternal, "path", request.path + ": " + what + ": " + cause.message());
+  };
+  fs::create_directories(target->parent_path(), error);
+  if (error) fail("cannot create its folder", error);
+  // Written whole under a hidden name (ListClips skips it), then linked to
+  // its own: link() fails rather than replace a file that appeared meanwhile.
+  // Its own name for each upload, so that two of the same path never share it.
+  static std::atomic<uint64_t> uploads{0};
+  const fs::path staged = target->parent_path() / ("." + target->filename().string() + ".upload." +
+                                                   std::to_string(::getpid()) + "." + std::to_string(uploads++));
+  try {
+    write_file_atomically(staged.string(), request.content);
+  } catch (const std::exception& e) {
+    throw ApiError(ErrorCode::kInternal, "path", request.path + ": cannot write the file: " + e.what());
+  }
+  fs::create_hard_link(staged, *target, error);
+  std::error_code ignored;
+  fs::remove(staged, ignored);
+  if (error == std::errc::file_exists) {
+    throw ApiError(ErrorCode::kFailedPrecondition, "path",
+                   "path " + quoted(request.path) + " was written by another upload meanwhile; expected a new path");
+  }
+  if (error) fail("cannot link the written file into place", error);
+
+  ClipFile clip;
+  clip.path = target->lexically_relative(root).generic_string();
+  clip.format = format;
+  clip.size_bytes = static_cast<int64_t>(request.content.size());
+  return clip;
 }
 
 }  // namespace mm::service

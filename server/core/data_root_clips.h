@@ -1,7 +1,8 @@
 // The motion files of the data root (--data-root) as clips a client can
-// pick on the server instead of uploading one: the list of them, and one
-// window of one as a wire motion at the model's 25 Hz. ManifoldCore's
-// ListClips and ReadClip are these.
+// pick on the server instead of uploading one: the list of them, one window
+// of one as a wire motion at the model's 25 Hz, and a new file written there
+// (a user's own mocap, to train on). ManifoldCore's ListClips, ReadClip and
+// UploadClip are these.
 //
 // The window is taken as the server takes an uploaded motion, so that
 // encoding it gives the code of the upload: an H3.6M text file (50 Hz) keeps
@@ -47,5 +48,22 @@ ListClipsReply list_data_root_clips(const std::string& data_root, int max_clips)
 // valid start); RESOURCE_EXHAUSTED "path" for a file over 256 MiB.
 ReadClipReply read_data_root_clip(const std::string& data_root, const ReadClipRequest& request,
                                   const ModelShape& shape);
+
+// Largest file UploadClip takes (the frontends' message limits may be lower).
+constexpr size_t kMaxUploadedClipBytes = size_t{256} << 20;
+
+// Writes `request.content` as the new file `request.path` under the data
+// root, creating its folders, and returns it as ListClips lists it. The
+// content is checked first as its extension says (H3.6M text of 99 values a
+// line; BVH of any hierarchy) and written whole under a hidden name, then
+// linked into place, so a reader or a crash never sees part of it and an
+// existing file is never replaced. FAILED_PRECONDITION without a data root;
+// INVALID_ARGUMENT "path" for a path that is empty, absolute, has an empty
+// component or one starting with '.', has another extension, or leads out
+// of the root; FAILED_PRECONDITION "path" when a file is already there;
+// INVALID_ARGUMENT "content" for empty or malformed content (the parser's
+// message); RESOURCE_EXHAUSTED "content" over kMaxUploadedClipBytes;
+// INTERNAL when the file system refuses the write.
+ClipFile write_data_root_clip(const std::string& data_root, const UploadClipRequest& request);
 
 }  // namespace mm::service

@@ -390,6 +390,13 @@ ReadClipReply ManifoldCore::read_clip(const CallContext& ctx, const ReadClipRequ
   });
 }
 
+ClipFile ManifoldCore::upload_clip(const CallContext& ctx, const UploadClipRequest& request) {
+  return state_->call("upload_clip", ctx, [&] {
+    state_->require_token(ctx);
+    return write_data_root_clip(state_->config.data_root, request);
+  });
+}
+
 JobInfo ManifoldCore::submit_job(const CallContext& ctx, const JobSpec& spec) {
   return state_->call("submit_job", ctx, [&] {
     state_->require_token(ctx);

@@ -96,6 +96,9 @@ class ManifoldCore {
   // one). Read only: no token. FAILED_PRECONDITION without --data-root.
   ListClipsReply list_clips(const CallContext& ctx);
   ReadClipReply read_clip(const CallContext& ctx, const ReadClipRequest& request);
+  // Writes a new motion file under the data root (a user's own mocap, to
+  // train on; core/data_root_clips.h). Needs the token.
+  ClipFile upload_clip(const CallContext& ctx, const UploadClipRequest& request);
 
   JobInfo submit_job(const CallContext& ctx, const JobSpec& spec);  // needs the token
   JobInfo get_job(const CallContext& ctx, const std::string& id);

@@ -112,6 +112,11 @@ grpc::Status ManifoldService::ReadClip(grpc::ServerContext* context, const v1::R
   return answer(context, [&](const CallContext& ctx) { to_wire(core_.read_clip(ctx, to_api(*request)), reply); });
 }
 
+grpc::Status ManifoldService::UploadClip(grpc::ServerContext* context, const v1::UploadClipRequest* request,
+                                         v1::ClipFile* reply) {
+  return answer(context, [&](const CallContext& ctx) { to_wire(core_.upload_clip(ctx, to_api(*request)), reply); });
+}
+
 grpc::Status ManifoldService::SubmitJob(grpc::ServerContext* context, const v1::SubmitJobRequest* request,
                                         v1::Job* reply) {
   return answer(context,

@@ -54,6 +54,8 @@ class ManifoldService final : public v1::MotionManifold::Service {
                          v1::ListClipsReply* reply) override;
   grpc::Status ReadClip(grpc::ServerContext* context, const v1::ReadClipRequest* request,
                         v1::ReadClipReply* reply) override;
+  grpc::Status UploadClip(grpc::ServerContext* context, const v1::UploadClipRequest* request,
+                          v1::ClipFile* reply) override;
 
   grpc::Status SubmitJob(grpc::ServerContext* context, const v1::SubmitJobRequest* request, v1::Job* reply) override;
   grpc::Status GetJob(grpc::ServerContext* context, const v1::GetJobRequest* request, v1::Job* reply) override;

@@ -107,6 +107,13 @@ JobSpec to_api(const v1::JobSpec& spec) {
   return out;
 }
 
+UploadClipRequest to_api(const v1::UploadClipRequest& request) {
+  UploadClipRequest out;
+  out.path = request.path();
+  out.content = request.content();
+  return out;
+}
+
 ReadClipRequest to_api(const v1::ReadClipRequest& request) {
   ReadClipRequest out;
   out.model = request.model();
@@ -174,15 +181,17 @@ void to_wire(const ModelInfo& info, v1::ModelInfo* out) {
   out->set_skeleton_json(info.skeleton_json);
 }
 
+void to_wire(const ClipFile& clip, v1::ClipFile* out) {
+  out->Clear();
+  out->set_path(clip.path);
+  out->set_format(clip.format);
+  out->set_size_bytes(clip.size_bytes);
+}
+
 void to_wire(const ListClipsReply& reply, v1::ListClipsReply* out) {
   out->Clear();
   out->mutable_clips()->Reserve(static_cast<int>(reply.clips.size()));
-  for (const auto& clip : reply.clips) {
-    auto* file = out->add_clips();
-    file->set_path(clip.path);
-    file->set_format(clip.format);
-    file->set_size_bytes(clip.size_bytes);
-  }
+  for (const auto& clip : reply.clips) to_wire(clip, out->add_clips());
   out->set_truncated(reply.truncated);
 }
 

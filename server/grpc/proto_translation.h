@@ -30,6 +30,7 @@ InterpolateRequest to_api(const v1::InterpolateRequest& request);
 AnalogyRequest to_api(const v1::AnalogyRequest& request);
 DenoiseRequest to_api(const v1::DenoiseRequest& request);
 ReadClipRequest to_api(const v1::ReadClipRequest& request);
+UploadClipRequest to_api(const v1::UploadClipRequest& request);
 JobSpec to_api(const v1::JobSpec& spec);
 
 // Core -> wire: each fills `out` (cleared first).
@@ -39,6 +40,7 @@ void to_wire(const AnsweredBy& answered_by, v1::AnsweredBy* out);
 void to_wire(const EncodeReply& reply, v1::EncodeReply* out);
 void to_wire(const MotionsReply& reply, v1::MotionsReply* out);
 void to_wire(const ModelInfo& info, v1::ModelInfo* out);
+void to_wire(const ClipFile& clip, v1::ClipFile* out);
 void to_wire(const ListClipsReply& reply, v1::ListClipsReply* out);
 void to_wire(const ReadClipReply& reply, v1::ReadClipReply* out);
 void to_wire(const JobSpec& spec, v1::JobSpec* out);

@@ -456,13 +456,17 @@ std::string model_list_to_json(const std::vector<ModelInfo>& models) {
   return dump(json{{"models", std::move(list)}});
 }
 
+json clip_file_json(const ClipFile& clip) {
+  return json{{"path", clip.path}, {"format", clip.format}, {"size_bytes", clip.size_bytes}};
+}
+
 std::string clip_list_to_json(const ListClipsReply& reply) {
   json clips = json::array();
-  for (const ClipFile& clip : reply.clips) {
-    clips.push_back(json{{"path", clip.path}, {"format", clip.format}, {"size_bytes", clip.size_bytes}});
-  }
+  for (const ClipFile& clip : reply.clips) clips.push_back(clip_file_json(clip));
   return dump(json{{"clips", std::move(clips)}, {"truncated", reply.truncated}});
 }
+
+std::string clip_file_to_json(const ClipFile& clip) { return dump(clip_file_json(clip)); }
 
 std::string read_clip_reply_to_json(const ReadClipReply& reply) {
   return dump(FloatJson{{"path", reply.path},

@@ -42,6 +42,7 @@ std::string motions_reply_to_json(const MotionsReply& reply);
 std::string model_info_to_json(const ModelInfo& model);
 std::string model_list_to_json(const std::vector<ModelInfo>& models);  // {"models": [...]}
 std::string clip_list_to_json(const ListClipsReply& reply);     // {"clips": [...], "truncated": false}
+std::string clip_file_to_json(const ClipFile& clip);            // {"path", "format", "size_bytes"}
 std::string read_clip_reply_to_json(const ReadClipReply& reply);  // {"path", ..., "motion": {...}}
 std::string job_info_to_json(const JobInfo& job);
 std::string job_list_to_json(const std::vector<JobInfo>& jobs);  // {"jobs": [...]}

@@ -57,4 +57,12 @@ ReadClipRequest read_clip_request_from_query(const QueryParameters& parameters) 
   return request;
 }
 
+UploadClipRequest upload_clip_request_from_query(const QueryParameters& parameters, std::string content) {
+  check_known_and_single(parameters, {"path"});
+  UploadClipRequest request;
+  request.path = text(parameters, "path");
+  request.content = std::move(content);
+  return request;
+}
+
 }  // namespace mm::service::rest

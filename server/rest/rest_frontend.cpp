@@ -208,6 +208,10 @@ void RestFrontend::State::handle(RouteId route, const httplib::Request& request,
       case RouteId::kReadClip:
         return send_json(response, 200, rest::read_clip_reply_to_json(
                                             core.read_clip(context, rest::read_clip_request_from_query(request.params))));
+      case RouteId::kUploadClip:
+        // The body is the file itself, whatever its Content-Type says.
+        return send_json(response, 200, rest::clip_file_to_json(core.upload_clip(
+                                            context, rest::upload_clip_request_from_query(request.params, body))));
       case RouteId::kSubmitJob:
         return send_json(response, 200,
                          rest::job_info_to_json(core.submit_job(context, rest::job_spec_from_json(body))));

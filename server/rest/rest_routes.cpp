@@ -18,6 +18,7 @@ const std::vector<RestRoute>& rest_routes() {
       {RouteId::kActivateModel, "POST", "/v1/models/{name}:activate"},
       {RouteId::kListClips, "GET", "/v1/clips"},
       {RouteId::kReadClip, "GET", "/v1/clips/window"},
+      {RouteId::kUploadClip, "POST", "/v1/clips:upload"},
       {RouteId::kSubmitJob, "POST", "/v1/jobs"},
       {RouteId::kListJobs, "GET", "/v1/jobs"},
       {RouteId::kGetJob, "GET", "/v1/jobs/{id}"},

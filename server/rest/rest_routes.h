@@ -13,7 +13,7 @@ namespace mm::service::rest {
 enum class RouteId {
   kEncode, kDecode, kSample, kInterpolate, kAnalogy, kDenoise,
   kListModels, kDescribeModel, kActivateModel,
-  kListClips, kReadClip,
+  kListClips, kReadClip, kUploadClip,
   kSubmitJob, kListJobs, kGetJob, kCancelJob, kJobEvents,
   kHealth, kReady, kMetrics, kOpenApi,
 };

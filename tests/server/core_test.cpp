@@ -5,6 +5,7 @@
 // clips of the data root are listed and read as the files hold them.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <filesystem>
 #include <fstream>
@@ -15,6 +16,7 @@
 #include <thread>
 
 #include "cmu_dance.h"
+#include "command_run.h"
 #include "core/manifold_core.h"
 #include "core/service_metrics.h"
 #include "format/bvh_file.h"
@@ -537,10 +539,85 @@ TEST_F(CoreClipsTest, AStartPastTheLastFullWindowIsRefusedNamingTheLargestValidS
   EXPECT_NE(std::string(bvh.what()).find("expected 0 to 101"), std::string::npos) << bvh.what();
 }
 
+// An upload is listed and read as the same file put there by hand, in a
+// folder the upload creates; only the new file appears (nothing staged is
+// left), and the bytes are the ones sent.
+TEST_F(CoreClipsTest, AnUploadedFileIsListedAndReadAsTheSameFileOnDisk) {
+  start_with_data_root();
+  const std::string bvh = test::read_text((test::cmu_dance_dir() / "martial" / "03.bvh").string());
+  const std::string text = test::read_text((data_->root() / "h36m" / "S5" / "eating_1.txt").string());
+  const ClipFile uploaded = core_->upload_clip(kCall, {"mine/dances/03.bvh", bvh});
+  EXPECT_EQ(uploaded.path, "mine/dances/03.bvh");
+  EXPECT_EQ(uploaded.format, "bvh");
+  EXPECT_EQ(uploaded.size_bytes, static_cast<int64_t>(bvh.size()));
+  EXPECT_EQ(test::read_text((data_->root() / "mine" / "dances" / "03.bvh").string()), bvh);
+  EXPECT_EQ(core_->upload_clip(kCall, {"mine/S5/eating_1.txt", text}).format, "h36m-text");
+  std::vector<std::string> under_mine;
+  for (const auto& entry : fs::recursive_directory_iterator(data_->root() / "mine")) {
+    if (entry.is_regular_file()) under_mine.push_back(entry.path().lexically_relative(data_->root()).generic_string());
+  }
+  std::sort(under_mine.begin(), under_mine.end());
+  EXPECT_EQ(under_mine, (std::vector<std::string>{"mine/S5/eating_1.txt", "mine/dances/03.bvh"}));
+  std::vector<std::string> listed;
+  for (const auto& clip : core_->list_clips(kCall).clips) listed.push_back(clip.path);
+  EXPECT_NE(std::find(listed.begin(), listed.end(), "mine/dances/03.bvh"), listed.end());
+  // Read back as the file it copies.
+  EXPECT_EQ(read("mine/S5/eating_1.txt", 10).motion.values, read("h36m/S5/eating_1.txt", 10).motion.values);
+}
+
+// Refusals name the field; none of them writes anything, and a file that
+// is there is never replaced.
+TEST_F(CoreClipsTest, UploadsThatAreBadOrReplaceAFileAreRefusedNamingTheField) {
+  start_with_data_root();
+  const std::string bvh = test::read_text((test::cmu_dance_dir() / "martial" / "03.bvh").string());
+  const std::string before = test::read_text((data_->root() / "h36m" / "S1" / "walking_1.txt").string());
+  struct Case {
+    UploadClipRequest request;
+    ErrorCode code;
+    std::string field, says;
+  };
+  const std::vector<Case> cases{
+      {{"", bvh}, ErrorCode::kInvalidArgument, "path", "is empty"},
+      {{"/tmp/x.bvh", bvh}, ErrorCode::kInvalidArgument, "path", "is absolute"},
+      {{"../outside.bvh", bvh}, ErrorCode::kInvalidArgument, "path", "starting with '.'"},
+      {{"mine//x.bvh", bvh}, ErrorCode::kInvalidArgument, "path", "empty component"},
+      {{"mine/.hidden.bvh", bvh}, ErrorCode::kInvalidArgument, "path", "starting with '.'"},
+      {{"mine/x.fbx", bvh}, ErrorCode::kInvalidArgument, "path", "neither extension"},
+      {{"folder_link/x.bvh", bvh}, ErrorCode::kInvalidArgument, "path", "leads out of the data root"},
+      {{"h36m/S1/walking_1.txt", before}, ErrorCode::kFailedPrecondition, "path", "exists already"},
+      {{"mine/empty.bvh", ""}, ErrorCode::kInvalidArgument, "content", "empty"},
+      {{"mine/bad.bvh", "HIERARCHY\nROOT x\n"}, ErrorCode::kInvalidArgument, "content", "mine/bad.bvh:"},
+      {{"mine/bad.txt", "1,2,3\n"}, ErrorCode::kInvalidArgument, "content", "mine/bad.txt:1: expected 99 values"},
+  };
+  for (const Case& c : cases) {
+    const auto error = error_of([&] { core_->upload_clip(kCall, c.request); });
+    EXPECT_EQ(error_code_name(error.code()), std::string(error_code_name(c.code))) << c.request.path << ": " << error.what();
+    EXPECT_EQ(error.field(), c.field) << c.request.path << ": " << error.what();
+    EXPECT_NE(std::string(error.what()).find(c.says), std::string::npos) << c.request.path << ": " << error.what();
+  }
+  EXPECT_FALSE(fs::exists(data_->root() / "mine"));
+  EXPECT_FALSE(fs::exists(data_->root().parent_path() / "outside.bvh"));
+  EXPECT_EQ(test::read_text((data_->root() / "h36m" / "S1" / "walking_1.txt").string()), before);
+}
+
+TEST_F(CoreClipsTest, AnUploadNeedsTheToken) {
+  CoreConfig config;
+  config.auth_token = "secret";
+  start_with_data_root(config);
+  const std::string bvh = test::read_text((test::cmu_dance_dir() / "martial" / "03.bvh").string());
+  for (const std::string token : {"", "wrong"}) {
+    const auto error = error_of([&] { core_->upload_clip({"test", token}, {"mine/03.bvh", bvh}); });
+    EXPECT_EQ(error.code(), ErrorCode::kUnauthenticated) << token;
+  }
+  EXPECT_FALSE(fs::exists(data_->root() / "mine"));
+  EXPECT_EQ(core_->upload_clip({"test", "secret"}, {"mine/03.bvh", bvh}).path, "mine/03.bvh");
+}
+
 TEST_F(CoreClipsTest, WithoutADataRootClipsAreAFailedPreconditionNamingTheFlag) {
   start();
   for (const auto& call : std::vector<std::function<void()>>{[&] { core_->list_clips(kCall); },
-                                                             [&] { read("h36m/S1/walking_1.txt", 0); }}) {
+                                                             [&] { read("h36m/S1/walking_1.txt", 0); },
+                                                             [&] { core_->upload_clip(kCall, {"x.txt", "0"}); }}) {
     const auto error = error_of(call);
     EXPECT_EQ(error.code(), ErrorCode::kFailedPrecondition);
     EXPECT_NE(std::string(error.what()).find("without --data-root"), std::string::npos) << error.what();

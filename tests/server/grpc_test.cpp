@@ -829,7 +829,7 @@ TEST_F(GrpcApiTest, ReflectionListsTheServiceAndServesItsDescriptor) {
   }
   EXPECT_EQ(methods, (std::vector<std::string>{"Encode", "Decode", "Sample", "Interpolate", "Analogy", "Denoise",
                                                "ListModels", "DescribeModel", "ActivateModel", "ListClips",
-                                               "ReadClip", "SubmitJob", "GetJob", "ListJobs", "CancelJob",
+                                               "ReadClip", "UploadClip", "SubmitJob", "GetJob", "ListJobs", "CancelJob",
                                                "WatchJob"}));
   stream->WritesDone();
   EXPECT_TRUE(stream->Finish().ok());
