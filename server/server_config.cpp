@@ -50,7 +50,7 @@ int parse_server_config(int argc, char** argv, ServerConfig& config) {
   app.add_option("--rest-port", config.rest.port, "REST port (0: any free port)")
       ->envname("MM_REST_PORT")->capture_default_str()->check(CLI::Range(0, 65535));
   app.add_option("--auth-token", config.core.auth_token,
-                 "bearer token required on calls that change state (submit, cancel, activate); empty: none")
+                 "bearer token required on calls that change state (submit, cancel, activate, upload); empty: none")
       ->envname("MM_AUTH_TOKEN");
   app.add_option("--auth-token-file", token_file, "file holding the bearer token (first line)")
       ->envname("MM_AUTH_TOKEN_FILE")->check(CLI::ExistingFile);

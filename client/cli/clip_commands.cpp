@@ -1,11 +1,16 @@
-// clips list | read: the motion files of the server's --data-root, picked
-// on the server instead of sent from here.
+// clips list | read | upload: the motion files of the server's --data-root,
+// picked on the server instead of sent from here, and a user's own files
+// put there to train on.
 #include <CLI/CLI.hpp>
+#include <algorithm>
+#include <cctype>
 #include <cinttypes>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 
 #include "commands.h"
+#include "format/atomic_file.h"
 #include "format/input_error.h"
 #include "motion_io.h"
 #include "server_connection.h"
@@ -13,9 +18,95 @@
 #include "wire_json.h"
 
 namespace mm::client {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Upload {
+  std::string local;   // the file here
+  std::string remote;  // its path under the data root
+};
+
+bool is_motion_file(const fs::path& path) {
+  std::string extension = path.extension().string();
+  for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return extension == ".txt" || extension == ".bvh";
+}
+
+// What `clips upload` sends: a file as <to>/<its name>; a folder's .txt and
+// .bvh files (recursively, hidden ones left out) as <to>/<their path in it>,
+// in path order. InputError for a missing path or a folder without any.
+std::vector<Upload> uploads_of(const std::vector<std::string>& locals, const std::string& to) {
+  std::vector<Upload> uploads;
+  for (const auto& local : locals) {
+    std::error_code error;
+    if (fs::is_regular_file(local, error)) {
+      uploads.push_back({local, to + "/" + fs::path(local).filename().string()});
+      continue;
+    }
+    if (!fs::is_directory(local, error)) throw InputError(local + ": no such file or folder");
+    std::vector<Upload> found;
+    for (auto it = fs::recursive_directory_iterator(local, error); !error && it != fs::recursive_directory_iterator();
+         it.increment(error)) {
+      const std::string name = it->path().filename().string();
+      if (!name.empty() && name.front() == '.') {
+        if (it->is_directory()) it.disable_recursion_pending();
+        continue;
+      }
+      if (it->is_regular_file() && is_motion_file(it->path())) {
+        found.push_back({it->path().string(), to + "/" + it->path().lexically_relative(local).generic_string()});
+      }
+    }
+    if (error) throw InputError(local + ": cannot read the folder: " + error.message());
+    if (found.empty()) throw InputError(local + ": holds no .txt or .bvh file");
+    std::sort(found.begin(), found.end(), [](const Upload& a, const Upload& b) { return a.remote < b.remote; });
+    uploads.insert(uploads.end(), found.begin(), found.end());
+  }
+  return uploads;
+}
+
+void add_upload(CLI::App* clips, const ClientSettings& settings, Action& action) {
+  struct Options {
+    std::vector<std::string> locals;
+    std::string to;
+  };
+  auto o = std::make_shared<Options>();
+  auto* upload = clips->add_subcommand(
+      "upload", "Put motion files of your own (H3.6M text, or BVH of any rig) under the data root, to train on: "
+                "jobs submit --dataset <to>. A folder sends its .txt and .bvh files with their paths in it. An upload "
+                "never replaces a file; files sent before a refusal stay. Needs the token.");
+  upload->add_option("files", o->locals, "files or folders to send")->required();
+  upload->add_option("--to", o->to, "folder under the data root to put them in (\"mine\": mine/walk_01.bvh)")->required();
+  upload->callback([o, &settings, &action] {
+    action = [o, &settings] {
+      std::string to = o->to;
+      while (!to.empty() && to.back() == '/') to.pop_back();
+      if (to.empty()) throw InputError("--to is empty, expected a folder under the data root");
+      const std::vector<Upload> uploads = uploads_of(o->locals, to);
+      const auto server = connect(settings.connection);
+      nlohmann::json sent = nlohmann::json::array();
+      for (const Upload& u : uploads) {
+        v1::UploadClipRequest request;
+        request.set_path(u.remote);
+        request.set_content(read_whole_file(u.local));
+        const v1::ClipFile clip = server->upload_clip(request);
+        if (settings.json) {
+          sent.push_back(to_json(clip));
+        } else {
+          std::printf("%-9s %10" PRId64 "  %s\n", clip.format().c_str(), static_cast<int64_t>(clip.size_bytes()),
+                      clip.path().c_str());
+        }
+      }
+      if (settings.json) print_json({{"clips", sent}});
+      return kExitSuccess;
+    };
+  });
+}
+
+}  // namespace
 
 void add_clip_commands(CLI::App& app, const ClientSettings& settings, Action& action) {
-  auto* clips = app.add_subcommand("clips", "The motion files of the server's --data-root: list, read");
+  auto* clips = app.add_subcommand("clips", "The motion files of the server's --data-root: list, read, upload");
   clips->require_subcommand(1);
 
   clips->add_subcommand("list", "Every H3.6M text (.txt) and BVH file under the data root: format, bytes, path")
@@ -71,6 +162,7 @@ void add_clip_commands(CLI::App& app, const ClientSettings& settings, Action& ac
       return kExitSuccess;
     };
   });
+  add_upload(clips, settings, action);
 }
 
 }  // namespace mm::client

@@ -9,7 +9,7 @@ void add_connection_options(CLI::App& app, ConnectionOptions& options) {
   app.add_flag("--rest", options.rest, "talk REST/JSON instead of gRPC");
   app.add_option("--rest-url", options.rest_url, "REST base URL (with --rest)")->envname("MM_REST_URL")
       ->capture_default_str();
-  app.add_option("--token", options.token, "bearer token for activate, jobs submit and jobs cancel")
+  app.add_option("--token", options.token, "bearer token for activate, clips upload, jobs submit and jobs cancel")
       ->envname("MM_TOKEN");
   app.add_option("--tls-ca", options.tls_ca, "PEM CA certificate of the server; turns TLS on")
       ->envname("MM_TLS_CA")->check(CLI::ExistingFile);

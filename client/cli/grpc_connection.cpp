@@ -90,6 +90,9 @@ class GrpcConnection : public ServerConnection {
   v1::ReadClipReply read_clip(const v1::ReadClipRequest& request) override {
     return unary(&Stub::ReadClip, request, v1::ReadClipReply{});
   }
+  v1::ClipFile upload_clip(const v1::UploadClipRequest& request) override {
+    return unary(&Stub::UploadClip, request, v1::ClipFile{});
+  }
 
   v1::Job submit_job(const v1::JobSpec& spec) override {
     v1::SubmitJobRequest request;

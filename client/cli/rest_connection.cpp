@@ -112,6 +112,10 @@ class RestConnection : public ServerConnection {
     if (!request.model().empty()) query += "&model=" + segment(request.model());
     return clip_window_from_json(get("/v1/clips/window" + query));
   }
+  v1::ClipFile upload_clip(const v1::UploadClipRequest& request) override {
+    return clip_file_from_json(reply_of(client_.Post(("/v1/clips:upload?path=" + segment(request.path())).c_str(),
+                                                     request.content(), "application/octet-stream")));
+  }
 
   v1::Job submit_job(const v1::JobSpec& spec) override { return job_from_json(post("/v1/jobs", to_json(spec))); }
   v1::Job get_job(const std::string& id) override { return job_from_json(get("/v1/jobs/" + segment(id))); }

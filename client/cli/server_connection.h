@@ -35,6 +35,7 @@ class ServerConnection {
 
   virtual v1::ListClipsReply list_clips() = 0;
   virtual v1::ReadClipReply read_clip(const v1::ReadClipRequest& request) = 0;
+  virtual v1::ClipFile upload_clip(const v1::UploadClipRequest& request) = 0;
 
   virtual v1::Job submit_job(const v1::JobSpec& spec) = 0;
   virtual v1::Job get_job(const std::string& id) = 0;

@@ -164,11 +164,13 @@ json to_json(const v1::ListModelsReply& reply) {
   return {{"models", std::move(models)}};
 }
 
+json to_json(const v1::ClipFile& clip) {
+  return {{"path", clip.path()}, {"format", clip.format()}, {"size_bytes", clip.size_bytes()}};
+}
+
 json to_json(const v1::ListClipsReply& reply) {
   json clips = json::array();
-  for (const auto& c : reply.clips()) {
-    clips.push_back({{"path", c.path()}, {"format", c.format()}, {"size_bytes", c.size_bytes()}});
-  }
+  for (const auto& c : reply.clips()) clips.push_back(to_json(c));
   return {{"clips", std::move(clips)}, {"truncated", reply.truncated()}};
 }
 
@@ -252,14 +254,17 @@ v1::ListModelsReply models_from_json(const json& body) {
   return reply;
 }
 
+v1::ClipFile clip_file_from_json(const json& body) {
+  v1::ClipFile clip;
+  clip.set_path(body.value("path", ""));
+  clip.set_format(body.value("format", ""));
+  clip.set_size_bytes(integer<int64_t>(body, "size_bytes"));
+  return clip;
+}
+
 v1::ListClipsReply clips_from_json(const json& body) {
   v1::ListClipsReply reply;
-  for (const auto& c : body.value("clips", json::array())) {
-    auto* clip = reply.add_clips();
-    clip->set_path(c.value("path", ""));
-    clip->set_format(c.value("format", ""));
-    clip->set_size_bytes(integer<int64_t>(c, "size_bytes"));
-  }
+  for (const auto& c : body.value("clips", json::array())) *reply.add_clips() = clip_file_from_json(c);
   reply.set_truncated(body.value("truncated", false));
   return reply;
 }

@@ -5,7 +5,9 @@
 // start and encodes to the code of the raw 50 Hz rows, and refuses a path
 // outside the root, a missing file, a start past the last full window and a
 // malformed query naming the field; a server without --data-root answers
-// FAILED_PRECONDITION (409) naming the flag.
+// FAILED_PRECONDITION (409) naming the flag. Uploads over both protocols
+// write new files that are then listed and read, need the token, and are
+// refused naming the field.
 #include <gtest/gtest.h>
 #include <grpcpp/grpcpp.h>
 #include <httplib.h>
@@ -14,12 +16,14 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "format/bvh_file.h"
 #include "format/h36m_bvh.h"
 #include "format/motion_text.h"
 #include "motionmanifold/v1/manifold.grpc.pb.h"
+#include "command_run.h"
 #include "rest_call.h"
 #include "server_process.h"
 #include "test_environment.h"
@@ -241,6 +245,81 @@ TEST_F(ClipsService, RefusalsNameTheFieldOverBothProtocols) {
     EXPECT_EQ(rest.status, 400) << query << ": " << rest.body;
     EXPECT_EQ(rest.error()["field"], field) << rest.body;
   }
+}
+
+TEST(ClipsUpload, BothProtocolsWriteNewFilesThatAreListedAndReadAndNeedTheToken) {
+  MM_REQUIRE_H36M();
+  test::ScratchDir scratch;
+  const fs::path root = make_data_root(scratch.path() / "data");
+  test::ServerProcess server({"--data-root", root.string(), "--auth-token", "upload-token"});
+  auto stub = v1::MotionManifold::NewStub(grpc::CreateChannel(server.grpc_target(), grpc::InsecureChannelCredentials()));
+  const std::string text = test::read_text((root / kText).string());
+  const auto upload_grpc = [&](const std::string& path, const std::string& content, const std::string& token,
+                               v1::ClipFile* clip, grpc::ClientContext* context) {
+    if (!token.empty()) context->AddMetadata("authorization", "Bearer " + token);
+    v1::UploadClipRequest request;
+    request.set_path(path);
+    request.set_content(content);
+    return stub->UploadClip(context, request, clip);
+  };
+  const auto upload_rest = [&](const std::string& path, const std::string& content, const std::string& token) {
+    return test::post(server.rest_port(), "/v1/clips:upload?path=" + path, content,
+                      token.empty() ? httplib::Headers{} : test::bearer(token), "application/octet-stream");
+  };
+
+  // Written over either protocol, as the file sent, and then one of the clips.
+  grpc::ClientContext context;
+  v1::ClipFile clip;
+  const auto status = upload_grpc("mine/S5/walking_1.txt", text, "upload-token", &clip, &context);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_EQ(clip.path(), "mine/S5/walking_1.txt");
+  EXPECT_EQ(clip.format(), "h36m-text");
+  EXPECT_EQ(clip.size_bytes(), static_cast<int64_t>(text.size()));
+  const test::Reply rest = upload_rest("mine/S5/walking_2.txt", text, "upload-token");
+  ASSERT_EQ(rest.status, 200) << rest.body;
+  EXPECT_EQ(rest.document, (json{{"path", "mine/S5/walking_2.txt"}, {"format", "h36m-text"}, {"size_bytes", text.size()}}));
+  for (const char* name : {"walking_1.txt", "walking_2.txt"}) {
+    EXPECT_EQ(test::read_text((root / "mine" / "S5" / name).string()), text) << name;
+  }
+  std::vector<std::string> listed;
+  const test::Reply list = test::get(server.rest_port(), "/v1/clips");
+  for (const auto& c : list.document["clips"]) listed.push_back(c["path"]);
+  EXPECT_EQ(listed, (std::vector<std::string>{kBvh, "h36m/S1/eating_1.txt", kText, "mine/S5/walking_1.txt",
+                                              "mine/S5/walking_2.txt"}))
+      << list.body;
+  const test::Reply window = test::get(server.rest_port(), "/v1/clips/window?path=mine/S5/walking_2.txt&start=4");
+  const test::Reply original = test::get(server.rest_port(), std::string("/v1/clips/window?path=") + kText + "&start=4");
+  ASSERT_EQ(window.status, 200) << window.body;
+  EXPECT_EQ(window.document["motion"], original.document["motion"]);
+
+  // Without the token, or of a file that is there: refused, nothing written.
+  {
+    grpc::ClientContext refused;
+    EXPECT_EQ(upload_grpc("mine/other.txt", text, "", &clip, &refused).error_code(), grpc::StatusCode::UNAUTHENTICATED);
+  }
+  EXPECT_EQ(upload_rest("mine/other.txt", text, "wrong").status, 401);
+  EXPECT_FALSE(fs::exists(root / "mine" / "other.txt"));
+  {
+    grpc::ClientContext refused;
+    const auto again = upload_grpc("mine/S5/walking_1.txt", "0", "upload-token", &clip, &refused);
+    EXPECT_EQ(again.error_code(), grpc::StatusCode::FAILED_PRECONDITION) << again.error_message();
+    EXPECT_EQ(error_field(refused), "path");
+  }
+  EXPECT_EQ(test::read_text((root / "mine" / "S5" / "walking_1.txt").string()), text);
+  // Refusals name the field alike.
+  for (const auto& [path, content, field] : std::vector<std::tuple<std::string, std::string, std::string>>{
+           {"../escape.txt", text, "path"}, {"mine/x.fbx", text, "path"}, {"mine/bad.bvh", "HIERARCHY\n", "content"}}) {
+    grpc::ClientContext refused;
+    EXPECT_EQ(upload_grpc(path, content, "upload-token", &clip, &refused).error_code(),
+              grpc::StatusCode::INVALID_ARGUMENT) << path;
+    EXPECT_EQ(error_field(refused), field) << path;
+    const test::Reply bad = upload_rest(path, content, "upload-token");
+    EXPECT_EQ(bad.status, 400) << path << ": " << bad.body;
+    EXPECT_EQ(bad.error()["field"], field) << bad.body;
+  }
+  const test::Reply unknown = upload_rest("mine/y.txt&start=3", text, "upload-token");
+  EXPECT_EQ(unknown.status, 400) << unknown.body;
+  EXPECT_EQ(unknown.error()["field"], "start") << unknown.body;
 }
 
 TEST(ClipsWithoutDataRoot, BothProtocolsAnswerFailedPreconditionNamingTheFlag) {

@@ -79,23 +79,29 @@ void expect_cmu_rig(const std::string& text, const BvhFile& rig) {
   for (double value : file.values) ASSERT_TRUE(std::isfinite(value));
 }
 
+// Three CMU dances in `folder`: indian/04.bvh, indian/06.bvh, martial/03.bvh.
+void copy_three_dances(const fs::path& folder) {
+  for (const char* file : {"indian/04.bvh", "indian/06.bvh", "martial/03.bvh"}) {
+    fs::create_directories((folder / file).parent_path());
+    fs::copy_file(cmu_dance_dir() / file, folder / file);
+  }
+}
+
 // A data root holding three CMU dances under dances/.
 fs::path dance_data_root(const ScratchDir& scratch) {
   const fs::path root = scratch.path() / "data";
-  for (const char* file : {"indian/04.bvh", "indian/06.bvh", "martial/03.bvh"}) {
-    fs::create_directories((root / "dances" / file).parent_path());
-    fs::copy_file(cmu_dance_dir() / file, root / "dances" / file);
-  }
+  copy_three_dances(root / "dances");
   return root;
 }
 
-std::vector<std::string> dance_server_args(const ScratchDir& scratch) {
-  return {"--state-dir", (scratch.path() / "state").string(), "--data-root", dance_data_root(scratch).string(),
-          "--training-threads", "2"};
+// A server that trains jobs on `data_root`, with its state in `scratch`.
+std::vector<std::string> job_server_args(const ScratchDir& scratch, const fs::path& data_root) {
+  fs::create_directories(data_root);
+  return {"--state-dir", (scratch.path() / "state").string(), "--data-root", data_root.string(), "--training-threads", "2"};
 }
 
-// Trains a tiny manifold of the dances through a job and publishes it as
-// "dances" (not activated).
+// Trains a tiny manifold of the dances under dances/ of the data root through
+// a job and publishes it as "dances" (not activated).
 void train_dances_model(Rest& rest, const ServerProcess& server) {
   const json job = rest.post_json("/v1/jobs", {{"dataset", "dances"}, {"variant", "DKGM"}, {"iterations", 3},
                                                {"hidden", 16}, {"batch", 2}, {"seed", 1}, {"model_name", "dances"}});
@@ -113,7 +119,7 @@ void train_dances_model(Rest& rest, const ServerProcess& server) {
 
 TEST(SkeletonService, AJobOnABvhFolderPublishesAModelThatSpeaksBvhOfThatSkeleton) {
   ScratchDir scratch;
-  ServerProcess server(dance_server_args(scratch));
+  ServerProcess server(job_server_args(scratch, dance_data_root(scratch)));
   Rest rest(server);
 
   // A folder that is not under the data root, or holds one file, is refused
@@ -209,17 +215,36 @@ TEST(SkeletonService, AJobOnABvhFolderPublishesAModelThatSpeaksBvhOfThatSkeleton
   expect_cmu_rig(std::string(std::istreambuf_iterator<char>(in), {}), rig);
 }
 
-// The command-line client with a model of the user's rig: it asks the
-// server for the model's skeleton and converts BVH and text of that rig as
-// REST does, over either protocol, named with --model or active.
+// The command-line client with a model of the user's rig: the user's BVH
+// files uploaded with it and trained on; it asks the server for the model's
+// skeleton and converts BVH and text of that rig as REST does, over either
+// protocol, named with --model or active.
 TEST(SkeletonService, TheClientReadsAndWritesBvhAndTextOfTheModelsRigOverEitherProtocol) {
   ScratchDir scratch;
-  ServerProcess server(dance_server_args(scratch));
+  const fs::path root = scratch.path() / "data";
+  ServerProcess server(job_server_args(scratch, root));
   Rest rest(server);
-  train_dances_model(rest, server);
-  if (HasFatalFailure()) return;
   const auto client = [&](const std::string& arguments) { return run_command(MM_CLIENT_PATH, arguments); };
   const std::vector<std::string> protocols{"--server " + server.grpc_target(), "--rest --rest-url " + server.rest_url()};
+
+  // The user's files go under the data root with the client, then train.
+  const fs::path mine = scratch.path() / "my-mocap";
+  copy_three_dances(mine);
+  const CommandRun uploaded = client(protocols[0] + " clips upload " + mine.string() + " --to dances");
+  ASSERT_EQ(uploaded.exit_code, 0) << uploaded.err;
+  EXPECT_THAT(uploaded.out, HasSubstr("dances/martial/03.bvh"));
+  for (const char* file : {"indian/04.bvh", "indian/06.bvh", "martial/03.bvh"}) {
+    EXPECT_EQ(read_text((root / "dances" / file).string()), read_text((mine / file).string())) << file;
+  }
+  const CommandRun again =
+      client(protocols[1] + " clips upload " + (mine / "indian" / "04.bvh").string() + " --to dances/indian");
+  EXPECT_EQ(again.exit_code, 1);
+  EXPECT_THAT(again.err, HasSubstr("error: FAILED_PRECONDITION: path: path \"dances/indian/04.bvh\" exists already"));
+  const CommandRun missing = client(protocols[1] + " clips upload " + (mine / "nothing").string() + " --to dances");
+  EXPECT_EQ(missing.exit_code, 2);
+  EXPECT_THAT(missing.err, HasSubstr("no such file or folder"));
+  train_dances_model(rest, server);
+  if (HasFatalFailure()) return;
 
   // The description carries the rig: 57 joints, cm, the BVH channels.
   const CommandRun described = client(protocols[0] + " --json models describe dances");
