@@ -50,7 +50,7 @@ export async function callApi(method, path, { body, contentType = 'application/j
   }
   const text = await response.text();
   logCall({ method, path, status: response.status, milliseconds: performance.now() - started, summary,
-            bytes: payload?.length ?? 0 });
+            bytes: payload?.length ?? payload?.size ?? 0 });
   if (!response.ok) throw new ApiError(method, path, response.status, text);
   return (response.headers.get('Content-Type') ?? '').includes('json') ? JSON.parse(text) : text;
 }

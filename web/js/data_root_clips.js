@@ -21,7 +21,8 @@ export function showClipBounds(clip) {
                                `window start 0 to ${clip.last_start}`;
 }
 
-async function listClips() {
+// Fills the menu with the data root's files (again after an upload).
+export async function listClips() {
   const { clips, truncated } = await callApi('GET', 'v1/clips');
   const menu = $('clip-path');
   const chosen = menu.value;

@@ -5,6 +5,7 @@ import { setUpManifoldPanel } from './manifold_panel.js';
 import { setUpJobsPanel } from './jobs_panel.js';
 import { setUpModelsPanel } from './models_panel.js';
 import { setUpClipPicker } from './data_root_clips.js';
+import { setUpDatasetUpload } from './dataset_upload.js';
 import { runAction, showError } from './call_log.js';
 import { callApi } from './api_client.js';
 
@@ -24,5 +25,6 @@ await runAction(async () => {
   const ready = await callApi('GET', 'readyz');
   $('server-status').textContent = `server ${ready.status}`;
 });
+setUpDatasetUpload();
 await Promise.all([setUpModelsPanel(), setUpJobsPanel(), setUpClipPicker()]);
 document.body.dataset.loaded = 'true';
