@@ -3,7 +3,6 @@
 // put there to train on.
 #include <CLI/CLI.hpp>
 #include <algorithm>
-#include <cctype>
 #include <cinttypes>
 #include <cstdio>
 #include <filesystem>
@@ -27,12 +26,6 @@ struct Upload {
   std::string remote;  // its path under the data root
 };
 
-bool is_motion_file(const fs::path& path) {
-  std::string extension = path.extension().string();
-  for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return extension == ".txt" || extension == ".bvh";
-}
-
 // What `clips upload` sends: a file as <to>/<its name>; a folder's .txt and
 // .bvh files (recursively, hidden ones left out) as <to>/<their path in it>,
 // in path order. InputError for a missing path or a folder without any.
@@ -53,7 +46,7 @@ std::vector<Upload> uploads_of(const std::vector<std::string>& locals, const std
         if (it->is_directory()) it.disable_recursion_pending();
         continue;
       }
-      if (it->is_regular_file() && is_motion_file(it->path())) {
+      if (it->is_regular_file() && is_motion_file(it->path().string())) {
         found.push_back({it->path().string(), to + "/" + it->path().lexically_relative(local).generic_string()});
       }
     }

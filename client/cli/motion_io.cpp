@@ -5,6 +5,7 @@
 #include <fstream>
 #include <iostream>
 #include <iterator>
+#include <optional>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -65,14 +66,11 @@ v1::Motion read_motion(const MotionSource& source, ModelRigs& rigs, const std::s
   const std::string text = read_all(source.path);
   // A BVH file states its own frame time and comes back at 25 Hz. Its syntax
   // is checked before the server is asked for the model's skeleton.
-  MotionFrames file;
-  if (bvh) {
-    const BvhFile parsed = parse_bvh_text(text, name);
-    file = skeleton_motion_from_bvh(rigs.of(model).skeleton, parsed, name);
-  } else {
-    file = parse_motion_text_buffer(text.data(), text.size(), name, rigs.of(model).columns);
-  }
+  std::optional<BvhFile> parsed;
+  if (bvh) parsed = parse_bvh_text(text, name);
   const ModelRig& rig = rigs.of(model);
+  const MotionFrames file = bvh ? skeleton_motion_from_bvh(rig.skeleton, *parsed, name)
+                                : parse_motion_text_buffer(text.data(), text.size(), name, rig.columns);
   // The server would keep every second frame of a 50 Hz motion too; doing it
   // here lets --start count 25 Hz frames, as in the tool.
   const MotionFrames motion = !bvh && source.rate == 50 ? split_phases(file, 2)[0] : file;
@@ -95,6 +93,11 @@ v1::Motion read_motion(const MotionSource& source, ModelRigs& rigs, const std::s
 }
 
 bool is_code_file(const std::string& path) { return extension_of(path) == ".json"; }
+
+bool is_motion_file(const std::string& path) {
+  const std::string ext = extension_of(path);
+  return ext == ".txt" || ext == ".bvh";
+}
 
 v1::Code read_code(const std::string& path) {
   const std::string name = display_name(path);

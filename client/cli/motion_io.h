@@ -47,6 +47,9 @@ v1::Code read_code(const std::string& path);
 // Whether `path` names a code (".json") rather than a motion.
 bool is_code_file(const std::string& path);
 
+// Whether `path` names a motion file (".txt" or ".bvh", in any case).
+bool is_motion_file(const std::string& path);
+
 // Writes a motion (as the server returns it) of `model` to `path`, the
 // writer picked by extension as above (BVH in the layout of the model's rig,
 // asked of `rigs`). Throws InputError for an unwritable path.

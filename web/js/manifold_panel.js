@@ -62,16 +62,15 @@ async function reconstructUpload(view) {
   if (!file) throw new Error('choose a text file (H3.6M exponential maps) or a BVH file first');
   const text = await file.text();
   const isBvh = file.name.toLowerCase().endsWith('.bvh');
-  let encoded, original;
   if (isBvh) {
-    encoded = await callApi('POST', 'v1/encode', { body: text, contentType: 'application/x-bvh', summary: file.name });
-    original = bvhToModelRateMotion(text, await skeletonOfReply(encoded));
-  } else {
-    original = textWindow(text, Number($('upload-rate').value), Number($('upload-start').value));
-    encoded = await callApi('POST', 'v1/encode', { body: { motions: [original] }, summary: file.name });
-    original = atModelRate(original);
+    const encoded = await callApi('POST', 'v1/encode', { body: text, contentType: 'application/x-bvh', summary: file.name });
+    const skeleton = await skeletonOfReply(encoded);
+    await showReconstruction(view, file.name, bvhToModelRateMotion(text, skeleton), skeleton, encoded);
+    return;
   }
-  await showReconstruction(view, `${file.name}${isBvh ? '' : ` @${$('upload-start').value}`}`, original,
+  const clip = textWindow(text, Number($('upload-rate').value), Number($('upload-start').value));
+  const encoded = await callApi('POST', 'v1/encode', { body: { motions: [clip] }, summary: file.name });
+  await showReconstruction(view, `${file.name} @${$('upload-start').value}`, atModelRate(clip),
                            await skeletonOfReply(encoded), encoded);
 }
 
