@@ -94,6 +94,15 @@ void commit_staged_model(const std::string& store, const std::string& name, cons
   discard_staged_model(store, job_id);
 }
 
+void withdraw_job_model(const std::string& store, const std::string& name, const std::string& job_id) {
+  const fs::path published = fs::path(store) / name;
+  if (!holds_card_of(published, job_id)) return;
+  std::error_code error;
+  fs::rename(published, staged_folder(store, job_id), error);
+  if (error) fs::remove_all(published, error);  // not at once, but not kept
+  discard_staged_model(store, job_id);
+}
+
 void discard_staged_model(const std::string& store, const std::string& job_id) {
   std::error_code ignored;
   fs::remove_all(staged_folder(store, job_id), ignored);

@@ -19,9 +19,10 @@ namespace mm::service {
 // time and final losses (Markdown).
 std::string job_model_card(const JobInfo& job, double training_seconds);
 
-// A publication has two halves so that the job's record can be committed
-// between them (see training_jobs.cpp): staging, which the store's readers
-// do not see, and the rename that makes the model appear.
+// A publication has two halves (see training_jobs.cpp): staging, which the
+// store's readers do not see, and the rename that makes the model appear,
+// before the job's record is committed; a commit that loses to a cancel
+// withdraws the model again.
 
 // Copies `model_dir` to the job's hidden folder <store>/.job-<id>.tmp with
 // its model card. Returns false, staging nothing, when <store>/<name>
@@ -37,6 +38,11 @@ bool stage_job_model(const std::string& model_dir, const std::string& store, con
 // it) counts as published. std::runtime_error otherwise, the staged folder
 // left in place.
 void commit_staged_model(const std::string& store, const std::string& name, const std::string& job_id);
+
+// Takes the job's published model <store>/<name> out of the store: renamed
+// back to its staging folder (so it disappears at once), then removed. A
+// folder of that name without this job's model card is left alone.
+void withdraw_job_model(const std::string& store, const std::string& name, const std::string& job_id);
 
 // Removes the job's staged folder, if there is one.
 void discard_staged_model(const std::string& store, const std::string& job_id);

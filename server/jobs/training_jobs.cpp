@@ -465,27 +465,28 @@ RunEnd TrainingJobs::State::run_job(JobInfo& job) {
     finish(job, JobState::kFailed, std::string("publishing the model failed: ") + e.what());
     return RunEnd::kFailed;
   }
-  if (config.before_publication_commit) config.before_publication_commit(job.id);
-  // The record is the commit point: another replica may have written a
-  // cancel since the renewal above, and a cancelled job's model must not
-  // appear. A crash between this and the rename is finished by the next
-  // start (recover_staged_publications).
-  job.published_model = name;
-  if (!finish(job, JobState::kSucceeded, "")) {
-    job.published_model.clear();
-    discard_staged_model(config.model_store, job.id);
-    spdlog::info("training job {} cancelled by another replica before its model was published", job.id);
-    return RunEnd::kCancelled;
-  }
+  // The model is in place before the record says succeeded, so that whoever
+  // reads "succeeded" (this replica's watchers, or another's) can use it.
+  // A crash between the two leaves the record running: the job resumes and
+  // finds its model published (stage_job_model returns false).
   if (staged) {
     try {
       commit_staged_model(config.model_store, name, job.id);
     } catch (const std::exception& e) {
-      job.published_model.clear();
       discard_staged_model(config.model_store, job.id);
-      finish(job, JobState::kFailed, std::string("publishing the model failed: ") + e.what(), JobState::kSucceeded);
+      finish(job, JobState::kFailed, std::string("publishing the model failed: ") + e.what());
       return RunEnd::kFailed;
     }
+  }
+  // The record is the commit point: another replica may have written a
+  // cancel since the renewal above, and a cancelled job keeps no model.
+  if (config.before_publication_commit) config.before_publication_commit(job.id);
+  job.published_model = name;
+  if (!finish(job, JobState::kSucceeded, "")) {
+    job.published_model.clear();
+    withdraw_job_model(config.model_store, name, job.id);
+    spdlog::info("training job {} cancelled by another replica before its model was published", job.id);
+    return RunEnd::kCancelled;
   }
   spdlog::info("training job {} succeeded: model {} published", job.id, name);
   return RunEnd::kSucceeded;

@@ -53,9 +53,9 @@ struct JobsConfig {
   // every lease/3 and at most every 2 s, while the replica lives): the time
   // before another replica takes over the job of one that died.
   double lease_seconds = 30;
-  // Called on the worker thread between staging a finished job's model and
-  // committing its record; tests use it to write another replica's cancel
-  // there. Empty in the server.
+  // Called on the worker thread between putting a finished job's model in
+  // place and committing its record; tests use it to write another
+  // replica's cancel there. Empty in the server.
   std::function<void(const std::string& job_id)> before_publication_commit;
   // Called in cancel() between reading the job's record and committing the
   // cancel; tests use it to finish the job there as another replica would.
@@ -96,7 +96,8 @@ class TrainingJobs {
   // it) and exits after its iteration and checkpoint. A job already
   // publishing its model cannot be cancelled (FAILED_PRECONDITION); when
   // another replica runs it, a cancel that reaches the record before the
-  // runner commits it wins, and the model is not published.
+  // runner commits it wins, and the model, renamed into place just before
+  // the commit, is withdrawn. A succeeded record's model is always in place.
   JobInfo cancel(const std::string& id);
   // Calls `on_event` with the job's record now and after every change, until
   // the job is finished (the last call carries the terminal state),

@@ -430,10 +430,31 @@ TEST_F(TrainingJobsTest, FailedJobRecordsTheToolsError) {
   EXPECT_TRUE(published_.empty());
 }
 
+// Whoever reads "succeeded" can use the model: it is in place, whole, while
+// the record still says running (a client that watched a job to its end
+// once found no model there).
+TEST_F(TrainingJobsTest, TheModelIsInPlaceBeforeTheRecordSaysSucceeded) {
+  bool checked = false;
+  config_.before_publication_commit = [&](const std::string& id) {
+    SqliteJobStore other((fs::path(config_.state_dir) / "jobs.sqlite").string());
+    EXPECT_EQ(job_state_name(other.find(id)->state), std::string("running"));
+    EXPECT_TRUE(fs::is_regular_file(fs::path(config_.model_store) / "in-place" / "manifest.json"));
+    EXPECT_TRUE(fs::is_regular_file(fs::path(config_.model_store) / "in-place" / "MODEL_CARD.md"));
+    checked = true;
+  };
+  JobSpec spec = tiny_spec(20);
+  spec.model_name = "in-place";
+  auto jobs = make_jobs();
+  const JobInfo job = wait_finished(*jobs, jobs->submit(spec).id);
+  ASSERT_TRUE(checked);
+  EXPECT_EQ(job_state_name(job.state), std::string("succeeded")) << job.error;
+  EXPECT_EQ(job.published_model, "in-place");
+}
+
 // Another replica's cancel reaching the shared record after this replica's
-// last lease renewal, while the finished model is being staged: the cancel
-// wins, and no model appears (written here through a second connection to
-// the same database, as a replica would).
+// last lease renewal, while the finished model is being published: the
+// cancel wins, and the model is withdrawn, none stays (written here through
+// a second connection to the same database, as a replica would).
 TEST_F(TrainingJobsTest, ACancelWrittenBeforeThePublicationIsCommittedWinsAndNoModelAppears) {
   bool cancel_written = false;
   config_.before_publication_commit = [&](const std::string& id) {
