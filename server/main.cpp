@@ -15,6 +15,7 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 
+#include "core/caller_identity.h"
 #include "core/manifold_core.h"
 #include "core/service_metrics.h"
 #include "grpc/grpc_frontend.h"
@@ -58,6 +59,24 @@ void write_ready_file(const std::string& path, int grpc_port, int rest_port) {
   std::filesystem::rename(temporary, path);
 }
 
+// Says at start what a listener beyond loopback exposes: without a token
+// the network may read and call but not change state; without TLS the token
+// and the motions cross the network in the clear.
+void warn_when_exposed(const ServerConfig& config) {
+  if (!listens_beyond_loopback(config.grpc.address) && !listens_beyond_loopback(config.rest.address)) return;
+  const bool tls = !config.grpc.tls_cert_file.empty();
+  if (config.core.auth_token.empty()) {
+    spdlog::warn("listening beyond loopback ({}) without a token: calls that change state{} are refused except from "
+                 "loopback; give --auth-token-file FILE to allow them from the network",
+                 config.grpc.address, config.core.public_clips ? "" : " and clip reads");
+  }
+  if (!tls) {
+    spdlog::warn("listening beyond loopback ({}) without TLS: {}motions travel unencrypted; give --tls-cert and "
+                 "--tls-key, or listen on 127.0.0.1 behind a proxy that terminates TLS",
+                 config.grpc.address, config.core.auth_token.empty() ? "" : "the bearer token and ");
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -93,6 +112,7 @@ int main(int argc, char** argv) {
     rest.start();
     spdlog::info("serving gRPC on {}:{} and REST on {}:{}{}", config.grpc.address, grpc.port(), config.rest.address,
                  rest.port(), config.grpc.tls_cert_file.empty() ? "" : " (TLS)");
+    warn_when_exposed(config);
     if (!config.ready_file.empty()) write_ready_file(config.ready_file, grpc.port(), rest.port());
 
     int signal_number = 0;

@@ -50,8 +50,12 @@ int parse_server_config(int argc, char** argv, ServerConfig& config) {
   app.add_option("--rest-port", config.rest.port, "REST port (0: any free port)")
       ->envname("MM_REST_PORT")->capture_default_str()->check(CLI::Range(0, 65535));
   app.add_option("--auth-token", config.core.auth_token,
-                 "bearer token required on calls that change state (submit, cancel, activate, upload); empty: none")
+                 "bearer token required on calls that change state (submit, cancel, activate, upload, delete) and on "
+                 "clip reads; empty: those calls are taken only from loopback")
       ->envname("MM_AUTH_TOKEN");
+  app.add_flag("--public-clips", config.core.public_clips,
+               "ListClips and ReadClip open to every caller, without the token (default: they need it, or loopback)")
+      ->envname("MM_PUBLIC_CLIPS");
   app.add_option("--auth-token-file", token_file, "file holding the bearer token (first line)")
       ->envname("MM_AUTH_TOKEN_FILE")->check(CLI::ExistingFile);
   app.add_option("--tls-cert", config.grpc.tls_cert_file, "PEM certificate: serve gRPC and REST over TLS")

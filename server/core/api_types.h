@@ -44,11 +44,15 @@ class ApiError : public std::runtime_error {
   bool too_large_;
 };
 
-// Who is calling and how: the protocol labels the metrics, the bearer token
-// (without "Bearer ") is checked on calls that change state.
+// Who is calling and how: the protocol labels the metrics; the bearer token
+// (without "Bearer ", or why the Authorization header was not one:
+// core/caller_identity.h) and the caller's address decide whether a call
+// that changes state is let in.
 struct CallContext {
   std::string protocol;  // "grpc" or "rest"
   std::string bearer_token;
+  std::string authorization_problem;  // empty: no header, or a well-formed one
+  std::string peer_ip;                // "127.0.0.1", "::1", ...; empty when unknown (not loopback)
 };
 
 // A motion on the wire: frames x columns values, row-major, at frame_rate Hz

@@ -10,6 +10,7 @@
 #include <optional>
 #include <thread>
 
+#include "core/caller_identity.h"
 #include "core/data_root_clips.h"
 #include "core/inference_executor.h"
 #include "core/model_store.h"
@@ -40,16 +41,6 @@ void check_count(int value, int minimum, int limit, const std::string& field, co
                        std::to_string(value),
                    true);
   }
-}
-
-// Compares without an early exit, so that the time taken tells nothing about
-// how much of the token was right.
-bool same_token(const std::string& given, const std::string& expected) {
-  unsigned char difference = given.size() == expected.size() ? 0 : 1;
-  for (size_t i = 0; i < given.size(); ++i) {
-    difference |= static_cast<unsigned char>(given[i] ^ expected[i % std::max<size_t>(1, expected.size())]);
-  }
-  return difference == 0;
 }
 
 at::Tensor codes_tensor(const std::vector<Code>& codes, int latent) {
@@ -109,15 +100,36 @@ struct ManifoldCore::State {
     return kind;
   }
 
-  void require_token(const CallContext& ctx) const {
-    if (config.auth_token.empty()) return;
+  // Lets in a call that changes state, or reads the data root's files
+  // (`what` says which, for the refusal). With a token configured the caller
+  // must send it, from anywhere. Without one only callers on loopback are let
+  // in: a server that listens on 0.0.0.0 without a token (as scripts/serve.sh
+  // starts it) is then never writable from the network, and local use (the
+  // tool's scripts, a page opened on the same machine) needs no secret.
+  void require_access(const CallContext& ctx, const std::string& what) const {
+    if (!ctx.authorization_problem.empty()) {
+      throw ApiError(ErrorCode::kUnauthenticated, "authorization", ctx.authorization_problem);
+    }
+    if (config.auth_token.empty()) {
+      if (is_loopback_ip(ctx.peer_ip)) return;
+      throw ApiError(ErrorCode::kUnauthenticated, "authorization",
+                     "this server has no token, so " + what + " is taken only from loopback, and this call came from " +
+                         (ctx.peer_ip.empty() ? std::string("an unknown address") : ctx.peer_ip) +
+                         ": start the server with --auth-token-file FILE and send Authorization: Bearer <token>");
+    }
     if (ctx.bearer_token.empty()) {
       throw ApiError(ErrorCode::kUnauthenticated, "authorization",
-                     "this call changes the server's state and needs a bearer token (Authorization: Bearer <token>)");
+                     what + " needs the server's bearer token (Authorization: Bearer <token>)");
     }
-    if (!same_token(ctx.bearer_token, config.auth_token)) {
+    if (!tokens_equal(ctx.bearer_token, config.auth_token)) {
       throw ApiError(ErrorCode::kUnauthenticated, "authorization", "the bearer token is not the server's");
     }
+  }
+  void require_token(const CallContext& ctx) const { require_access(ctx, "a call that changes the server's state"); }
+  // Clips are the operator's data (H3.6M's licence forbids redistributing
+  // it): read like a write unless the operator made them public.
+  void require_clip_reader(const CallContext& ctx) const {
+    if (!config.public_clips) require_access(ctx, "reading the data root's clips (--public-clips opens them)");
   }
 
   TrainingJobs& training() const {
@@ -379,12 +391,15 @@ ModelInfo ManifoldCore::activate_model(const CallContext& ctx, const std::string
 }
 
 ListClipsReply ManifoldCore::list_clips(const CallContext& ctx) {
-  return state_->call("list_clips", ctx,
-                      [&] { return list_data_root_clips(state_->config.data_root, state_->config.max_listed_clips); });
+  return state_->call("list_clips", ctx, [&] {
+    state_->require_clip_reader(ctx);
+    return list_data_root_clips(state_->config.data_root, state_->config.max_listed_clips);
+  });
 }
 
 ReadClipReply ManifoldCore::read_clip(const CallContext& ctx, const ReadClipRequest& request) {
   return state_->call("read_clip", ctx, [&] {
+    state_->require_clip_reader(ctx);
     const auto model = state_->store.get(request.model);
     return read_data_root_clip(state_->config.data_root, request, model->shape);
   });

@@ -1,8 +1,8 @@
 // The core of the service: every operation once, in plain C++ types, for both
 // frontends (gRPC and REST translate to and from these calls and nothing
 // else). It holds the model store, runs all inference on one executor that
-// batches concurrent requests, records the metrics, checks the bearer token
-// on calls that change state, and hands training jobs to TrainingJobs.
+// batches concurrent requests, records the metrics, lets in calls that
+// change state (the token, or loopback without one), and hands training jobs to TrainingJobs.
 //
 // Torch-free header: the frontends include it without LibTorch.
 // Thread safety: every method may be called concurrently.
@@ -50,7 +50,10 @@ struct BatchingConfig {
 struct CoreConfig {
   std::string model_store;    // folder of model folders
   std::string default_model;  // name in the store; empty: the first of h36m-dkgm-h100 or the only model
-  std::string auth_token;     // empty: no token needed
+  // Calls that change state (and clip reads) need this token; empty: they
+  // are taken only from loopback.
+  std::string auth_token;
+  bool public_clips = false;  // ListClips and ReadClip open to every caller
   // The folder of motion files ListClips and ReadClip serve (--data-root, the
   // folder training datasets lie under); empty: none.
   std::string data_root;
@@ -93,7 +96,8 @@ class ManifoldCore {
 
   // The motion files of the data root (core/data_root_clips.h), and one
   // window of one in the shape of model request.model ("" for the active
-  // one). Read only: no token. FAILED_PRECONDITION without --data-root.
+  // one). Need the token (or loopback) unless --public-clips.
+  // FAILED_PRECONDITION without --data-root.
   ListClipsReply list_clips(const CallContext& ctx);
   ReadClipReply read_clip(const CallContext& ctx, const ReadClipRequest& request);
   // Writes a new motion file under the data root (a user's own mocap, to

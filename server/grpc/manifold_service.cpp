@@ -7,14 +7,13 @@
 #include <mutex>
 #include <thread>
 
+#include "core/caller_identity.h"
 #include "grpc/error_status.h"
 #include "grpc/proto_translation.h"
 
 namespace mm::service::wire {
 
 namespace {
-
-CallContext call_context(const grpc::ServerContext& context) { return CallContext{"grpc", bearer_token(context)}; }
 
 // Runs one call of the core and turns what it throws into the rpc's status:
 // the core's refusals by the error model, anything else as INTERNAL (a bug,
@@ -37,20 +36,12 @@ constexpr auto kWatchPollInterval = std::chrono::milliseconds(50);
 
 }  // namespace
 
-std::string bearer_token(const grpc::ServerContext& context) {
-  const auto& metadata = context.client_metadata();
-  const auto found = metadata.find("authorization");
-  if (found == metadata.end()) return "";
-  std::string value(found->second.data(), found->second.size());
-  static const std::string kScheme = "bearer ";
-  if (value.size() < kScheme.size()) return "";
-  for (size_t i = 0; i < kScheme.size(); ++i) {
-    if (std::tolower(static_cast<unsigned char>(value[i])) != kScheme[i]) return "";
-  }
-  std::string token = value.substr(kScheme.size());
-  const auto first = token.find_first_not_of(' ');
-  const auto last = token.find_last_not_of(' ');
-  return first == std::string::npos ? "" : token.substr(first, last - first + 1);
+CallContext call_context(const grpc::ServerContext& context) {
+  std::vector<std::string> authorization;
+  const auto range = context.client_metadata().equal_range("authorization");
+  for (auto it = range.first; it != range.second; ++it) authorization.emplace_back(it->second.data(), it->second.size());
+  const BearerCredentials credentials = parse_authorization(authorization);
+  return CallContext{"grpc", credentials.token, credentials.problem, ip_of_grpc_peer(context.peer())};
 }
 
 grpc::Status ManifoldService::Encode(grpc::ServerContext* context, const v1::EncodeRequest* request,

@@ -1,6 +1,6 @@
 // The rpc handlers of motionmanifold.v1.MotionManifold: each translates its
 // request to the core API's types, calls the one ManifoldCore method with
-// CallContext{"grpc", bearer token}, and translates the reply or the refusal
+// the call_context() below, and translates the reply or the refusal
 // (error_status.h) back. No validation of its own: the core validates, once
 // for both protocols.
 //
@@ -18,10 +18,9 @@ namespace mm::service::wire {
 
 namespace v1 = ::motionmanifold::v1;
 
-// The bearer token of an "authorization: Bearer <token>" header (scheme
-// matched without regard to case, RFC 6750); empty when the header is absent
-// or of another scheme, which the core refuses where a token is needed.
-std::string bearer_token(const grpc::ServerContext& context);
+// The caller as the core sees it: its authorization metadata parsed
+// (core/caller_identity.h) and its IP address.
+CallContext call_context(const grpc::ServerContext& context);
 
 class ManifoldService final : public v1::MotionManifold::Service {
  public:

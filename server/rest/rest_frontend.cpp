@@ -13,6 +13,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "core/caller_identity.h"
 #include "rest/bvh_translation.h"
 #include "rest/http_errors.h"
 #include "rest/json_translation.h"
@@ -36,17 +37,14 @@ constexpr auto kKeepAliveInterval = std::chrono::seconds(2);
 // limit itself, if larger) before the connection is given up on.
 constexpr size_t kMaxBytesDroppedPastTheLimit = 16u << 20;
 
-// The bearer token of "Authorization: Bearer <t>" (the scheme is
-// case-insensitive, RFC 7235); empty when absent or of another scheme, which
-// the core treats as a missing token.
-std::string bearer_token(const httplib::Request& request) {
-  const std::string header = request.get_header_value("Authorization");
-  if (header.size() < 7) return "";
-  std::string scheme = header.substr(0, 7);
-  for (char& c : scheme) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  if (scheme != "bearer ") return "";
-  const size_t start = header.find_first_not_of(' ', 7);
-  return start == std::string::npos ? "" : header.substr(start);
+// The caller as the core sees it: its Authorization headers parsed
+// (core/caller_identity.h) and its IP address.
+CallContext call_context(const httplib::Request& request) {
+  std::vector<std::string> authorization;
+  const size_t count = request.get_header_value_count("Authorization");
+  for (size_t i = 0; i < count; ++i) authorization.push_back(request.get_header_value("Authorization", i));
+  const BearerCredentials credentials = parse_authorization(authorization);
+  return CallContext{"rest", credentials.token, credentials.problem, request.remote_addr};
 }
 
 void send_json(httplib::Response& response, int status, const std::string& body) {
@@ -168,7 +166,7 @@ bool RestFrontend::State::read_body(const httplib::Request& request, const httpl
 
 void RestFrontend::State::handle(RouteId route, const httplib::Request& request, const std::string& body,
                                  httplib::Response& response) {
-  const CallContext context{"rest", bearer_token(request)};
+  const CallContext context = call_context(request);
   try {
     switch (route) {
       case RouteId::kEncode:

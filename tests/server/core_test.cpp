@@ -29,7 +29,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-const CallContext kCall{"test", ""};
+const CallContext kCall{"test", "", "", "127.0.0.1"};
 
 // A model store holding links to the shipped models, plus whatever a test adds.
 class Store {
@@ -279,7 +279,7 @@ TEST_F(CoreTest, ActivationWhileServingLetsEveryCallFinish) {
       }
     });
   }
-  const CallContext call{"test", ""};
+  const CallContext call{"test", "", "", "127.0.0.1"};
   for (int i = 0; i < 6; ++i) {
     const auto name = i % 2 == 0 ? "h36m-dkgm-cpu" : "h36m-dkgm-h100";
     EXPECT_TRUE(core_->activate_model(call, name).active);
