@@ -5,8 +5,11 @@
 # The model store is runs/models (the shipped models linked in, and the
 # models training jobs publish). Training jobs are on: their records and runs
 # live in runs/state, and their datasets must lie under data/ (the H3.6M copy from ../shared is extracted
-# there when it exists). Any server option can follow, e.g.
-#   bash scripts/serve.sh --rest-port 9090 --auth-token "$(cat token)"
+# there when it exists). It listens on every address without a token: the
+# network may call the model, but calls that change state (activate, upload,
+# submit, cancel, delete) and clip reads are taken only from this machine
+# until a token is given. Any server option can follow, e.g.
+#   bash scripts/serve.sh --rest-port 9090 --auth-token-file token   # token: openssl rand -hex 24 > token; chmod 600 token
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh

@@ -16,6 +16,7 @@
 #include "commands.h"
 #include "format/input_error.h"
 #include "heap_reuse.h"
+#include "usable_cpus.h"
 
 namespace {
 
@@ -35,7 +36,7 @@ int run(int argc, char** argv) {
   // want every core, unless OMP_NUM_THREADS bounds them: OpenMP threads spin,
   // so two runs that each take every core slow each other many times over.
   const char* bound = std::getenv("OMP_NUM_THREADS");
-  const int threads = bound != nullptr ? std::atoi(bound) : static_cast<int>(std::thread::hardware_concurrency());
+  const int threads = bound != nullptr ? std::atoi(bound) : mm::usable_cpu_count();
   if (threads > 0) at::set_num_threads(threads);
 
   const std::string command_line = join_command_line(argc, argv);

@@ -19,11 +19,17 @@ std::string lowercase(std::string text) {
 }  // namespace
 
 BearerCredentials parse_authorization(const std::vector<std::string>& header_values) {
-  if (header_values.empty()) return {};
-  if (header_values.size() > 1) {
-    return {"", "expected one Authorization header, found " + std::to_string(header_values.size())};
+  // A blank header is no header: HTTP clients drop empty header fields, gRPC
+  // sends them, and both frontends must read a call alike.
+  std::vector<const std::string*> present;
+  for (const auto& value : header_values) {
+    if (value.find_first_not_of(" \t") != std::string::npos) present.push_back(&value);
   }
-  const std::string& value = header_values.front();
+  if (present.empty()) return {};
+  if (present.size() > 1) {
+    return {"", "expected one Authorization header, found " + std::to_string(present.size())};
+  }
+  const std::string& value = *present.front();
   size_t begin = 0, end = value.size();
   while (begin < end && is_blank(value[begin])) ++begin;
   while (end > begin && is_blank(value[end - 1])) --end;

@@ -19,7 +19,8 @@ constexpr size_t kMaxBearerTokenBytes = 4096;
 // one header holds "Bearer <token>" (the scheme in any case, RFC 7235; spaces
 // and tabs around the token ignored, the token itself visible ASCII);
 // `problem` says why a header that is present is not that (another scheme,
-// no token, two headers, a control character, too long). Neither: no header.
+// no token, two headers, a control character, too long). Neither: no header
+// (a blank one counts as none).
 struct BearerCredentials {
   std::string token;
   std::string problem;

@@ -8,6 +8,7 @@
 #include "core/manifold_core.h"
 #include "core/service_metrics.h"
 #include "latent_operations.h"
+#include "usable_cpus.h"
 
 #include <spdlog/spdlog.h>
 
@@ -36,7 +37,7 @@ InferenceExecutor::InferenceExecutor(const BatchingConfig& config, ServiceMetric
     : max_batch_(std::max(1, config.max_batch)),
       max_queue_delay_us_(std::max(0, config.max_queue_delay_us)),
       max_queue_length_(std::max(1, config.max_queue_length)),
-      threads_(config.threads > 0 ? config.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()))),
+      threads_(config.threads > 0 ? config.threads : usable_cpu_count()),
       metrics_(metrics),
       thread_([this] { loop(); }) {}
 

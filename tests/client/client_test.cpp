@@ -381,10 +381,21 @@ TEST_F(ClientTest, ActivateChangesTheAnsweringModelAndNeedsTheToken) {
 }
 
 // ------------------------------------------------------------------ clips
+// The data root is the operator's: its clips are read with the token.
+
+TEST_F(ClientTest, ClipsNeedTheTokenOfAServerThatHasOne) {
+  for (const auto& protocol : {grpc(), rest()}) {
+    for (const std::string command : {" clips list", " --json clips read small/S5/walking_1.txt"}) {
+      const auto run = run_client(protocol + command);
+      EXPECT_EQ(run.exit_code, 1) << command;
+      EXPECT_EQ(run.err.rfind("error: UNAUTHENTICATED: ", 0), 0u) << run.err;
+    }
+  }
+}
 
 TEST_F(ClientTest, ClipsListTheDataRootsFilesOverBothProtocols) {
   for (const auto& protocol : {grpc(), rest()}) {
-    const auto run = run_client(protocol + " --json clips list");
+    const auto run = run_client(protocol + " " + token() + " --json clips list");
     ASSERT_EQ(run.exit_code, 0) << run.err;
     const auto reply = json::parse(run.out);
     EXPECT_FALSE(reply["truncated"].get<bool>());
@@ -399,7 +410,7 @@ TEST_F(ClientTest, ClipsListTheDataRootsFilesOverBothProtocols) {
     EXPECT_EQ(paths, (std::vector<std::string>{"small/S1/eating_1.txt", "small/S1/walking_1.txt",
                                                "small/S1/walking_2.txt", "small/S5/walking_1.txt"}));
   }
-  const auto plain = run_client(grpc() + " clips list");
+  const auto plain = run_client(grpc() + " " + token() + " clips list");
   EXPECT_NE(plain.out.find("h36m-text"), std::string::npos) << plain.out;
   EXPECT_NE(plain.out.find("small/S5/walking_1.txt"), std::string::npos) << plain.out;
 }
@@ -408,7 +419,7 @@ TEST_F(ClientTest, ClipsReadWritesEverySecondRowFromStartAsTheServerAnswers) {
   const auto rows = motion_rows(s5("walking_1.txt"));
   for (const auto& protocol : {grpc(), rest()}) {
     const std::string out = dir_.file("window.txt");
-    const auto run = run_client(protocol + " clips read small/S5/walking_1.txt --start 7 --out " + out);
+    const auto run = run_client(protocol + " " + token() + " clips read small/S5/walking_1.txt --start 7 --out " + out);
     ASSERT_EQ(run.exit_code, 0) << run.err;
     EXPECT_NE(run.out.find("150 frames at 25 Hz of small/S5/walking_1.txt from frame 7 of " +
                            std::to_string(rows.size()) + " at 50 Hz (last start " + std::to_string(rows.size() - 300)),
@@ -422,9 +433,10 @@ TEST_F(ClientTest, ClipsReadWritesEverySecondRowFromStartAsTheServerAnswers) {
     }
   }
   // --json prints the server's reply, as REST answers it.
-  const test::Reply direct = test::get(server_->rest_port(), "/v1/clips/window?path=small%2FS5%2Fwalking_1.txt&start=7");
+  const test::Reply direct = test::get(server_->rest_port(), "/v1/clips/window?path=small%2FS5%2Fwalking_1.txt&start=7",
+                                            test::bearer(kToken));
   ASSERT_EQ(direct.status, 200) << direct.body;
-  const auto run = run_client(grpc() + " --json clips read small/S5/walking_1.txt --start 7");
+  const auto run = run_client(grpc() + " " + token() + " --json clips read small/S5/walking_1.txt --start 7");
   ASSERT_EQ(run.exit_code, 0) << run.err;
   auto printed = json::parse(run.out), answered = direct.document;
   // Floats compared as floats: the server writes each one's shortest form.
@@ -437,15 +449,15 @@ TEST_F(ClientTest, ClipsReadWritesEverySecondRowFromStartAsTheServerAnswers) {
 TEST_F(ClientTest, ClipsReadReportsTheServersRefusalsNamingTheField) {
   const auto rows = motion_rows(s5("walking_1.txt"));
   for (const auto& protocol : {grpc(), rest()}) {
-    auto run = run_client(protocol + " --json clips read small/S5/walking_1.txt --start " +
+    auto run = run_client(protocol + " " + token() + " --json clips read small/S5/walking_1.txt --start " +
                           std::to_string(rows.size() - 299));
     EXPECT_EQ(run.exit_code, 1);
     EXPECT_EQ(run.err.rfind("error: INVALID_ARGUMENT: start: ", 0), 0u) << run.err;
     EXPECT_NE(run.err.find("expected 0 to " + std::to_string(rows.size() - 300)), std::string::npos) << run.err;
-    run = run_client(protocol + " --json clips read ../outside.txt");
+    run = run_client(protocol + " " + token() + " --json clips read ../outside.txt");
     EXPECT_EQ(run.exit_code, 1);
     EXPECT_EQ(run.err.rfind("error: INVALID_ARGUMENT: path: ", 0), 0u) << run.err;
-    run = run_client(protocol + " --json clips read small/S5/no_such_file.txt");
+    run = run_client(protocol + " " + token() + " --json clips read small/S5/no_such_file.txt");
     EXPECT_EQ(run.exit_code, 1);
     EXPECT_EQ(run.err.rfind("error: NOT_FOUND: path: ", 0), 0u) << run.err;
   }

@@ -282,13 +282,17 @@ TEST(ClipsUpload, BothProtocolsWriteNewFilesThatAreListedAndReadAndNeedTheToken)
     EXPECT_EQ(test::read_text((root / "mine" / "S5" / name).string()), text) << name;
   }
   std::vector<std::string> listed;
-  const test::Reply list = test::get(server.rest_port(), "/v1/clips");
+  // The clips of a server with a token are read with it.
+  EXPECT_EQ(test::get(server.rest_port(), "/v1/clips").status, 401);
+  const test::Reply list = test::get(server.rest_port(), "/v1/clips", test::bearer("upload-token"));
   for (const auto& c : list.document["clips"]) listed.push_back(c["path"]);
   EXPECT_EQ(listed, (std::vector<std::string>{kBvh, "h36m/S1/eating_1.txt", kText, "mine/S5/walking_1.txt",
                                               "mine/S5/walking_2.txt"}))
       << list.body;
-  const test::Reply window = test::get(server.rest_port(), "/v1/clips/window?path=mine/S5/walking_2.txt&start=4");
-  const test::Reply original = test::get(server.rest_port(), std::string("/v1/clips/window?path=") + kText + "&start=4");
+  const test::Reply window = test::get(server.rest_port(), "/v1/clips/window?path=mine/S5/walking_2.txt&start=4",
+                                       test::bearer("upload-token"));
+  const test::Reply original = test::get(server.rest_port(), std::string("/v1/clips/window?path=") + kText + "&start=4",
+                                         test::bearer("upload-token"));
   ASSERT_EQ(window.status, 200) << window.body;
   EXPECT_EQ(window.document["motion"], original.document["motion"]);
 

@@ -277,11 +277,16 @@ class PythonClientTest(unittest.TestCase):
     def test_clips_of_the_data_root_are_listed_and_read_as_every_second_row(self):
         if not os.path.exists(os.path.join(h36m_dataset_dir(), "S5", "walking_1.txt")):
             self.skipTest("H3.6M not found: the data root holds no clips")
-        listed = self.stub.ListClips(self.pb.ListClipsRequest(), timeout=60)
+        # The data root is the operator's: read with the token.
+        self.assert_refused(self.stub.ListClips, self.pb.ListClipsRequest(), grpc.StatusCode.UNAUTHENTICATED,
+                            "authorization")
+        bearer = [("authorization", f"Bearer {TOKEN}")]
+        listed = self.stub.ListClips(self.pb.ListClipsRequest(), timeout=60, metadata=bearer)
         self.assertEqual([(c.path, c.format) for c in listed.clips],
                          [("h36m/S1/walking_1.txt", "h36m-text"), ("h36m/S5/walking_1.txt", "h36m-text")])
         self.assertFalse(listed.truncated)
-        window = self.stub.ReadClip(self.pb.ReadClipRequest(path="h36m/S5/walking_1.txt"), timeout=60)
+        window = self.stub.ReadClip(self.pb.ReadClipRequest(path="h36m/S5/walking_1.txt"), timeout=60,
+                                    metadata=bearer)
         self.assertEqual((window.start, window.file_frame_rate), (0, 50.0))
         self.assertEqual(window.last_start, window.file_frames - 300)
         self.assert_motion_shape(window.motion)
@@ -292,10 +297,10 @@ class PythonClientTest(unittest.TestCase):
         encoded = self.stub.Encode(self.pb.EncodeRequest(motions=[window.motion]), timeout=120)
         self.assertEqual(list(encoded.codes[0].values), list(self.code_of_clip().values))
         self.assert_refused(self.stub.ReadClip, self.pb.ReadClipRequest(path="../outside.txt"),
-                            grpc.StatusCode.INVALID_ARGUMENT, "path")
+                            grpc.StatusCode.INVALID_ARGUMENT, "path", token=TOKEN)
         self.assert_refused(self.stub.ReadClip,
                             self.pb.ReadClipRequest(path="h36m/S5/walking_1.txt", start=window.last_start + 1),
-                            grpc.StatusCode.INVALID_ARGUMENT, "start")
+                            grpc.StatusCode.INVALID_ARGUMENT, "start", token=TOKEN)
 
     # --- jobs
 

@@ -28,7 +28,8 @@ namespace mm::test {
 class ServerProcess {
  public:
   // Starts the server with `args` after the harness's own (ports, ready
-  // file, model store unless `args` name one) and waits until it serves.
+  // file, loopback and the model store unless `args` name them) and waits
+  // until it serves.
   // Throws std::runtime_error with the server's log when it exits first or
   // is not ready within `timeout`.
   explicit ServerProcess(std::vector<std::string> args = {},
@@ -47,8 +48,14 @@ class ServerProcess {
     } else {
       model_store_ = *(std::find(args.begin(), args.end(), "--model-store") + 1);
     }
-    std::vector<std::string> argv = {MM_SERVER_BINARY, "--grpc-port", "0", "--rest-port", "0", "--address",
-                                     "127.0.0.1", "--ready-file", (dir_ / "ready.json").string()};
+    std::vector<std::string> argv = {MM_SERVER_BINARY, "--grpc-port", "0", "--rest-port", "0", "--ready-file",
+                                     (dir_ / "ready.json").string()};
+    // Loopback unless the test listens elsewhere (the clients below still
+    // call through 127.0.0.1, which a 0.0.0.0 listener serves too).
+    if (std::find(args.begin(), args.end(), "--address") == args.end()) {
+      argv.push_back("--address");
+      argv.push_back("127.0.0.1");
+    }
     if (!own_store) {
       argv.push_back("--model-store");
       argv.push_back(model_store_);

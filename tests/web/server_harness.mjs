@@ -2,7 +2,7 @@
 // ports with a scratch model store (the shipped models, linked), a small
 // H3.6M data root for training jobs and the page's clip picker (S1: three
 // takes; S5: one; copies, since a link out of the data root is not one of
-// its clips) and a token,
+// its clips, open to the page without the token: --public-clips) and a token,
 // behind a path prefix served by a small proxy, as a reverse proxy would
 // put it; and a small model of a rig other than H3.6M's, trained by the tool
 // on CMU dances. Paths come from the environment ctest sets
@@ -104,7 +104,7 @@ export async function startServer({ models = {}, defaultModel = 'h36m-dkgm-cpu' 
   const log = path.join(scratch, 'server.log');
   const ready = path.join(scratch, 'ready.json');
   const args = ['--grpc-port', '0', '--rest-port', '0', '--address', '127.0.0.1', '--ready-file', ready,
-                '--model-store', store, '--default-model', defaultModel, '--auth-token', TOKEN,
+                '--model-store', store, '--default-model', defaultModel, '--auth-token', TOKEN, '--public-clips',
                 '--state-dir', path.join(scratch, 'state'), '--data-root', smallDataRoot(scratch),
                 '--web-root', path.join(source, 'web'), '--training-threads', '1'];
   const out = fs.openSync(log, 'a');

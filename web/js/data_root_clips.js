@@ -1,8 +1,9 @@
 // The motion files of the server's data root (GET v1/clips) in a menu, and
 // the window start bounded by the chosen file's length: a window read
 // (GET v1/clips/window) answers the file's frame count, rate and the last
-// start that still gives a full window.
-import { callApi } from './api_client.js';
+// start that still gives a full window. The data root is the operator's:
+// reading it takes the token unless the server was started with --public-clips.
+import { callWithToken } from './api_client.js';
 import { runAction } from './call_log.js';
 
 const $ = (id) => document.getElementById(id);
@@ -23,7 +24,7 @@ export function showClipBounds(clip) {
 
 // Fills the menu with the data root's files (again after an upload).
 export async function listClips() {
-  const { clips, truncated } = await callApi('GET', 'v1/clips');
+  const { clips, truncated } = await callWithToken('GET', 'v1/clips');
   const menu = $('clip-path');
   const chosen = menu.value;
   menu.replaceChildren(...clips.map((clip) =>
@@ -37,7 +38,7 @@ export async function listClips() {
 // The chosen file's length, read as its first window.
 async function describeChosenClip() {
   const path = $('clip-path').value;
-  if (path) showClipBounds(await callApi('GET', clipWindowPath(path, 0), { summary: "the file's length" }));
+  if (path) showClipBounds(await callWithToken('GET', clipWindowPath(path, 0), { summary: "the file's length" }));
 }
 
 export function setUpClipPicker() {

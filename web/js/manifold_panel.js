@@ -2,7 +2,7 @@
 // (encode and decode for a reconstruction, two denoise calls for projected
 // and filled), its result drawn in the view, with the skeleton of the model
 // that answered, and kept on the shelf.
-import { callApi } from './api_client.js';
+import { callApi, callWithToken } from './api_client.js';
 import { runAction } from './call_log.js';
 import { clipWindowPath, showClipBounds } from './data_root_clips.js';
 import { meanJointErrorMm, motionPositions } from './forward_kinematics.js';
@@ -79,7 +79,7 @@ async function reconstructUpload(view) {
 async function reconstructClip(view) {
   const path = $('clip-path').value;
   if (!path) throw new Error("choose a file of the server's data root first (Refresh lists them)");
-  const clip = await callApi('GET', clipWindowPath(path, Number($('clip-start').value)));
+  const clip = await callWithToken('GET', clipWindowPath(path, Number($('clip-start').value)));
   showClipBounds(clip);
   const encoded = await callApi('POST', 'v1/encode', { body: { motions: [clip.motion] }, summary: path });
   await showReconstruction(view, `${clip.path} @${clip.start}`, clip.motion, await skeletonOfReply(encoded), encoded);
