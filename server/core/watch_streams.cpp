@@ -6,12 +6,26 @@
 #include "core/api_types.h"
 
 namespace mm::service {
+namespace {
+
+// One client, one key: an IPv4 client of a dual-stack listener shows as
+// "::ffff:a.b.c.d" on one frontend and may show as "a.b.c.d" on the other.
+std::string client_key(const std::string& ip) {
+  const std::string mapped = "::ffff:";
+  if (ip.size() > mapped.size() && ip.compare(0, mapped.size(), mapped) == 0 &&
+      ip.find('.') != std::string::npos) {
+    return ip.substr(mapped.size());
+  }
+  return ip;
+}
+
+}  // namespace
 
 struct WatchStreams::State {
   explicit State(WatchStreamLimits l) : limits(l) {}
   const WatchStreamLimits limits;
   mutable std::mutex mutex;
-  int open = 0;                        // guarded by mutex
+  int open = 0;                          // guarded by mutex
   std::map<std::string, int> by_client;  // guarded by mutex; no client with 0
 };
 
@@ -50,7 +64,8 @@ WatchStreams::WatchStreams(WatchStreamLimits limits) : state_(std::make_shared<S
 
 WatchStreams::~WatchStreams() = default;
 
-WatchStreams::Slot WatchStreams::admit(const std::string& client) {
+WatchStreams::Slot WatchStreams::admit(const std::string& ip) {
+  const std::string client = client_key(ip);
   State& s = *state_;
   std::lock_guard<std::mutex> lock(s.mutex);
   // The total first: when the server is full, that is what a caller can

@@ -48,12 +48,13 @@ class WatchStreams {
   explicit WatchStreams(WatchStreamLimits limits);
   ~WatchStreams();
 
-  // A slot for a new stream of `client` (its IP address; "" when unknown,
-  // which all unknown callers share). Throws ApiError RESOURCE_EXHAUSTED
+  // A slot for a new stream of the client at `ip` (an IPv4-mapped IPv6
+  // address counts as its IPv4 address; "" when unknown, which all unknown
+  // callers share). Throws ApiError RESOURCE_EXHAUSTED
   // (429, not too_large) naming the cap that is full, its value and its
   // option when `max_streams` streams, or `max_streams_per_client` of this
   // client's, are open.
-  Slot admit(const std::string& client);
+  Slot admit(const std::string& ip);
 
   int open() const;  // streams holding a slot now
   const WatchStreamLimits& limits() const;

@@ -99,6 +99,14 @@ TEST(WatchStreamCaps, RefuseBeyondTheClientsShareNamingItsAddress) {
   EXPECT_TRUE(streams.admit("10.0.0.1").held());
 }
 
+TEST(WatchStreamCaps, AnIpv4MappedAddressIsItsIpv4Client) {
+  WatchStreams streams({10, 1});
+  auto held = streams.admit("192.0.2.7");
+  EXPECT_THROW(streams.admit("::ffff:192.0.2.7"), ApiError);
+  EXPECT_TRUE(streams.admit("::ffff:192.0.2.8").held());
+  EXPECT_TRUE(streams.admit("2001:db8::7").held());
+}
+
 TEST(WatchStreamCaps, ASlotMayOutliveTheCaps) {
   WatchStreams::Slot slot;
   {
