@@ -3,8 +3,8 @@
 // `max_streams_per_client` from one client address. A stream holds a slot
 // for its whole life, which can be hours for a queued job, so streams are
 // bounded apart from calls: each frontend keeps as many workers for streams
-// as this cap on top of those serving calls, and a stream refused here never
-// takes one of them (see server/README.md, "Job watch streams").
+// as this cap on top of those serving calls (RestOptions::watch_streams,
+// GrpcOptions::watch_streams), and a stream refused here is answered at once.
 //
 // Torch-free and wire-free. Thread safety: every method may be called
 // concurrently; a Slot may be given back from any thread.
@@ -15,9 +15,13 @@
 
 namespace mm::service {
 
+// The defaults: 64 streams cost 64 idle workers per frontend (threads,
+// hardly any memory: docs/PERFORMANCE.md); 8 per address is more than a
+// browser opens to one host over HTTP/1.1 (6 connections) and keeps one
+// client to an eighth of the total.
 struct WatchStreamLimits {
-  int max_streams = 64;             // --max-watch-streams
-  int max_streams_per_client = 8;   // --max-watch-streams-per-client
+  int max_streams = 64;            // --max-watch-streams
+  int max_streams_per_client = 8;  // --max-watch-streams-per-client
 };
 
 class WatchStreams {
