@@ -94,6 +94,14 @@ int parse_server_config(int argc, char** argv, ServerConfig& config) {
       ->envname("MM_WEB_ROOT")->capture_default_str();
   app.add_option("--grpc-threads", config.grpc.max_threads, "gRPC threads: calls served at once")
       ->envname("MM_GRPC_THREADS")->capture_default_str()->check(CLI::Range(2, 4096));
+  app.add_option("--max-watch-streams", config.core.watch_streams.max_streams,
+                 "job watch streams (REST events, gRPC WatchJob) open at once, both protocols together; more are "
+                 "refused (429, RESOURCE_EXHAUSTED), and each frontend keeps this many workers for them besides "
+                 "--rest-threads and --grpc-threads")
+      ->envname("MM_MAX_WATCH_STREAMS")->capture_default_str()->check(CLI::Range(1, 4096));
+  app.add_option("--max-watch-streams-per-client", config.core.watch_streams.max_streams_per_client,
+                 "job watch streams open at once from one client address")
+      ->envname("MM_MAX_WATCH_STREAMS_PER_CLIENT")->capture_default_str()->check(CLI::Range(1, 4096));
   app.add_option("--max-loaded-models", config.core.max_loaded_models, "models kept in memory")
       ->envname("MM_MAX_LOADED_MODELS")->capture_default_str()->check(CLI::Range(1, 64));
 
@@ -153,6 +161,7 @@ int parse_server_config(int argc, char** argv, ServerConfig& config) {
   config.rest.tls_cert_file = config.grpc.tls_cert_file;
   config.rest.tls_key_file = config.grpc.tls_key_file;
   config.jobs.model_store = config.core.model_store;
+  config.rest.watch_streams = config.grpc.watch_streams = config.core.watch_streams.max_streams;
   config.core.data_root = config.jobs.data_root;
   // An installation without the source tree has no page unless it names one;
   // a --web-root given that is not a folder stops the server at start.

@@ -65,13 +65,15 @@ std::vector<Code> to_codes(const at::Tensor& tensor) {
 
 struct ManifoldCore::State {
   State(CoreConfig c, ServiceMetrics& m, TrainingJobs* j)
-      : config(std::move(c)), metrics(m), jobs(j), store(config.model_store, m, config.max_loaded_models), executor(config.batching, m) {}
+      : config(std::move(c)), metrics(m), jobs(j), store(config.model_store, m, config.max_loaded_models), executor(config.batching, m),
+        watch_streams(config.watch_streams) {}
 
   CoreConfig config;
   ServiceMetrics& metrics;
   TrainingJobs* jobs;
   ModelStore store;
   InferenceExecutor executor;
+  WatchStreams watch_streams;
 
   std::atomic<bool> accepting{false};
   std::mutex calls_mutex;
@@ -253,6 +255,7 @@ void ManifoldCore::start() {
       while (!state->stopping) {
         try {
           state->metrics.set_job_counts(state->jobs->counts());
+          state->metrics.set_watch_streams(state->watch_streams.open());
         } catch (const std::exception& e) {
           spdlog::debug("job gauges not updated: {}", e.what());
         }
@@ -436,11 +439,18 @@ JobInfo ManifoldCore::cancel_job(const CallContext& ctx, const std::string& id) 
   });
 }
 
-void ManifoldCore::watch_job(const CallContext& ctx, const std::string& id,
-                             const std::function<bool(const JobInfo&)>& on_event, const std::atomic<bool>* stop) {
+WatchStreams::Slot ManifoldCore::begin_watch(const CallContext& ctx, const std::string& id) {
   // A watch lasts as long as the job: it is not an inference call and must
-  // not hold drain() up, so it is counted only while it starts.
-  state_->call("watch_job", ctx, [&] { return state_->training().get(id); });
+  // not hold drain() up, so it is counted as a call only while it starts.
+  return state_->call("watch_job", ctx, [&] {
+    state_->training().get(id);
+    return state_->watch_streams.admit(ctx.peer_ip);
+  });
+}
+
+void ManifoldCore::watch_job(WatchStreams::Slot slot, const std::string& id,
+                             const std::function<bool(const JobInfo&)>& on_event, const std::atomic<bool>* stop) {
+  if (!slot.held()) throw ApiError(ErrorCode::kInternal, "", "a job watch without a slot (begin_watch first)");
   state_->training().watch(id, on_event, stop);
 }
 

@@ -16,6 +16,7 @@
 
 #include "core/api_types.h"
 #include "core/motion_conversion.h"
+#include "core/watch_streams.h"
 
 namespace mm::service {
 
@@ -61,6 +62,7 @@ struct CoreConfig {
   int max_loaded_models = 4;  // models kept in memory, the active one included
   Limits limits;
   BatchingConfig batching;
+  WatchStreamLimits watch_streams;  // open job watch streams, both protocols together
 };
 
 class ManifoldCore {
@@ -108,8 +110,16 @@ class ManifoldCore {
   JobInfo get_job(const CallContext& ctx, const std::string& id);
   std::vector<JobInfo> list_jobs(const CallContext& ctx);
   JobInfo cancel_job(const CallContext& ctx, const std::string& id);  // needs the token
-  // See TrainingJobs::watch.
-  void watch_job(const CallContext& ctx, const std::string& id, const std::function<bool(const JobInfo&)>& on_event,
+  // A watch of job `id`, admitted before its stream begins (so that REST
+  // answers a refusal instead of its 200): ApiError as get_job gives, or
+  // RESOURCE_EXHAUSTED (429) naming --max-watch-streams or
+  // --max-watch-streams-per-client when the open streams fill a cap
+  // (core/watch_streams.h). The caller holds the slot until watch_job takes it.
+  WatchStreams::Slot begin_watch(const CallContext& ctx, const std::string& id);
+  // Streams job `id` as TrainingJobs::watch does, holding `slot` (from
+  // begin_watch) and giving it back when it returns. A watch lasts as long as
+  // the job and does not hold drain() up.
+  void watch_job(WatchStreams::Slot slot, const std::string& id, const std::function<bool(const JobInfo&)>& on_event,
                  const std::atomic<bool>* stop);
 
   // Stops accepting calls (UNAVAILABLE) and waits for those in flight.

@@ -49,6 +49,11 @@ struct ServiceMetrics::State {
                                        .Add({});
   prometheus::Family<prometheus::Gauge>& jobs =
       prometheus::BuildGauge().Name("mm_jobs").Help("Training jobs by state").Register(*registry);
+  prometheus::Gauge& watch_streams = prometheus::BuildGauge()
+                                        .Name("mm_watch_streams")
+                                        .Help("Job watch streams open (REST event streams and gRPC WatchJob)")
+                                        .Register(*registry)
+                                        .Add({});
   prometheus::Family<prometheus::Histogram>& model_load = prometheus::BuildHistogram()
                                                               .Name("mm_model_load_seconds")
                                                               .Help("Time to load a model, by model and outcome")
@@ -83,6 +88,8 @@ void ServiceMetrics::set_queue_depth(int requests) { state_->queue_depth.Set(req
 void ServiceMetrics::set_job_counts(const std::map<JobState, int>& counts) {
   for (const auto& [state, count] : counts) state_->jobs.Add({{"state", job_state_name(state)}}).Set(count);
 }
+
+void ServiceMetrics::set_watch_streams(int open) { state_->watch_streams.Set(open); }
 
 void ServiceMetrics::observe_model_load(const std::string& model, double seconds, bool ok) {
   state_->model_load.Add({{"model", model}, {"outcome", ok ? "ok" : "failed"}}, kLoadBuckets).Observe(seconds);

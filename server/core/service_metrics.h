@@ -1,7 +1,7 @@
 // The service's Prometheus metrics (prometheus-cpp), served as text at
 // /metrics: requests, errors and latency per operation and protocol, batch
-// sizes and queue depth of the inference executor, jobs per state, and model
-// load times. Torch-free.
+// sizes and queue depth of the inference executor, jobs per state, model load
+// times and the job watch streams open. Torch-free.
 // Thread safety: every method may be called concurrently.
 #pragma once
 
@@ -27,6 +27,7 @@ class ServiceMetrics {
   void observe_batch(const std::string& operation, int clips);
   void set_queue_depth(int requests);
   void set_job_counts(const std::map<JobState, int>& counts);
+  void set_watch_streams(int open);  // job watch streams open, both protocols
   void observe_model_load(const std::string& model, double seconds, bool ok);
 
   // Every metric in the Prometheus text exposition format.

@@ -1,5 +1,6 @@
 #include "grpc/grpc_frontend.h"
 
+#include <algorithm>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
@@ -68,8 +69,15 @@ void GrpcFrontend::start() {
   builder.RegisterService(service_.get());
   builder.SetMaxReceiveMessageSize(options_.max_message_bytes);
   builder.SetMaxSendMessageSize(options_.max_message_bytes);
+  // The synchronous server takes one thread from this quota for each of its
+  // pollers and each call it serves, a WatchJob stream's for the stream's
+  // life; a call that finds no thread free and no poller idle is refused
+  // ("Server Threadpool Exhausted"). The quota counts calls and streams
+  // together, so the core's cap on streams (which refuses a stream in
+  // microseconds) plus this many more threads leaves max_threads for calls.
+  // The health service is a callback service and takes none of these.
   grpc::ResourceQuota quota("motionmanifold-grpc");
-  quota.SetMaxThreads(options_.max_threads);
+  quota.SetMaxThreads(options_.max_threads + std::max(0, options_.watch_streams));
   builder.SetResourceQuota(quota);
   // One completion queue: the calls are short next to the inference they
   // wait on, and the core batches them anyway.

@@ -37,10 +37,14 @@ struct GrpcOptions {
   // plaintext. One without the other is refused by start().
   std::string tls_cert_file, tls_key_file;
   // Most threads serving calls at once (gRPC's resource quota on the
-  // synchronous server's pool, its pollers included). A WatchJob stream holds
-  // one for its whole life; a call arriving when none is free is refused with
-  // RESOURCE_EXHAUSTED by gRPC.
+  // synchronous server's pool, its pollers included); a call arriving when
+  // none is free is refused with RESOURCE_EXHAUSTED by gRPC.
   int max_threads = 64;
+  // Threads kept for WatchJob streams on top of max_threads: the core's cap
+  // on open streams (--max-watch-streams). A stream holds its thread for its
+  // whole life; the core refuses streams beyond the cap before they hold one
+  // for long, so streams never take the threads of calls.
+  int watch_streams = 64;
 };
 
 class GrpcFrontend {

@@ -133,6 +133,12 @@ grpc::Status ManifoldService::CancelJob(grpc::ServerContext* context, const v1::
 
 grpc::Status ManifoldService::WatchJob(grpc::ServerContext* context, const v1::WatchJobRequest* request,
                                        grpc::ServerWriter<v1::Job>* writer) {
+  // Admitted (or refused, naming the cap) before anything is started for it:
+  // a refused stream gives its thread back at once.
+  WatchStreams::Slot slot;
+  const auto admitted =
+      answer(context, [&](const CallContext& ctx) { slot = core_.begin_watch(ctx, request->id()); });
+  if (!admitted.ok()) return admitted;
   // The core's watch blocks until the job changes; a monitor turns "the
   // client has gone" (IsCancelled is thread-safe in the synchronous API) and
   // "the server is stopping" into its stop flag.
@@ -166,9 +172,9 @@ grpc::Status ManifoldService::WatchJob(grpc::ServerContext* context, const v1::W
   } join_monitor{mutex, wake, watch_done, monitor};
 
   bool finished = false;  // the last record written carried a terminal state
-  const auto status = answer(context, [&](const CallContext& ctx) {
+  const auto status = answer(context, [&](const CallContext&) {
     core_.watch_job(
-        ctx, request->id(),
+        std::move(slot), request->id(),
         [&](const JobInfo& info) {
           finished = is_terminal(info.state);
           v1::Job job;

@@ -82,9 +82,27 @@ void send_error(httplib::Response& response, const ApiError& error) {
   response.set_content(rest::error_body(error), kJsonType);
 }
 
-// One open event stream: its stop flag (read by the core's watch) and what
-// wakes its keep-alive writer.
+// Answers `error` and closes the connection at once rather than keeping it
+// alive: httplib 0.11 keeps a connection open for its keep-alive timeout (2 s,
+// holding a worker) whatever the reply's Connection header says, and closes
+// it at once only when a content provider fails. So the whole body is written
+// by a provider that then reports failure.
+void send_error_and_close(httplib::Response& response, const ApiError& error) {
+  const std::string body = rest::error_body(error);
+  response.status = rest::http_status(error);
+  response.set_header("Connection", "close");
+  response.set_content_provider(body.size(), kJsonType,
+                                [body](size_t offset, size_t length, httplib::DataSink& sink) {
+                                  sink.write(body.data() + offset, length);
+                                  return false;  // all written: end the connection
+                                });
+}
+
+// One open event stream: its place among the open watch streams (given back
+// with the stream), its stop flag (read by the core's watch) and what wakes
+// its keep-alive writer.
 struct EventStream {
+  WatchStreams::Slot slot;  // moved into the core's watch when it starts
   std::atomic<bool> stop{false};
   std::mutex mutex;
   std::condition_variable wake;
@@ -117,8 +135,7 @@ struct RestFrontend::State {
   bool read_body(const httplib::Request& request, const httplib::ContentReader& reader, std::string& body,
                  httplib::Response& response) const;
   void stream_job_events(const CallContext& context, const std::string& id, httplib::Response& response);
-  bool write_job_events(const CallContext& context, const std::string& id, EventStream& stream,
-                        httplib::DataSink& sink);
+  bool write_job_events(const std::string& id, EventStream& stream, httplib::DataSink& sink);
   void install_error_handlers();
 };
 
@@ -245,10 +262,19 @@ void RestFrontend::State::handle(RouteId route, const httplib::Request& request,
 
 void RestFrontend::State::stream_job_events(const CallContext& context, const std::string& id,
                                             httplib::Response& response) {
-  // Asked first so that an unknown job (or a missing token) is an ordinary
-  // error reply: once the stream has begun its status is sent.
-  core.get_job(context, id);
+  // Admitted first so that an unknown job or a full server is an ordinary
+  // error reply: once the stream has begun its status is sent. A client
+  // refused for too many streams has its connection closed, not kept alive,
+  // so that its worker is free for calls at once.
+  WatchStreams::Slot slot;
+  try {
+    slot = core.begin_watch(context, id);
+  } catch (const ApiError& error) {
+    if (error.code() != ErrorCode::kResourceExhausted) throw;
+    return send_error_and_close(response, error);
+  }
   auto stream = std::make_shared<EventStream>();
+  stream->slot = std::move(slot);
   {
     std::lock_guard<std::mutex> lock(streams_mutex);
     if (shutting_down) throw ApiError(ErrorCode::kUnavailable, "", "the server is shutting down");
@@ -258,9 +284,7 @@ void RestFrontend::State::stream_job_events(const CallContext& context, const st
   response.set_header("Cache-Control", "no-cache");
   response.set_chunked_content_provider(
       "text/event-stream",
-      [this, context, id, stream](size_t, httplib::DataSink& sink) {
-        return write_job_events(context, id, *stream, sink);
-      },
+      [this, id, stream](size_t, httplib::DataSink& sink) { return write_job_events(id, *stream, sink); },
       [this, stream](bool) {
         std::lock_guard<std::mutex> lock(streams_mutex);
         streams.erase(stream);
@@ -270,8 +294,7 @@ void RestFrontend::State::stream_job_events(const CallContext& context, const st
 // Runs on the connection's worker thread until the job ends, the client
 // goes away or the frontend shuts down. The core's watch blocks between
 // changes; a keep-alive thread meanwhile finds a client that left.
-bool RestFrontend::State::write_job_events(const CallContext& context, const std::string& id, EventStream& stream,
-                                           httplib::DataSink& sink) {
+bool RestFrontend::State::write_job_events(const std::string& id, EventStream& stream, httplib::DataSink& sink) {
   std::mutex sink_mutex;  // the sink is written from this thread and the keep-alive thread
   bool failed = false;    // guarded by sink_mutex
   auto write = [&](const std::string& text) {
@@ -293,7 +316,8 @@ bool RestFrontend::State::write_job_events(const CallContext& context, const std
   });
   try {
     core.watch_job(
-        context, id, [&](const JobInfo& job) { return write("event: job\ndata: " + rest::job_info_to_json(job) + "\n\n"); },
+        std::move(stream.slot), id,
+        [&](const JobInfo& job) { return write("event: job\ndata: " + rest::job_info_to_json(job) + "\n\n"); },
         &stream.stop);
   } catch (const ApiError& error) {
     write("event: error\ndata: " + rest::error_body(error) + "\n\n");
@@ -314,10 +338,11 @@ bool RestFrontend::State::write_job_events(const CallContext& context, const std
 void RestFrontend::State::install_error_handlers() {
   // httplib calls the error handler for every reply of status >= 400, ours
   // included; it only fills in the replies httplib made itself (no route,
-  // body too large, unreadable request), which have no body yet.
+  // body too large, unreadable request), which have no body yet (ours have
+  // a Content-Type even when a provider writes their body).
   httplib::Server::HandlerWithResponse on_error = [this](const httplib::Request& request,
                                                          httplib::Response& response) {
-    if (!response.body.empty()) return httplib::Server::HandlerResponse::Unhandled;
+    if (!response.body.empty() || response.has_header("Content-Type")) return httplib::Server::HandlerResponse::Unhandled;
     std::string message;
     std::string field;
     switch (response.status) {
@@ -370,7 +395,7 @@ void RestFrontend::start() {
     s.server = std::make_unique<httplib::Server>();
   }
   httplib::Server& server = *s.server;
-  const size_t threads = static_cast<size_t>(std::max(1, s.options.threads));
+  const size_t threads = static_cast<size_t>(std::max(1, s.options.threads) + std::max(0, s.options.watch_streams));
   server.new_task_queue = [threads] { return new httplib::ThreadPool(threads); };
   server.set_payload_max_length(s.options.max_body_bytes);
   // Idle keep-alive connections hold a worker and delay shutdown by as long.

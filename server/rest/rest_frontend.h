@@ -27,6 +27,12 @@ struct RestOptions {
   // clients beyond it wait for a connection to go idle (2 s): with 16, 32
   // REST clients got p99 6.3 x p50. They mostly sleep on the executor.
   int threads = 64;
+  // Worker threads kept for job watch streams on top of `threads`: the
+  // core's cap on open streams (--max-watch-streams), so that streams,
+  // which hold a worker for their whole life, never take one that serves
+  // calls. A stream refused by the cap is answered at once and its
+  // connection closed.
+  int watch_streams = 64;
   // Folder served as static files at "/" (the web page, web/); empty: none.
   // GET requests look here before the routes, so it must hold no "v1" folder.
   std::string web_root;
