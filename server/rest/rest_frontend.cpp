@@ -182,9 +182,10 @@ bool RestFrontend::State::read_body(RouteId route, const httplib::Request& reque
                              /*too_large=*/true));
     }
   }
-  // Past the limit the rest is read and dropped rather than left unread: a
-  // client still sending would otherwise meet a reset connection, not the 413.
-  // Dropping is bounded so that an endless body still ends the connection.
+  // A chunked body declares no length: past the limit the rest is read and
+  // dropped rather than left unread, since a client still sending would
+  // otherwise meet a reset connection, not the 413. Dropping is bounded so
+  // that an endless body still ends the connection.
   const size_t drop_at_most = std::max<size_t>(limit.bytes, kMaxBytesDroppedPastTheLimit);
   bool too_large = false;
   size_t dropped = 0;
