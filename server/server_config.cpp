@@ -66,6 +66,10 @@ int parse_server_config(int argc, char** argv, ServerConfig& config) {
   int max_message_bytes = config.grpc.max_message_bytes;
   app.add_option("--max-message-bytes", max_message_bytes, "largest gRPC message and REST body, in bytes")
       ->envname("MM_MAX_MESSAGE_BYTES")->capture_default_str()->check(CLI::Range(1024, 1 << 30));
+  app.add_option("--max-json-bytes", config.rest.max_json_bytes,
+                 "largest REST JSON body of motions or codes, in bytes (refused by its declared length; files and "
+                 "BVH bodies go up to --max-message-bytes)")
+      ->envname("MM_MAX_JSON_BYTES")->capture_default_str()->check(CLI::Range(size_t{1024}, size_t{1} << 30));
   app.add_option("--max-motions", config.core.limits.max_motions,
                  "motions of one Encode or Denoise, codes of one Decode")
       ->envname("MM_MAX_MOTIONS")->capture_default_str()->check(CLI::Range(1, 4096));

@@ -249,7 +249,7 @@ void parse_hierarchy(Tokenizer& tokens, BvhFile& file) {
   }
 }
 
-void parse_motion(Tokenizer& tokens, BvhFile& file, const std::string& source) {
+void parse_motion(Tokenizer& tokens, BvhFile& file, const std::string& source, const BvhFrameLimit& limit) {
   const int channels = file.channel_count();
   if (tokens.at_end()) throw InputError(source + ": no MOTION section after the hierarchy");
   const Token motion = tokens.next("MOTION");
@@ -265,9 +265,17 @@ void parse_motion(Tokenizer& tokens, BvhFile& file, const std::string& source) {
   expect_word(tokens, "Frame");
   expect_word(tokens, "Time:");
   const Token time_token = tokens.next("the frame time");
-  file.frame_time_s = parse_number(tokens, time_token, kMaxBvhFrameTime, "a frame time in seconds");
-  if (file.frame_time_s < kMinBvhFrameTime) {
-    tokens.fail(time_token.line, "frame time " + time_token.text + " s, expected at least 1e-05 s");
+  file.frame_time_s = parse_number(tokens, time_token, 1e300, "a frame time in seconds");
+  if (!(file.frame_time_s >= kMinBvhFrameTime && file.frame_time_s <= kMaxBvhFrameTime)) {
+    tokens.fail(time_token.line, "frame time " + time_token.text +
+                                     " s, expected 0.001 to 1 s (1 to 1000 frames a second)");
+  }
+  // What the frames will cost is known now, before any of them is read.
+  const int64_t imported = bvh_imported_frame_count(static_cast<int64_t>(declared), file.frame_time_s);
+  if (imported > limit.frames) {
+    tokens.fail(time_token.line, count_token.text + " frames of " + time_token.text + " s make " +
+                                     std::to_string(imported) + " frames at 25 Hz, more than the " +
+                                     std::to_string(limit.frames) + " of " + limit.name);
   }
   tokens.skip_rest_of_line();
 
@@ -327,17 +335,23 @@ void parse_motion(Tokenizer& tokens, BvhFile& file, const std::string& source) {
 
 }  // namespace
 
-BvhFile parse_bvh_text(const char* data, size_t size, const std::string& source_name) {
+int64_t bvh_imported_frame_count(int64_t frames, double frame_time_s) {
+  if (frames < 1) return 0;
+  // 1e-9 keeps k/25 that equals a frame's time up to rounding on that frame.
+  return static_cast<int64_t>(std::floor(static_cast<double>(frames - 1) * frame_time_s * kBvhImportRate + 1e-9)) + 1;
+}
+
+BvhFile parse_bvh_text(const char* data, size_t size, const std::string& source_name, const BvhFrameLimit& limit) {
   Tokenizer tokens(data, size, source_name);
   if (tokens.at_end()) throw InputError(source_name + ": empty file, expected BVH (HIERARCHY ...)");
   BvhFile file;
   parse_hierarchy(tokens, file);
-  parse_motion(tokens, file, source_name);
+  parse_motion(tokens, file, source_name, limit);
   return file;
 }
 
-BvhFile parse_bvh_text(const std::string& text, const std::string& source_name) {
-  return parse_bvh_text(text.data(), text.size(), source_name);
+BvhFile parse_bvh_text(const std::string& text, const std::string& source_name, const BvhFrameLimit& limit) {
+  return parse_bvh_text(text.data(), text.size(), source_name, limit);
 }
 
 BvhFile read_bvh_file(const std::string& path) {

@@ -18,7 +18,9 @@
 // parser: the hierarchy is parsed without recursion and bounded to
 // kMaxBvhJoints nodes, numbers must be finite and within the bounds below,
 // and memory grows only with the values actually present (a "Frames:" count
-// larger than the lines that follow is an error, not an allocation).
+// larger than the lines that follow is an error, not an allocation). What a
+// file will cost to resample (its frame count times its frame time) is known
+// from its header: it is checked against a limit before any frame is read.
 #pragma once
 
 #include <cstdint>
@@ -34,8 +36,28 @@ namespace mm {
 constexpr int kMaxBvhJoints = 1024;                // joints and end sites together
 constexpr double kMaxBvhLength = 1e7;              // offsets and positions, file units
 constexpr double kMaxBvhRotationDegrees = 1e6;     // about 2,800 turns
-constexpr double kMinBvhFrameTime = 1e-5;          // seconds (100 kHz)
-constexpr double kMaxBvhFrameTime = 3600.0;        // seconds
+constexpr double kMinBvhFrameTime = 1e-3;          // seconds: 1000 frames a second
+constexpr double kMaxBvhFrameTime = 1.0;           // seconds: 1 frame a second
+
+// The rate every imported motion is brought to, that of the model.
+constexpr double kBvhImportRate = 25.0;
+// The longest take a file may hold: 1,000,000 frames at 25 Hz (11.1 h).
+// Checked at the "Frame Time:" line, before any frame is read, so that a
+// file of a few kB cannot ask for gigabytes of resampled frames.
+constexpr int64_t kMaxBvhImportFrames = 1000000;
+
+// Frames at kBvhImportRate that `frames` file frames of `frame_time_s` make
+// (skeleton_motion_from_bvh's count): one at every 1/25 s from the first
+// frame's time to the last's, (frames - 1) x frame time; 0 for no frames.
+// Callers compare it with their limit before they import.
+int64_t bvh_imported_frame_count(int64_t frames, double frame_time_s);
+
+// A bound on the frames at kBvhImportRate a file may make, with the name a
+// refusal gives it ("the longest take (11.1 h)", "the model's clip").
+struct BvhFrameLimit {
+  int64_t frames = kMaxBvhImportFrames;
+  std::string name = "the longest take (11.1 h)";
+};
 
 enum class BvhChannel { kXposition, kYposition, kZposition, kXrotation, kYrotation, kZrotation };
 
@@ -76,10 +98,14 @@ struct BvhFile {
 // mark at the start). `source_name` names the file in messages. Requires
 // exactly one ROOT, unique joint names, 0..6 channels per joint with none
 // repeated, at least one channel in all, at least one frame, a frame time in
-// [kMinBvhFrameTime, kMaxBvhFrameTime] and exactly "Frames:" lines of
-// exactly channel_count() values. Throws InputError as described above.
-BvhFile parse_bvh_text(const char* data, size_t size, const std::string& source_name);
-BvhFile parse_bvh_text(const std::string& text, const std::string& source_name);
+// [kMinBvhFrameTime, kMaxBvhFrameTime], a declared length that makes at most
+// `limit.frames` frames at 25 Hz (bvh_imported_frame_count; checked before
+// any frame is read, the refusal naming the limit) and exactly "Frames:"
+// lines of exactly channel_count() values. Throws InputError as described
+// above.
+BvhFile parse_bvh_text(const char* data, size_t size, const std::string& source_name,
+                       const BvhFrameLimit& limit = {});
+BvhFile parse_bvh_text(const std::string& text, const std::string& source_name, const BvhFrameLimit& limit = {});
 // Reads and parses a file; messages name `path`.
 BvhFile read_bvh_file(const std::string& path);
 

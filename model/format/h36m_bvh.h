@@ -51,7 +51,7 @@ struct H36mBvhExportOptions {
 };
 
 // The motion (99 columns, >= 1 frame, finite values) at `rate_hz` (frame
-// time 1 / rate_hz: 25 or 50 for ours; any finite rate in (0, 1e5]) as a BVH
+// time 1 / rate_hz: 25 or 50 for ours; any rate of 1 to 1000 Hz) as a BVH
 // of the H3.6M skeleton with offsets in mm: root with Xposition Yposition
 // Zposition and the rotation channels, the other 24 joints with rotation
 // channels. Throws InputError for another column count, no frames, a bad

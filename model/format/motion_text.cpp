@@ -1,4 +1,5 @@
 #include "format/motion_text.h"
+#include "format/motion_text_rows.h"
 
 #include <algorithm>
 #include <charconv>
@@ -45,17 +46,20 @@ void check_columns(int expected_columns, const std::string& source_name) {
   }
 }
 
-}  // namespace
+// A row: a non-blank line's content without the blanks around it.
+struct TextRow {
+  const char* begin;
+  const char* end;
+  int64_t line;
+};
 
-MotionFrames parse_motion_text_buffer(const char* data, size_t size,
-                                      const std::string& source_name, int expected_columns) {
-  check_columns(expected_columns, source_name);
-  MotionFrames motion;
-  motion.columns = expected_columns;
-  // Reserve from a size estimate (~10.7 bytes per value in the data set) to
-  // avoid repeated growth on 4 MB files.
-  motion.values.reserve(size / 10 + static_cast<size_t>(expected_columns));
-
+// Calls visit(row) for each row in order until it returns false. A blank
+// line followed by a row is refused: a hole in the middle of a sequence
+// would silently join two motions. `expected_columns` is for that message
+// (0: unknown).
+template <typename Visit>
+void for_each_row(const char* data, size_t size, const std::string& source_name, int expected_columns,
+                  Visit visit) {
   const char* const end = data + size;
   const char* line_begin = data;
   // Editors on Windows start UTF-8 text with a byte-order mark; it carries no
@@ -74,73 +78,134 @@ MotionFrames parse_motion_text_buffer(const char* data, size_t size,
     while (content_end > line_begin && is_blank(content_end[-1])) --content_end;
     const char* content_begin = line_begin;
     while (content_begin < content_end && is_blank(*content_begin)) ++content_begin;
+    line_begin = next_line;
 
     if (content_begin == content_end) {
       if (first_blank_line == 0) first_blank_line = line_number;
-      line_begin = next_line;
       continue;
     }
     if (first_blank_line != 0) {
-      // A hole in the middle of a sequence would silently join two motions.
-      throw InputError(location(source_name, first_blank_line) +
-                       "blank line, expected " + std::to_string(expected_columns) +
-                       " values (blank lines are allowed only at the end)");
+      throw InputError(location(source_name, first_blank_line) + "blank line, expected " +
+                       (expected_columns > 0 ? std::to_string(expected_columns) + " values" : "a row of values") +
+                       " (blank lines are allowed only at the end)");
     }
-
-    const int64_t found = std::count(content_begin, content_end, ',') + 1;
-    if (found != expected_columns) {
-      throw InputError(location(source_name, line_number) + "expected " +
-                       std::to_string(expected_columns) + " values, found " +
-                       std::to_string(found));
-    }
-    const char* field = content_begin;
-    for (int column = 0; column < expected_columns; ++column) {
-      const char* field_end = static_cast<const char*>(
-          std::memchr(field, ',', static_cast<size_t>(content_end - field)));
-      if (field_end == nullptr) field_end = content_end;
-      const char* value_begin = field;
-      const char* value_end = field_end;
-      while (value_begin < value_end && is_blank(*value_begin)) ++value_begin;
-      while (value_end > value_begin && is_blank(value_end[-1])) --value_end;
-      // from_chars rejects a leading '+', which some writers emit.
-      const char* number_begin =
-          (value_begin < value_end && *value_begin == '+') ? value_begin + 1 : value_begin;
-
-      float value = 0.0f;
-      const auto [parsed_end, error] = std::from_chars(number_begin, value_end, value);
-      if (error == std::errc::result_out_of_range) {
-        throw InputError(location(source_name, line_number) + "value " +
-                         std::to_string(column + 1) + " " + quoted(value_begin, value_end) +
-                         " is out of the range of a 32-bit float");
-      }
-      if (error != std::errc() || parsed_end != value_end || number_begin == value_end) {
-        throw InputError(location(source_name, line_number) + "value " +
-                         std::to_string(column + 1) + " " + quoted(value_begin, value_end) +
-                         " is not a number, expected a decimal number");
-      }
-      if (!std::isfinite(value)) {
-        throw InputError(location(source_name, line_number) + "value " +
-                         std::to_string(column + 1) + " " + quoted(value_begin, value_end) +
-                         " is not finite, expected a finite number");
-      }
-      const bool translation = column < kRootTranslationValues;
-      const double bound = translation ? kMaxRootTranslationMm : kMaxRotationRadians;
-      if (std::fabs(value) > bound) {
-        std::ostringstream limit;
-        limit << bound;
-        throw InputError(location(source_name, line_number) + "value " + std::to_string(column + 1) + " " +
-                         quoted(value_begin, value_end) + " is out of range, expected " +
-                         (translation ? "a root translation within +-" + limit.str() + " mm"
-                                      : "an exponential-map rotation within +-" + limit.str() + " radians"));
-      }
-      motion.values.push_back(value);
-      field = field_end + 1;
-    }
-    line_begin = next_line;
+    if (!visit(TextRow{content_begin, content_end, line_number})) return;
   }
-  if (motion.values.empty()) {
-    throw InputError(location(source_name, 1) + "no frames (empty file), expected lines of " +
-                     std::to_string(expected_columns) + " comma-separated values");
+}
+
+void check_value_count(const TextRow& row, const std::string& source_name, int expected_columns) {
+  const int64_t found = std::count(row.begin, row.end, ',') + 1;
+  if (found != expected_columns) {
+    throw InputError(location(source_name, row.line) + "expected " + std::to_string(expected_columns) +
+                     " values, found " + std::to_string(found));
+  }
+}
+
+// The row's values appended to `out`, each checked.
+void parse_row(const TextRow& row, const std::string& source_name, int expected_columns, std::vector<float>& out) {
+  const int64_t line_number = row.line;
+  check_value_count(row, source_name, expected_columns);
+  const char* field = row.begin;
+  for (int column = 0; column < expected_columns; ++column) {
+    const char* field_end =
+        static_cast<const char*>(std::memchr(field, ',', static_cast<size_t>(row.end - field)));
+    if (field_end == nullptr) field_end = row.end;
+    const char* value_begin = field;
+    const char* value_end = field_end;
+    while (value_begin < value_end && is_blank(*value_begin)) ++value_begin;
+    while (value_end > value_begin && is_blank(value_end[-1])) --value_end;
+    // from_chars rejects a leading '+', which some writers emit.
+    const char* number_begin = (value_begin < value_end && *value_begin == '+') ? value_begin + 1 : value_begin;
+
+    float value = 0.0f;
+    const auto [parsed_end, error] = std::from_chars(number_begin, value_end, value);
+    if (error == std::errc::result_out_of_range) {
+      throw InputError(location(source_name, line_number) + "value " + std::to_string(column + 1) + " " +
+                       quoted(value_begin, value_end) + " is out of the range of a 32-bit float");
+    }
+    if (error != std::errc() || parsed_end != value_end || number_begin == value_end) {
+      throw InputError(location(source_name, line_number) + "value " + std::to_string(column + 1) + " " +
+                       quoted(value_begin, value_end) + " is not a number, expected a decimal number");
+    }
+    if (!std::isfinite(value)) {
+      throw InputError(location(source_name, line_number) + "value " + std::to_string(column + 1) + " " +
+                       quoted(value_begin, value_end) + " is not finite, expected a finite number");
+    }
+    const bool translation = column < kRootTranslationValues;
+    const double bound = translation ? kMaxRootTranslationMm : kMaxRotationRadians;
+    if (std::fabs(value) > bound) {
+      std::ostringstream limit;
+      limit << bound;
+      throw InputError(location(source_name, line_number) + "value " + std::to_string(column + 1) + " " +
+                       quoted(value_begin, value_end) + " is out of range, expected " +
+                       (translation ? "a root translation within +-" + limit.str() + " mm"
+                                    : "an exponential-map rotation within +-" + limit.str() + " radians"));
+    }
+    out.push_back(value);
+    field = field_end + 1;
+  }
+}
+
+[[noreturn]] void no_frames(const std::string& source_name, int expected_columns) {
+  throw InputError(location(source_name, 1) + "no frames (empty file), expected lines of " +
+                   (expected_columns > 0 ? std::to_string(expected_columns) + " " : "") + "comma-separated values");
+}
+
+}  // namespace
+
+MotionFrames parse_motion_text_buffer(const char* data, size_t size,
+                                      const std::string& source_name, int expected_columns) {
+  check_columns(expected_columns, source_name);
+  MotionFrames motion;
+  motion.columns = expected_columns;
+  // Reserve from a size estimate (~10.7 bytes per value in the data set) to
+  // avoid repeated growth on 4 MB files.
+  motion.values.reserve(size / 10 + static_cast<size_t>(expected_columns));
+  for_each_row(data, size, source_name, expected_columns, [&](const TextRow& row) {
+    parse_row(row, source_name, expected_columns, motion.values);
+    return true;
+  });
+  if (motion.values.empty()) no_frames(source_name, expected_columns);
+  return motion;
+}
+
+int64_t count_motion_text_rows(const char* data, size_t size, const std::string& source_name, int expected_columns,
+                               int64_t max_rows) {
+  check_columns(expected_columns, source_name);
+  int64_t rows = 0;
+  for_each_row(data, size, source_name, expected_columns, [&](const TextRow& row) {
+    check_value_count(row, source_name, expected_columns);
+    if (++rows > max_rows) {
+      throw InputError(location(source_name, row.line) + "more than " + std::to_string(max_rows) +
+                       " rows, the most a motion text may hold (" +
+                       (max_rows == kMaxMotionTextRows ? "11.1 h at 50 Hz" : "the limit here") + ")");
+    }
+    return true;
+  });
+  if (rows == 0) no_frames(source_name, expected_columns);
+  return rows;
+}
+
+MotionFrames parse_motion_text_rows(const char* data, size_t size, const std::string& source_name,
+                                    int expected_columns, int64_t first_row, int64_t row_count) {
+  check_columns(expected_columns, source_name);
+  MotionFrames motion;
+  motion.columns = expected_columns;
+  if (first_row < 0 || row_count < 0) {
+    throw InputError(source_name + ": rows from " + std::to_string(first_row) + ", " + std::to_string(row_count) +
+                     " of them: expected a row and a count that are not negative");
+  }
+  motion.values.reserve(static_cast<size_t>(row_count) * static_cast<size_t>(expected_columns));
+  int64_t row_index = 0;
+  for_each_row(data, size, source_name, expected_columns, [&](const TextRow& row) {
+    if (row_index >= first_row) parse_row(row, source_name, expected_columns, motion.values);
+    return ++row_index < first_row + row_count;
+  });
+  if (motion.frame_count() < row_count) {
+    if (row_index == 0) no_frames(source_name, expected_columns);
+    throw InputError(source_name + ": " + std::to_string(row_index) + " rows, fewer than the " +
+                     std::to_string(first_row + row_count) + " that rows " + std::to_string(first_row) + " to " +
+                     std::to_string(first_row + row_count - 1) + " need");
   }
   return motion;
 }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <map>
 #include <set>
 
@@ -98,8 +99,9 @@ BvhFile skeleton_motion_to_bvh(const Skeleton& skeleton, const BvhLayout& layout
                      skeleton_label(skeleton) + " of " + std::to_string(skeleton.joint_count()));
   }
   if (motion.frame_count() < 1) throw InputError("BVH export: the motion has no frames");
-  if (!std::isfinite(rate_hz) || rate_hz <= 0 || rate_hz > 1e5) {
-    throw InputError("BVH export: rate " + std::to_string(rate_hz) + " Hz, expected a positive rate up to 1e5 Hz");
+  // The rates whose frame time a BVH reader takes (bvh_file.h).
+  if (!std::isfinite(rate_hz) || rate_hz < 1.0 / kMaxBvhFrameTime || rate_hz > 1.0 / kMinBvhFrameTime) {
+    throw InputError("BVH export: rate " + std::to_string(rate_hz) + " Hz, expected 1 to 1000 Hz");
   }
   const double unit = layout.millimetres_per_unit;
   BvhFile file;
@@ -201,23 +203,18 @@ std::vector<int> match_bvh_to_skeleton(const Skeleton& skeleton, const BvhFile& 
   throw InputError(message);
 }
 
-MotionFrames skeleton_motion_from_bvh(const Skeleton& skeleton, const BvhFile& file, const std::string& source_name) {
-  const std::vector<int> match = match_bvh_to_skeleton(skeleton, file, source_name);
+namespace {
+
+// Frames k = 0 .. frames - 1 at 25 Hz from the file's frame `first`, each
+// the file's frame nearest to first + k/25 s (ties to the later), never past
+// its last frame.
+MotionFrames import_frames(const Skeleton& skeleton, const std::vector<int>& match, const BvhFile& file,
+                           const std::string& source_name, int64_t first, int64_t frames) {
   const double unit = skeleton.bvh ? skeleton.bvh->millimetres_per_unit : 1.0;
   const int64_t source_frames = file.frame_count();
-  if (source_frames < 1) throw InputError(source_name + ": no frames");
-  const double duration = static_cast<double>(source_frames - 1) * file.frame_time_s;
-  // 1e-9 keeps k/25 that equals a frame's time up to rounding on that frame.
-  const double last = std::floor(duration * kBvhImportRate + 1e-9);
-  if (last + 1 > static_cast<double>(kMaxBvhImportFrames)) {
-    throw InputError(source_name + ": " + std::to_string(source_frames) + " frames of " +
-                     std::to_string(file.frame_time_s) + " s would be more than " +
-                     std::to_string(kMaxBvhImportFrames) + " frames at 25 Hz");
-  }
-  const int64_t frames = static_cast<int64_t>(last) + 1;
   const int channels = file.channel_count();
   const int columns = skeleton_motion_columns(skeleton);
-  const std::vector<int> first = file.first_channels();
+  const std::vector<int> first_channel = file.first_channels();
 
   MotionFrames motion;
   motion.columns = columns;
@@ -225,7 +222,7 @@ MotionFrames skeleton_motion_from_bvh(const Skeleton& skeleton, const BvhFile& f
   Vec3 previous{0, 0, 0};
   for (int64_t k = 0; k < frames; ++k) {
     const double t = static_cast<double>(k) / kBvhImportRate;
-    int64_t source = static_cast<int64_t>(std::floor(t / file.frame_time_s + 0.5));
+    int64_t source = first + static_cast<int64_t>(std::floor(t / file.frame_time_s + 0.5));
     if (source > source_frames - 1) source = source_frames - 1;
     const double* values = file.values.data() + source * channels;
     float* out = motion.frame(k);
@@ -235,7 +232,7 @@ MotionFrames skeleton_motion_from_bvh(const Skeleton& skeleton, const BvhFile& f
       Mat3 local = identity_matrix();
       Vec3 position{0, 0, 0};
       for (size_t c = 0; c < joint.channels.size(); ++c) {
-        const double value = values[first[match[j]] + c];
+        const double value = values[first_channel[match[j]] + c];
         const int axis = bvh_channel_axis(joint.channels[c]);
         if (bvh_channel_is_position(joint.channels[c])) {
           position[axis] = value * unit;
@@ -260,6 +257,45 @@ MotionFrames skeleton_motion_from_bvh(const Skeleton& skeleton, const BvhFile& f
     }
   }
   return motion;
+}
+
+std::string seconds(double value) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%g", value);
+  return text;
+}
+
+}  // namespace
+
+MotionFrames skeleton_motion_from_bvh(const Skeleton& skeleton, const BvhFile& file, const std::string& source_name,
+                                      const BvhFrameLimit& limit) {
+  const std::vector<int> match = match_bvh_to_skeleton(skeleton, file, source_name);
+  const int64_t source_frames = file.frame_count();
+  if (source_frames < 1) throw InputError(source_name + ": no frames");
+  const int64_t frames = bvh_imported_frame_count(source_frames, file.frame_time_s);
+  if (frames > limit.frames) {
+    throw InputError(source_name + ": " + std::to_string(source_frames) + " frames of " + seconds(file.frame_time_s) +
+                     " s make " + std::to_string(frames) + " frames at 25 Hz, more than the " +
+                     std::to_string(limit.frames) + " of " + limit.name);
+  }
+  return import_frames(skeleton, match, file, source_name, 0, frames);
+}
+
+MotionFrames skeleton_motion_window_from_bvh(const Skeleton& skeleton, const BvhFile& file,
+                                             const std::string& source_name, int64_t first_frame, int64_t frames) {
+  const std::vector<int> match = match_bvh_to_skeleton(skeleton, file, source_name);
+  const int64_t source_frames = file.frame_count();
+  if (first_frame < 0 || first_frame >= source_frames) {
+    throw InputError(source_name + ": frame " + std::to_string(first_frame) + " is not one of its " +
+                     std::to_string(source_frames) + " frames");
+  }
+  const int64_t available = bvh_imported_frame_count(source_frames - first_frame, file.frame_time_s);
+  if (frames < 0 || frames > available) {
+    throw InputError(source_name + ": from frame " + std::to_string(first_frame) + " it makes " +
+                     std::to_string(available) + " frames at 25 Hz, fewer than the " + std::to_string(frames) +
+                     " asked for");
+  }
+  return import_frames(skeleton, match, file, source_name, first_frame, frames);
 }
 
 }  // namespace mm

@@ -32,12 +32,6 @@
 
 namespace mm {
 
-// The rate every imported motion is brought to, that of the model.
-constexpr double kBvhImportRate = 25.0;
-// Imports that would be longer than this at 25 Hz are refused (about 11 h),
-// bounding memory for a file with a long frame time.
-constexpr int64_t kMaxBvhImportFrames = 1000000;
-
 // Columns of a motion of `skeleton`: 3 + 3 x joint_count() (99 for H3.6M).
 int skeleton_motion_columns(const Skeleton& skeleton);
 
@@ -53,7 +47,7 @@ BvhLayout default_bvh_layout(const Skeleton& skeleton, const EulerOrder& rotatio
 BvhLayout bvh_layout_of(const Skeleton& skeleton);
 
 // The motion (skeleton_motion_columns() columns, >= 1 frame, finite values)
-// at `rate_hz` (frame time 1 / rate_hz; any finite rate in (0, 1e5]) as a BVH
+// at `rate_hz` (frame time 1 / rate_hz; any rate of 1 to 1000 Hz, what BVH files may hold) as a BVH
 // of the skeleton in `layout`: joint names, End Sites, channels and unit as
 // the layout says, offsets the skeleton's. A joint with fewer than 3 rotation
 // channels gets the angles of its rotation about those axes (its Euler
@@ -81,9 +75,19 @@ BvhFile skeleton_motion_to_bvh(const Skeleton& skeleton, const BvhLayout& layout
 // Throws InputError "<source_name>: not the skeleton \"<name>\": ..." (for
 // H3.6M "not the H3.6M skeleton (h36m-32)") naming what differs: the joint
 // and End Site counts of both, missing and unexpected joints, a joint with
-// another parent; and when the result would exceed kMaxBvhImportFrames or a
-// root position change would exceed kMaxRootTranslationMm.
-MotionFrames skeleton_motion_from_bvh(const Skeleton& skeleton, const BvhFile& file, const std::string& source_name);
+// another parent; and when the result would exceed `limit` (checked before
+// anything is allocated, naming it) or a root position change would exceed
+// kMaxRootTranslationMm.
+MotionFrames skeleton_motion_from_bvh(const Skeleton& skeleton, const BvhFile& file, const std::string& source_name,
+                                      const BvhFrameLimit& limit = {});
+
+// `frames` frames at 25 Hz of the import that starts at the file's frame
+// `first_frame` (its time is 0), as skeleton_motion_from_bvh would give them
+// for the file cut there: only these frames are computed, so that a window
+// of a long take costs what the window does. Throws InputError as above,
+// and when the file from `first_frame` makes fewer than `frames` frames.
+MotionFrames skeleton_motion_window_from_bvh(const Skeleton& skeleton, const BvhFile& file,
+                                             const std::string& source_name, int64_t first_frame, int64_t frames);
 
 // For each joint of `skeleton`, the index of the BVH joint that carries its
 // rotation, or -1 for a leaf that is an End Site in the file. Throws the

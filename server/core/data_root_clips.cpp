@@ -17,6 +17,7 @@
 #include "format/atomic_file.h"
 #include "format/input_error.h"
 #include "format/motion_text.h"
+#include "format/motion_text_rows.h"
 #include "format/skeleton_bvh.h"
 
 namespace mm::service {
@@ -88,11 +89,12 @@ std::string read_whole_file(const fs::path& path, uintmax_t size, const std::str
 }
 
 // Every second row from `start`, as Encode takes a 50 Hz motion to 25 Hz.
+// The rows are counted first (at most kMaxMotionTextRows) and only the
+// window's are parsed.
 void read_text_window(const std::string& data, const std::string& relative, const ModelShape& shape,
                       int64_t start, ReadClipReply& reply) {
-  const MotionFrames rows = parse_motion_text_buffer(data.data(), data.size(), relative, kH36mColumns);
   const int64_t window_rows = kTextRowsPerModelFrame * shape.frames;
-  reply.file_frames = rows.frame_count();
+  reply.file_frames = count_motion_text_rows(data.data(), data.size(), relative, kH36mColumns);
   reply.file_frame_rate = kH36mFrameRate;
   reply.last_start = reply.file_frames - window_rows;
   const std::string window = relative + " has " + std::to_string(reply.file_frames) + " frames at 50 Hz and a window takes " +
@@ -104,6 +106,7 @@ void read_text_window(const std::string& data, const std::string& relative, cons
                               std::to_string(shape.frames) + " at the model's 25 Hz)");
   }
   check_start(start, reply.last_start, window);
+  const MotionFrames rows = parse_motion_text_rows(data.data(), data.size(), relative, kH36mColumns, start, window_rows);
   Motion& motion = reply.motion;
   motion.frames = shape.frames;
   motion.columns = rows.columns;
@@ -111,21 +114,15 @@ void read_text_window(const std::string& data, const std::string& relative, cons
   motion.layout = layout_name(rows.columns);
   motion.values.reserve(static_cast<size_t>(shape.frames) * rows.columns);
   for (int64_t k = 0; k < shape.frames; ++k) {
-    const float* row = rows.frame(start + kTextRowsPerModelFrame * k);
+    const float* row = rows.frame(kTextRowsPerModelFrame * k);
     motion.values.insert(motion.values.end(), row, row + rows.columns);
   }
 }
 
-// Frames at 25 Hz that the BVH importer makes of `frames` file frames: its
-// own count (skeleton_motion_from_bvh), so that the window check and the
-// import agree to the last frame.
-int64_t imported_frames(int64_t frames, double frame_time_s) {
-  if (frames < 1) return 0;
-  return static_cast<int64_t>(std::floor(static_cast<double>(frames - 1) * frame_time_s * kBvhImportRate + 1e-9)) + 1;
-}
-
 // Resampled from `start` to 25 Hz; in the model's skeleton when the file is
-// of its hierarchy, else in the file's own.
+// of its hierarchy, else in the file's own. The file's declared length is
+// bounded (the longest take, checked before its frames are read) and only
+// the window's frames are resampled.
 void read_bvh_window(const std::string& data, const std::string& relative, const ModelShape& shape, int64_t start,
                      ReadClipReply& reply) {
   const BvhFile file = parse_bvh_text(data.data(), data.size(), relative);
@@ -149,37 +146,27 @@ void read_bvh_window(const std::string& data, const std::string& relative, const
   reply.file_frames = frames;
   reply.file_frame_rate = 1.0 / file.frame_time_s;
   const std::string rate = decimal(reply.file_frame_rate);
-  if (imported_frames(frames, file.frame_time_s) < shape.frames) {
+  if (bvh_imported_frame_count(frames, file.frame_time_s) < shape.frames) {
     throw invalid("path", relative + " is shorter than one window: its " + std::to_string(frames) + " frames at " +
                               rate + " Hz last " + decimal((frames - 1) * file.frame_time_s, "%.2f") +
                               " s, expected at least " + decimal((shape.frames - 1) / kBvhImportRate, "%.2f") +
                               " s (" + std::to_string(shape.frames) + " frames at 25 Hz)");
   }
   // The last start from which the import still makes a full window: the
-  // estimate from the durations, then moved to the importer's own count.
+  // estimate from the durations, then moved to the importer's own count
+  // (bvh_imported_frame_count), so that the two agree to the last frame.
   int64_t last = frames - 1 -
                  static_cast<int64_t>(std::ceil((shape.frames - 1) / (kBvhImportRate * file.frame_time_s)));
   last = std::clamp<int64_t>(last, 0, frames - 1);
-  while (last > 0 && imported_frames(frames - last, file.frame_time_s) < shape.frames) --last;
-  while (last + 1 < frames && imported_frames(frames - last - 1, file.frame_time_s) >= shape.frames) ++last;
+  while (last > 0 && bvh_imported_frame_count(frames - last, file.frame_time_s) < shape.frames) --last;
+  while (last + 1 < frames && bvh_imported_frame_count(frames - last - 1, file.frame_time_s) >= shape.frames) ++last;
   reply.last_start = last;
   check_start(start, last,
               relative + " has " + std::to_string(frames) + " frames at " + rate + " Hz and a window is " +
                   std::to_string(shape.frames) + " frames at 25 Hz");
 
-  // Only the window's frames are imported, not the whole file.
-  BvhFile window;
-  window.joints = file.joints;
-  window.frame_time_s = file.frame_time_s;
-  int64_t count = std::min<int64_t>(
-      frames - start,
-      static_cast<int64_t>(std::ceil((shape.frames - 1) / (kBvhImportRate * file.frame_time_s))) + 2);
-  while (imported_frames(count, file.frame_time_s) < shape.frames && start + count < frames) ++count;
-  const auto channels = static_cast<size_t>(file.channel_count());
-  window.values.assign(file.values.begin() + static_cast<std::ptrdiff_t>(start * channels),
-                       file.values.begin() + static_cast<std::ptrdiff_t>((start + count) * channels));
-  MotionFrames motion = skeleton_motion_from_bvh(skeleton, window, relative);
-  motion.values.resize(static_cast<size_t>(shape.frames) * motion.columns);
+  // Only the window's frames are resampled, not the whole file.
+  MotionFrames motion = skeleton_motion_window_from_bvh(skeleton, file, relative, start, shape.frames);
 
   reply.motion.frames = shape.frames;
   reply.motion.columns = motion.columns;
@@ -203,16 +190,19 @@ ListClipsReply list_data_root_clips(const std::string& data_root, int max_clips)
       if (it->is_directory(ignored)) it.disable_recursion_pending();
       continue;
     }
+    // A name no client could ask ReadClip for is not listed.
+    const std::string relative = path.lexically_relative(root).generic_string();
+    if (first_control_character(relative)) continue;
     fs::path target = path;
     if (it->is_symlink(ignored)) {
-      const auto resolved = resolve_under_data_root(root, path.string());
+      const auto resolved = resolve_under_data_root(root, relative, "path");
       if (!resolved) continue;  // a link out of the root is not a clip of it
       target = *resolved;
     }
     const std::string format = clip_format(target);
     if (format.empty() || !fs::is_regular_file(target, ignored)) continue;
     ClipFile clip;
-    clip.path = path.lexically_relative(root).generic_string();
+    clip.path = relative;
     clip.format = format;
     clip.size_bytes = static_cast<int64_t>(fs::file_size(target, ignored));
     reply.clips.push_back(std::move(clip));
@@ -235,7 +225,7 @@ ReadClipReply read_data_root_clip(const std::string& data_root, const ReadClipRe
   if (request.path.empty()) {
     throw invalid("path", "path is empty, expected a .txt or .bvh file under the data root (as ListClips names it)");
   }
-  const auto resolved = resolve_under_data_root(root, request.path);
+  const auto resolved = resolve_under_data_root(root, request.path, "path");
   if (!resolved) {
     throw invalid("path", "path " + quoted(request.path) +
                               " lies outside the data root, expected a file under it (as ListClips names it)");
@@ -297,7 +287,6 @@ void check_upload_path(const std::string& path) {
     const std::string component = path.substr(begin, end - begin);
     if (component.empty()) refuse("has an empty component, expected names separated by single '/'");
     if (component.front() == '.') refuse("has a component starting with '.' (" + quoted(component) + "), which names hidden or parent folders");
-    if (component.find('\0') != std::string::npos) refuse("holds a NUL character");
     begin = end + 1;
   }
   if (clip_format(fs::path(path)).empty()) refuse("has neither extension .txt (H3.6M text) nor .bvh");
@@ -315,8 +304,9 @@ void check_upload_content(const std::string& content, const std::string& format,
   }
   try {
     if (format == kBvhFormat) {
-      parse_bvh_text(content, path);
+      parse_bvh_text(content, path);  // its length bounded before its frames are read
     } else {
+      count_motion_text_rows(content.data(), content.size(), path, kH36mColumns);  // before any value is parsed
       parse_motion_text_buffer(content.data(), content.size(), path);
     }
   } catch (const InputError& error) {
@@ -331,7 +321,7 @@ ClipFile write_data_root_clip(const std::string& data_root, const UploadClipRequ
   check_upload_path(request.path);
   const std::string format = clip_format(fs::path(request.path));
   // A folder of the path may be a link out of the root.
-  const auto target = resolve_under_data_root(root, request.path);
+  const auto target = resolve_under_data_root(root, request.path, "path");
   if (!target) throw invalid("path", "path " + quoted(request.path) + " leads out of the data root");
   std::error_code error;
   if (fs::exists(fs::symlink_status(*target, error))) {

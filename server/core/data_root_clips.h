@@ -40,12 +40,15 @@ ListClipsReply list_data_root_clips(const std::string& data_root, int max_clips)
 
 // The window of `request.path` from frame `request.start` (the file's own
 // frames) of shape.frames frames at 25 Hz. FAILED_PRECONDITION without a
-// data root; INVALID_ARGUMENT "path" for an empty path, one outside the
-// root, a folder, another extension, a file too short for one window, or a
-// malformed one (the parser's message, naming the file by its relative
+// data root; INVALID_ARGUMENT "path" for an empty path, one holding a
+// control character, one outside the root, a folder, another extension, a
+// file too short for one window, one longer than the longest take (a BVH's
+// frames x frame time, a text's rows: checked before its values are read),
+// or a malformed one (the parser's message, naming the file by its relative
 // path); NOT_FOUND "path" when nothing is there; INVALID_ARGUMENT "start"
 // when it is negative or past the last full window (naming the largest
-// valid start); RESOURCE_EXHAUSTED "path" for a file over 256 MiB.
+// valid start); RESOURCE_EXHAUSTED "path" for a file over 256 MiB. Only the
+// window's frames are resampled, or its rows parsed.
 ReadClipReply read_data_root_clip(const std::string& data_root, const ReadClipRequest& request,
                                   const ModelShape& shape);
 
@@ -59,8 +62,8 @@ constexpr size_t kMaxUploadedClipBytes = size_t{256} << 20;
 // linked into place, so a reader or a crash never sees part of it and an
 // existing file is never replaced. FAILED_PRECONDITION without a data root;
 // INVALID_ARGUMENT "path" for a path that is empty, absolute, has an empty
-// component or one starting with '.', has another extension, or leads out
-// of the root; FAILED_PRECONDITION "path" when a file is already there;
+// component or one starting with '.', holds a control character, has
+// another extension, or leads out of the root; FAILED_PRECONDITION "path" when a file is already there;
 // INVALID_ARGUMENT "content" for empty or malformed content (the parser's
 // message); RESOURCE_EXHAUSTED "content" over kMaxUploadedClipBytes;
 // INTERNAL when the file system refuses the write.

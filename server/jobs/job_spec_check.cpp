@@ -76,7 +76,7 @@ JobDataset resolve_job_dataset(const std::string& data_root, const std::string& 
                       "BVH files under the data root");
   }
   const fs::path root = canonical_data_root(data_root);
-  const auto resolved = resolve_under_data_root(root, dataset);
+  const auto resolved = resolve_under_data_root(root, dataset, "dataset");
   if (!resolved) {
     refuse("dataset", "dataset " + quoted(dataset) + " lies outside the data root, expected a path under it");
   }

@@ -1,6 +1,7 @@
 #include "rest/bvh_translation.h"
 
 #include <cctype>
+#include <cstdio>
 
 #include "format/bvh_file.h"
 #include "format/skeleton_bvh.h"
@@ -15,9 +16,27 @@ bool names_bvh(const std::string& header_value) {
 }
 
 Motion motion_from_bvh_body(const std::string& body, const ModelShape& shape) {
+  // The body must make the model's clip at 25 Hz: a longer one is refused at
+  // its "Frame Time:" line, before its frames are read, and a shorter one
+  // before it is resampled.
+  char duration[32];
+  std::snprintf(duration, sizeof duration, "%.2f", (shape.frames - 1) / kBvhImportRate);
+  BvhFrameLimit clip;
+  clip.frames = shape.frames;
+  clip.name = "the model's clip (" + std::string(duration) + " s at 25 Hz)";
   MotionFrames frames;
   try {
-    frames = skeleton_motion_from_bvh(shape.skeleton, parse_bvh_text(body, "request body"), "request body");
+    const BvhFile file = parse_bvh_text(body, "request body", clip);
+    match_bvh_to_skeleton(shape.skeleton, file, "request body");  // another hierarchy says so first
+    const int64_t imported = bvh_imported_frame_count(file.frame_count(), file.frame_time_s);
+    if (imported < shape.frames) {
+      char frame_time[32];
+      std::snprintf(frame_time, sizeof frame_time, "%g", file.frame_time_s);
+      throw InputError("request body: " + std::to_string(file.frame_count()) + " frames of " + frame_time +
+                       " s make " + std::to_string(imported) +
+                       " frames at 25 Hz, expected the " + std::to_string(shape.frames) + " of " + clip.name);
+    }
+    frames = skeleton_motion_from_bvh(shape.skeleton, file, "request body", clip);
   } catch (const InputError& error) {
     throw ApiError(ErrorCode::kInvalidArgument, "", error.what());
   }

@@ -24,7 +24,9 @@ bool names_bvh(const std::string& header_value);
 
 // The motion in a BVH body, in the layout of the model of `shape` at 25 Hz.
 // Throws ApiError INVALID_ARGUMENT with field "" and the parser's message
-// ("request body:<line>: ...", or what differs from the model's skeleton).
+// ("request body:<line>: ...", or what differs from the model's skeleton),
+// and for a body that does not make the model's clip at 25 Hz: a longer one
+// at its "Frame Time:" line, before its frames are read.
 Motion motion_from_bvh_body(const std::string& body, const ModelShape& shape);
 
 // The single motion of `reply` as BVH text of the skeleton of `shape` (the

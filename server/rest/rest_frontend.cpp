@@ -9,11 +9,13 @@
 #include <chrono>
 #include <condition_variable>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <stdexcept>
 #include <thread>
 
 #include "core/caller_identity.h"
+#include "rest/body_limits.h"
 #include "rest/bvh_translation.h"
 #include "rest/http_errors.h"
 #include "rest/json_translation.h"
@@ -132,32 +134,83 @@ struct RestFrontend::State {
   State(ManifoldCore& c, ServiceMetrics& m, RestOptions o) : core(c), metrics(m), options(std::move(o)) {}
 
   void handle(RouteId route, const httplib::Request& request, const std::string& body, httplib::Response& response);
-  bool read_body(const httplib::Request& request, const httplib::ContentReader& reader, std::string& body,
-                 httplib::Response& response) const;
+  bool read_body(RouteId route, const httplib::Request& request, const httplib::ContentReader& reader,
+                 std::string& body, httplib::Response& response) const;
   void stream_job_events(const CallContext& context, const std::string& id, httplib::Response& response);
   bool write_job_events(const std::string& id, EventStream& stream, httplib::DataSink& sink);
   void install_error_handlers();
 };
 
+// The body length the Content-Length headers declare: one whole number of
+// bytes, the same in every such header; std::nullopt for anything else
+// (httplib would read "-1" as 2^64 - 1 and wait for that many bytes).
+std::optional<uint64_t> declared_length(const httplib::Request& request) {
+  const size_t count = request.get_header_value_count("Content-Length");
+  std::optional<uint64_t> length;
+  for (size_t i = 0; i < count; ++i) {
+    const std::string value = request.get_header_value("Content-Length", i);
+    if (value.empty() || value.size() > 18 ||
+        !std::all_of(value.begin(), value.end(), [](char c) { return c >= '0' && c <= '9'; })) {
+      return std::nullopt;
+    }
+    const uint64_t parsed = std::stoull(value);
+    if (length && *length != parsed) return std::nullopt;
+    length = parsed;
+  }
+  return length;
+}
+
 // Reads a POST body through httplib's content reader rather than letting
 // httplib fill request.body: cpp-httplib 0.11 checks its payload limit only
 // against Content-Length, so a chunked body would grow without bound, and it
 // reads a request without Content-Length until the connection closes, where
-// RFC 9112 (6.3) says such a request has no body. Answers the error and
-// returns false when the body is too large or unreadable.
-bool RestFrontend::State::read_body(const httplib::Request& request, const httplib::ContentReader& reader,
-                                    std::string& body, httplib::Response& response) const {
-  if (!request.has_header("Content-Length") && !request.has_header("Transfer-Encoding")) return true;
-  // Past the limit the rest is read and dropped rather than left unread: a
-  // client still sending would otherwise meet a reset connection, not the 413.
-  // Dropping is bounded so that an endless body still ends the connection.
-  const size_t drop_at_most = std::max<size_t>(options.max_body_bytes, kMaxBytesDroppedPastTheLimit);
+// RFC 9112 (6.3) says such a request has no body. The declared length is
+// checked against the route's limit (body_limits.h) before a byte of the
+// body is read: httplib itself would first read and drop all of it, or wait
+// for it until its read timeout (5 s). Answers the error and returns false
+// when the body is too large or unreadable.
+bool RestFrontend::State::read_body(RouteId route, const httplib::Request& request,
+                                    const httplib::ContentReader& reader, std::string& body,
+                                    httplib::Response& response) const {
+  const bool has_length = request.has_header("Content-Length");
+  if (!has_length && !request.has_header("Transfer-Encoding")) return true;
+  const rest::BodyLimit limit =
+      rest::body_limit(route, is_bvh_body(request), options.max_body_bytes, options.max_json_bytes);
+  const auto refuse = [&](const ApiError& error) {
+    send_error(response, error);
+    // What is left of the body must not be read as the next request.
+    response.set_header("Connection", "close");
+    return false;
+  };
+  const std::string limit_text =
+      "the limit of " + std::to_string(limit.bytes) + " bytes of " + request.method + " " + request.path + " (" +
+      limit.name + ")";
+  if (has_length) {
+    const std::optional<uint64_t> declared = declared_length(request);
+    if (!declared) {
+      return refuse(ApiError(ErrorCode::kInvalidArgument, "",
+                             "Content-Length \"" + request.get_header_value("Content-Length") +
+                                 "\" is not a length in bytes, expected one whole number of bytes"));
+    }
+    if (*declared > limit.bytes) {
+      return refuse(ApiError(ErrorCode::kResourceExhausted, "",
+                             "the request body of " + std::to_string(*declared) +
+                                 " bytes (Content-Length) exceeds " + limit_text,
+                             /*too_large=*/true));
+    }
+  }
+  // A chunked body declares no length: past the limit the rest is read and
+  // dropped rather than left unread, since a client still sending would
+  // otherwise meet a reset connection, not the 413. Dropping is bounded so
+  // that an endless body still ends the connection.
+  const size_t drop_at_most = std::max<size_t>(limit.bytes, kMaxBytesDroppedPastTheLimit);
   bool too_large = false;
   size_t dropped = 0;
   const bool ok = reader([&](const char* data, size_t length) {
-    if (!too_large && body.size() + length > options.max_body_bytes) {
+    if (!too_large && body.size() + length > limit.bytes) {
       too_large = true;
       body.clear();
+      body.shrink_to_fit();
     }
     if (too_large) {
       dropped += length;
@@ -167,18 +220,11 @@ bool RestFrontend::State::read_body(const httplib::Request& request, const httpl
     return true;
   });
   if (ok && !too_large) return true;
-  // httplib sets 413 itself when Content-Length is over the limit.
-  if (too_large || response.status == 413) {
-    send_error(response, ApiError(ErrorCode::kResourceExhausted, "",
-                                  "the request body exceeds the limit of " + std::to_string(options.max_body_bytes) +
-                                      " bytes (--max-message-bytes)",
-                                  /*too_large=*/true));
-  } else {
-    send_error(response, ApiError(ErrorCode::kInvalidArgument, "", "the request body could not be read"));
+  if (too_large) {
+    return refuse(ApiError(ErrorCode::kResourceExhausted, "", "the request body exceeds " + limit_text,
+                           /*too_large=*/true));
   }
-  // What is left of the body must not be read as the next request.
-  response.set_header("Connection", "close");
-  return false;
+  return refuse(ApiError(ErrorCode::kInvalidArgument, "", "the request body could not be read"));
 }
 
 void RestFrontend::State::handle(RouteId route, const httplib::Request& request, const std::string& body,
@@ -428,10 +474,29 @@ void RestFrontend::start() {
                                [&s, id](const httplib::Request& request, httplib::Response& response,
                                         const httplib::ContentReader& reader) {
                                  std::string body;
-                                 if (s.read_body(request, reader, body, response)) s.handle(id, request, body, response);
+                                 if (s.read_body(id, request, reader, body, response)) {
+                                   s.handle(id, request, body, response);
+                                 }
                                }));
     }
   }
+  // Any other request that may carry a body is answered 404 without reading
+  // it: httplib would first read it whole (up to --max-message-bytes), or
+  // wait for a declared one until its read timeout. Registered after the
+  // routes, so they match first.
+  const httplib::Server::HandlerWithContentReader no_route =
+      [](const httplib::Request& request, httplib::Response& response, const httplib::ContentReader&) {
+        send_error(response, ApiError(ErrorCode::kNotFound, "",
+                                      "no route " + request.method + " " + request.path +
+                                          " (the routes are listed at /v1/openapi.json)"));
+        if (request.has_header("Content-Length") || request.has_header("Transfer-Encoding")) {
+          response.set_header("Connection", "close");
+        }
+      };
+  server.Post(".*", no_route);
+  server.Put(".*", no_route);
+  server.Patch(".*", no_route);
+  server.Delete(".*", no_route);
 
   const std::string where = s.options.address + ":" + std::to_string(s.options.port);
   int port = s.options.port;

@@ -375,8 +375,11 @@ TEST(BvhFile, MalformedFilesAreRefusedWithFileAndLine) {
   EXPECT_THAT(error(replace_all(tiny, "10 20 30", "10 20 30 40")), HasSubstr("bad.bvh:19: more than 9 values"));
   EXPECT_THAT(error(replace_all(tiny, "CHANNELS 3", "CHANNELS 4")), HasSubstr("bad.bvh:10: channel \"End\" of joint Leg"));
   EXPECT_THAT(error(replace_all(tiny, "CHANNELS 3", "CHANNELS 7")), HasSubstr("bad.bvh:9: channel count 7"));
+  EXPECT_THAT(error(replace_all(tiny, "Frames: 2", "Frames: 2000")),
+              HasSubstr("bad.bvh: \"Frames:\" declares 2000 frames but the file holds 2"));
+  // A declared length past the longest take is refused before any frame is read.
   EXPECT_THAT(error(replace_all(tiny, "Frames: 2", "Frames: 2000000000000")),
-              HasSubstr("bad.bvh: \"Frames:\" declares 2000000000000 frames but the file holds 2"));
+              HasSubstr("bad.bvh:18: 2000000000000 frames of 0.04 s make 2000000000000 frames at 25 Hz, more than"));
   EXPECT_THAT(error(replace_all(tiny, "Frames: 2", "Frames: 1")), HasSubstr("bad.bvh:20: more frames than the 1"));
   EXPECT_THAT(error(replace_all(tiny, "0.04", "0")), HasSubstr("bad.bvh:18: frame time 0 s"));
   EXPECT_THAT(error(replace_all(tiny, "0.04", "inf")), HasSubstr("bad.bvh:18:"));
@@ -431,14 +434,60 @@ TEST(BvhFile, NoPrefixOrMutationOfAFileCrashes) {
   EXPECT_GT(accepted, 0);  // some edits (a digit) keep a valid file
 }
 
-TEST(H36mBvh, LongFrameTimesAreBoundedAtImport) {
-  std::string text = h36m_motion_to_bvh_text(random_motion(20, 1), 25.0);
-  text = replace_all(text, "Frame Time: 0.04", "Frame Time: 3600");
-  EXPECT_THAT(error_of([&] { h36m_motion_from_bvh_text(text, "slow.bvh"); }), HasSubstr("more than 1000000 frames at 25 Hz"));
+// What a file will cost to resample is checked at its "Frame Time:" line,
+// before any frame is read: a frame time outside 1 to 1000 frames a
+// second, and a declared length beyond the limit (the longest take by
+// default), each named with the line and the value.
+TEST(H36mBvh, LongFrameTimesAndTakesAreRefusedBeforeTheFramesAreRead) {
+  const std::string text = h36m_motion_to_bvh_text(random_motion(20, 1), 25.0);
+  const size_t time_line = static_cast<size_t>(std::count(text.begin(), text.begin() + text.find("Frame Time"), '\n')) + 1;
+  const std::string at = "slow.bvh:" + std::to_string(time_line) + ": ";
+  for (const std::string frame_time : {"3600", "1.5", "0.0005", "-0.04", "0"}) {
+    EXPECT_THAT(error_of([&] { parse_bvh_text(replace_all(text, "Frame Time: 0.04", "Frame Time: " + frame_time), "slow.bvh"); }),
+                HasSubstr(at + "frame time " + frame_time + " s, expected 0.001 to 1 s (1 to 1000 frames a second)"));
+  }
+  EXPECT_THAT(error_of([&] { parse_bvh_text(replace_all(text, "Frame Time: 0.04", "Frame Time: nan"), "slow.bvh"); }),
+              HasSubstr(at + "\"nan\" is out of range"));
+  for (const std::string frame_time : {"1", "0.001"}) {
+    EXPECT_NO_THROW(parse_bvh_text(replace_all(text, "Frame Time: 0.04", "Frame Time: " + frame_time), "ok.bvh"));
+  }
+  // 20 frames declared as 2,000,000 (22 h): refused at the frame time's line
+  // for its length, not at the end for the missing frames.
+  const std::string long_take = replace_all(text, "Frames: 20", "Frames: 2000000");
+  EXPECT_THAT(error_of([&] { parse_bvh_text(long_take, "slow.bvh"); }),
+              HasSubstr(at + "2000000 frames of 0.04 s make 2000000 frames at 25 Hz, more than the 1000000 of the "
+                             "longest take (11.1 h)"));
+  BvhFrameLimit clip;
+  clip.frames = 10;
+  clip.name = "a test's clip";
+  EXPECT_THAT(error_of([&] { parse_bvh_text(text, "slow.bvh", clip); }),
+              HasSubstr(at + "20 frames of 0.04 s make 20 frames at 25 Hz, more than the 10 of a test's clip"));
+  EXPECT_THAT(error_of([&] { skeleton_motion_from_bvh(Skeleton::h36m(), parse_bvh_text(text, "x.bvh"), "x.bvh", clip); }),
+              HasSubstr("x.bvh: 20 frames of 0.04 s make 20 frames at 25 Hz, more than the 10 of a test's clip"));
+  EXPECT_EQ(bvh_imported_frame_count(12, 3600), 990001);
+  EXPECT_EQ(bvh_imported_frame_count(12, 1), 276);
+  EXPECT_EQ(bvh_imported_frame_count(300, 0.02), 150);
+  EXPECT_EQ(bvh_imported_frame_count(0, 0.04), 0);
+  EXPECT_THAT(error_of([&] { h36m_motion_to_bvh(random_motion(2, 1), 2000.0); }), HasSubstr("expected 1 to 1000 Hz"));
   std::string far = h36m_motion_to_bvh_text(random_motion(2, 1), 25.0);
   BvhFile file = parse_bvh_text(far, "far.bvh");
   file.values[file.channel_count()] = 9e6;  // root x of frame 1
   EXPECT_THAT(error_of([&] { h36m_motion_from_bvh(file, "far.bvh"); }), HasSubstr("far.bvh: the root moves"));
+}
+
+// A window costs what the window does: frames computed from its first
+// file frame only, equal to the import of the file cut there.
+TEST(H36mBvh, AWindowIsTheImportOfTheFileCutAtItsFirstFrame) {
+  const BvhFile file = h36m_motion_to_bvh(random_motion(90, 3), 50.0);  // 89 frames of 0.02 s: 45 at 25 Hz
+  BvhFile cut = file;
+  const auto channels = static_cast<size_t>(file.channel_count());
+  cut.values.erase(cut.values.begin(), cut.values.begin() + static_cast<std::ptrdiff_t>(7 * channels));
+  const MotionFrames whole_cut = skeleton_motion_from_bvh(Skeleton::h36m(), cut, "cut.bvh");
+  const MotionFrames window = skeleton_motion_window_from_bvh(Skeleton::h36m(), file, "file.bvh", 7, 20);
+  ASSERT_EQ(window.frame_count(), 20);
+  EXPECT_EQ(window.values, std::vector<float>(whole_cut.values.begin(), whole_cut.values.begin() + 20 * 99));
+  EXPECT_THAT(error_of([&] { skeleton_motion_window_from_bvh(Skeleton::h36m(), file, "file.bvh", 7, 43); }),
+              HasSubstr("file.bvh: from frame 7 it makes 42 frames at 25 Hz, fewer than the 43"));
 }
 
 TEST(H36mBvh, ExportRefusesWhatIsNotAnH36mMotion) {

@@ -1,4 +1,5 @@
 #include "format/motion_text.h"
+#include "format/motion_text_rows.h"
 
 #include <chrono>
 #include <sstream>
@@ -133,6 +134,45 @@ TEST(MotionText, RejectsEmptyFile) {
 
 TEST(MotionText, RejectsBlankLineBetweenFrames) {
   EXPECT_THAT(read_error("hole.txt", line_of(99) + "\n" + line_of(99)), HasSubstr("hole.txt:2:"));
+}
+
+// Where only a window is needed, rows are counted before a value is parsed
+// and only the window's rows are parsed.
+TEST(MotionTextRows, AreCountedAgainstANamedLimitWithoutParsingAValue) {
+  const std::string text = line_of(99) + line_of(99, "not-a-number") + line_of(99) + "\n\n";
+  EXPECT_EQ(count_motion_text_rows(text.data(), text.size(), "three.txt"), 3);
+  const auto error = [](const std::string& text, int64_t max_rows) {
+    try {
+      count_motion_text_rows(text.data(), text.size(), "rows.txt", 99, max_rows);
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_THAT(error(text, 2), AllOf(HasSubstr("rows.txt:3: more than 2 rows"), HasSubstr("the most a motion text may hold")));
+  EXPECT_THAT(error(line_of(99) + line_of(98), 10), HasSubstr("rows.txt:2: expected 99 values, found 98"));
+  EXPECT_THAT(error(line_of(99) + "\n" + line_of(99), 10), HasSubstr("rows.txt:2: blank line"));
+  EXPECT_THAT(error("\n", 10), HasSubstr("no frames"));
+  EXPECT_EQ(kMaxMotionTextRows, 2000000);
+}
+
+TEST(MotionTextRows, OnlyTheWindowsRowsAreParsed) {
+  std::string text;
+  for (int row = 0; row < 6; ++row) text += line_of(3, std::to_string(row) + ".5");
+  text += line_of(3, "garbage");  // after the window: never read
+  const MotionFrames window = parse_motion_text_rows(text.data(), text.size(), "w.txt", 3, 2, 3);
+  ASSERT_EQ(window.frame_count(), 3);
+  EXPECT_EQ(window.values, (std::vector<float>{2.5f, 2.5f, 2.5f, 3.5f, 3.5f, 3.5f, 4.5f, 4.5f, 4.5f}));
+  const auto error = [&](int64_t first, int64_t count) {
+    try {
+      parse_motion_text_rows(text.data(), text.size(), "w.txt", 3, first, count);
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_THAT(error(5, 2), HasSubstr("w.txt:7: value 1 \"garbage\" is not a number"));
+  EXPECT_THAT(error(7, 3), HasSubstr("w.txt: 7 rows, fewer than the 10 that rows 7 to 9 need"));
 }
 
 TEST(MotionText, RejectsMissingFileNamingIt) {

@@ -247,6 +247,37 @@ TEST_F(ClipsService, RefusalsNameTheFieldOverBothProtocols) {
   }
 }
 
+// A NUL ends a name where the C library reads it: ReadClip of
+// "walking_1.txt\0.bvh" once answered the text file's window. Refused over
+// both protocols, naming the field and the byte, as every control character.
+TEST_F(ClipsService, AControlCharacterInAPathIsRefusedNamingItsByteOverBothProtocols) {
+  for (const std::string path : {std::string(kText) + std::string(1, '\0') + ".bvh", std::string(kText) + "\n",
+                                 std::string("h36m/S5/\x7Fwalking_1.txt")}) {
+    const size_t byte = path.find_first_of(std::string("\0\n\x7F", 3));
+    const std::string message = "path holds the control character";
+    const std::string at = "at byte " + std::to_string(byte);
+    grpc::ClientContext context;
+    v1::ReadClipReply reply;
+    const auto status = read_clip(path, 0, &reply, &context);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
+    EXPECT_EQ(error_field(context), "path");
+    EXPECT_NE(status.error_message().find(message), std::string::npos) << status.error_message();
+    EXPECT_NE(status.error_message().find(at), std::string::npos) << status.error_message();
+
+    const test::Reply rest =
+        test::get(port(), "/v1/clips/window?path=" + httplib::detail::encode_query_param(path) + "&start=0");
+    EXPECT_EQ(rest.status, 400) << rest.body;
+    ASSERT_TRUE(rest.document.is_object()) << rest.body;
+    EXPECT_EQ(rest.error()["field"], "path") << rest.body;
+    EXPECT_NE(rest.body.find(message), std::string::npos) << rest.body;
+    EXPECT_NE(rest.body.find(at), std::string::npos) << rest.body;
+  }
+  // The same query written by hand, as a browser or curl sends it.
+  const test::Reply rest = test::get(port(), "/v1/clips/window?path=h36m%2FS5%2Fwalking_1.txt%00.bvh");
+  EXPECT_EQ(rest.status, 400) << rest.body;
+  EXPECT_NE(rest.body.find("control character 0x00 at byte 21"), std::string::npos) << rest.body;
+}
+
 TEST(ClipsUpload, BothProtocolsWriteNewFilesThatAreListedAndReadAndNeedTheToken) {
   MM_REQUIRE_H36M();
   test::ScratchDir scratch;
@@ -320,6 +351,17 @@ TEST(ClipsUpload, BothProtocolsWriteNewFilesThatAreListedAndReadAndNeedTheToken)
     const test::Reply bad = upload_rest(path, content, "upload-token");
     EXPECT_EQ(bad.status, 400) << path << ": " << bad.body;
     EXPECT_EQ(bad.error()["field"], field) << bad.body;
+  }
+  {
+    // A NUL refused by the same check as ReadClip's, naming its byte.
+    grpc::ClientContext refused;
+    const auto nul = upload_grpc(std::string("mine/nul.txt\0.bvh", 17), text, "upload-token", &clip, &refused);
+    EXPECT_EQ(nul.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << nul.error_message();
+    EXPECT_EQ(error_field(refused), "path");
+    EXPECT_NE(nul.error_message().find("control character 0x00 at byte 12"), std::string::npos) << nul.error_message();
+    const test::Reply bad = upload_rest("mine/nul.txt%00.bvh", text, "upload-token");
+    EXPECT_EQ(bad.status, 400) << bad.body;
+    EXPECT_NE(bad.body.find("control character 0x00 at byte 12"), std::string::npos) << bad.body;
   }
   const test::Reply unknown = upload_rest("mine/y.txt&start=3", text, "upload-token");
   EXPECT_EQ(unknown.status, 400) << unknown.body;

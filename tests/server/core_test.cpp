@@ -17,10 +17,12 @@
 
 #include "cmu_dance.h"
 #include "command_run.h"
+#include "core/data_root_path.h"
 #include "core/manifold_core.h"
 #include "core/service_metrics.h"
 #include "format/bvh_file.h"
 #include "format/h36m_bvh.h"
+#include "jobs/job_spec_check.h"
 #include "latent_operations.h"
 #include "test_environment.h"
 
@@ -522,6 +524,52 @@ TEST_F(CoreClipsTest, PathsOutsideTheRootMissingOrNotClipsAreRefusedNamingPath) 
   const auto malformed = error_of([&] { read("bad.txt", 0); });
   EXPECT_EQ(malformed.field(), "path");
   EXPECT_NE(std::string(malformed.what()).find("bad.txt:1: expected 99 values"), std::string::npos) << malformed.what();
+}
+
+// A NUL would cut the name where the C library reads it: "walking_1.txt\0.bvh"
+// was checked as a .bvh and opened as the text file. Every path a client
+// names (ReadClip, UploadClip, a job's dataset) goes through the one check.
+TEST_F(CoreClipsTest, ControlCharactersInAnyPathAreRefusedNamingTheFieldAndTheByte) {
+  start_with_data_root();
+  const std::string nul_path("h36m/S1/walking_1.txt\0.bvh", 25);
+  const auto read_error = error_of([&] { read(nul_path, 0); });
+  EXPECT_EQ(read_error.code(), ErrorCode::kInvalidArgument);
+  EXPECT_EQ(read_error.field(), "path");
+  EXPECT_NE(std::string(read_error.what()).find("path holds the control character 0x00 at byte 21"), std::string::npos)
+      << read_error.what();
+  const auto upload_error = error_of([&] { core_->upload_clip(kCall, {"mine/a\nb.txt", "0"}); });
+  EXPECT_EQ(upload_error.field(), "path");
+  EXPECT_NE(std::string(upload_error.what()).find("control character 0x0A at byte 6"), std::string::npos)
+      << upload_error.what();
+  EXPECT_FALSE(fs::exists(data_->root() / "mine"));
+  const auto dataset_error = error_of([&] { resolve_job_dataset(data_->root().string(), std::string("h36m\0", 5)); });
+  EXPECT_EQ(dataset_error.field(), "dataset");
+  EXPECT_NE(std::string(dataset_error.what()).find("control character 0x00 at byte 4"), std::string::npos)
+      << dataset_error.what();
+  // A file on disk whose name holds one is not listed: no client could read it.
+  std::ofstream(data_->root() / "tab\tname.txt") << "0\n";
+  for (const auto& clip : core_->list_clips(kCall).clips) EXPECT_FALSE(first_control_character(clip.path)) << clip.path;
+}
+
+TEST(DataRootPath, EveryControlCharacterIsFoundAndNothingElse) {
+  EXPECT_EQ(first_control_character("h36m/S5/walking_1.txt"), std::nullopt);
+  EXPECT_EQ(first_control_character("caf\xC3\xA9 walk.bvh"), std::nullopt);  // UTF-8 and spaces are names
+  for (int c = 0; c < 0x20; ++c) {
+    EXPECT_EQ(first_control_character("ab" + std::string(1, static_cast<char>(c)) + "\x01"), 2u) << c;
+  }
+  EXPECT_EQ(first_control_character("a\x7F"), 1u);
+  test::ScratchDir dir;
+  const fs::path root = canonical_data_root(dir.path().string());
+  EXPECT_TRUE(resolve_under_data_root(root, "a/b.txt", "path").has_value());
+  EXPECT_FALSE(resolve_under_data_root(root, "../b.txt", "path").has_value());
+  try {
+    resolve_under_data_root(root, "a/\x1B[2Jb.txt", "clip");
+    ADD_FAILURE() << "no ApiError";
+  } catch (const ApiError& e) {
+    EXPECT_EQ(e.code(), ErrorCode::kInvalidArgument);
+    EXPECT_EQ(e.field(), "clip");
+    EXPECT_EQ(std::string(e.what()), "clip holds the control character 0x1B at byte 2, expected a path of printable characters");
+  }
 }
 
 TEST_F(CoreClipsTest, AStartPastTheLastFullWindowIsRefusedNamingTheLargestValidStart) {

@@ -1,0 +1,30 @@
+#include "rest/body_limits.h"
+
+namespace mm::service::rest {
+
+BodyLimit body_limit(RouteId route, bool bvh_body, size_t max_message_bytes, size_t max_json_bytes) {
+  const BodyLimit outer{max_message_bytes, "--max-message-bytes"};
+  // The smaller of a route's own limit and the outer one, named as the one that binds.
+  const auto within_outer = [&](BodyLimit own) { return own.bytes < outer.bytes ? own : outer; };
+  switch (route) {
+    case RouteId::kUploadClip:
+      return outer;
+    case RouteId::kEncode:
+    case RouteId::kDenoise:
+      if (bvh_body) return outer;
+      return within_outer({max_json_bytes, "--max-json-bytes"});
+    case RouteId::kDecode:
+    case RouteId::kInterpolate:
+    case RouteId::kAnalogy:
+      return within_outer({max_json_bytes, "--max-json-bytes"});
+    case RouteId::kSample:
+    case RouteId::kSubmitJob:
+    case RouteId::kActivateModel:
+    case RouteId::kCancelJob:
+      return within_outer({kMaxParametersBodyBytes, "a body of parameters only"});
+    default:
+      return outer;
+  }
+}
+
+}  // namespace mm::service::rest
