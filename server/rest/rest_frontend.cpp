@@ -177,9 +177,8 @@ bool RestFrontend::State::read_body(RouteId route, const httplib::Request& reque
   const rest::BodyLimit limit =
       rest::body_limit(route, is_bvh_body(request), options.max_body_bytes, options.max_json_bytes);
   const auto refuse = [&](const ApiError& error) {
-    send_error(response, error);
     // What is left of the body must not be read as the next request.
-    response.set_header("Connection", "close");
+    send_error_and_close(response, error);
     return false;
   };
   const std::string limit_text =
@@ -486,11 +485,14 @@ void RestFrontend::start() {
   // routes, so they match first.
   const httplib::Server::HandlerWithContentReader no_route =
       [](const httplib::Request& request, httplib::Response& response, const httplib::ContentReader&) {
-        send_error(response, ApiError(ErrorCode::kNotFound, "",
-                                      "no route " + request.method + " " + request.path +
-                                          " (the routes are listed at /v1/openapi.json)"));
+        const ApiError error(ErrorCode::kNotFound, "",
+                             "no route " + request.method + " " + request.path +
+                                 " (the routes are listed at /v1/openapi.json)");
+        // An unread body must not be read as the next request.
         if (request.has_header("Content-Length") || request.has_header("Transfer-Encoding")) {
-          response.set_header("Connection", "close");
+          send_error_and_close(response, error);
+        } else {
+          send_error(response, error);
         }
       };
   server.Post(".*", no_route);
