@@ -1,8 +1,10 @@
 // The motion files of the server's data root (GET v1/clips) in a menu, and
 // the window start bounded by the chosen file's length: a window read
 // (GET v1/clips/window) answers the file's frame count, rate and the last
-// start that still gives a full window.
-import { callApi } from './api_client.js';
+// start that still gives a full window. The files that were uploaded are
+// listed apart, each with a delete button (DELETE v1/clips?path=; the rest of
+// the data root is the operator's and cannot be deleted).
+import { callApi, callWithToken } from './api_client.js';
 import { runAction } from './call_log.js';
 
 const $ = (id) => document.getElementById(id);
@@ -29,9 +31,28 @@ export async function listClips() {
   menu.replaceChildren(...clips.map((clip) =>
     new Option(`${clip.path} (${clip.format}, ${Math.ceil(clip.size_bytes / 1024)} KiB)`, clip.path)));
   if (clips.some((clip) => clip.path === chosen)) menu.value = chosen;
+  showUploads(clips.filter((clip) => clip.uploaded));
   $('clip-info').textContent = clips.length
     ? `${clips.length} files${truncated ? ', the first the server lists' : ''}: choose one for its length`
     : "no .txt or .bvh file under the server's data root";
+}
+
+function showUploads(uploads) {
+  const table = $('uploads');
+  table.replaceChildren();
+  for (const clip of uploads) {
+    const row = table.insertRow();
+    row.dataset.path = clip.path;
+    row.insertCell().textContent = `uploaded: ${clip.path} (${Math.ceil(clip.size_bytes / 1024)} KiB)`;
+    const remove = document.createElement('button');
+    remove.className = 'delete';
+    remove.textContent = 'Delete';
+    remove.addEventListener('click', () => runAction(async () => {
+      await callWithToken('DELETE', `v1/clips?path=${encodeURIComponent(clip.path)}`, { summary: clip.path });
+      await listClips();
+    }));
+    row.insertCell().append(remove);
+  }
 }
 
 // The chosen file's length, read as its first window.
