@@ -144,6 +144,12 @@ void ModelStore::remember(std::shared_ptr<const LoadedModel> model) {
   }
 }
 
+void ModelStore::forget(const std::string& name) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  loaded_.erase(std::remove_if(loaded_.begin(), loaded_.end(), [&](const auto& m) { return m->name == name; }),
+                loaded_.end());
+}
+
 void ModelStore::touch(const std::shared_ptr<const LoadedModel>& model) {
   std::lock_guard<std::mutex> lock(mutex_);
   const auto found = std::find(loaded_.begin(), loaded_.end(), model);
@@ -197,9 +203,15 @@ std::shared_ptr<const LoadedModel> ModelStore::get(const std::string& name) {
   }
   // A named model that is loaded answers as loaded; a change of its files is
   // taken up by activation, not by every request (hashing costs a file read).
+  // Its folder is still looked for (two stats): another replica sharing the
+  // store may have deleted it.
   if (auto model = cached(name, "")) {
-    touch(model);
-    return model;
+    std::error_code error;
+    if (fs::is_regular_file(fs::path(model->dir) / kManifest, error)) {
+      touch(model);
+      return model;
+    }
+    forget(name);
   }
   return load(name, false);
 }
@@ -228,11 +240,7 @@ ModelInfo ModelStore::remove(const std::string& name) {
       throw ApiError(ErrorCode::kInternal, "model",
                      "model \"" + name + "\" cannot be taken out of the store: " + error.message());
     }
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      loaded_.erase(std::remove_if(loaded_.begin(), loaded_.end(), [&](const auto& m) { return m->name == name; }),
-                    loaded_.end());
-    }
+    forget(name);
     std::lock_guard<std::mutex> lock(versions_mutex_);
     versions_.erase(dir.string());
   }

@@ -47,7 +47,9 @@ class ModelStore {
   // The active model; ApiError UNAVAILABLE when none is loaded yet.
   std::shared_ptr<const LoadedModel> active() const;
   // The model a request names: the active one for "", else `name`, loaded
-  // if needed (FAILED_PRECONDITION with the loader's reason when it cannot).
+  // if needed (FAILED_PRECONDITION with the loader's reason when it cannot);
+  // NOT_FOUND once its folder is gone, even while it is loaded (another
+  // replica sharing the store deleted it).
   std::shared_ptr<const LoadedModel> get(const std::string& name);
   // Loads `name` if needed (or if its files changed) and makes it active;
   // on failure the active model stays.
@@ -78,6 +80,7 @@ class ModelStore {
   std::shared_ptr<const LoadedModel> cached(const std::string& name, const std::string& version) const;
   void remember(std::shared_ptr<const LoadedModel> model);
   void touch(const std::shared_ptr<const LoadedModel>& model);  // most recently used, if still remembered
+  void forget(const std::string& name);  // no longer remembered (calls holding it keep it)
   ModelInfo info(const std::string& name, bool details) const;
   // content_version of `dir`, hashed again only when a file's size or
   // modification time changed: a listing must not read every model's weights.

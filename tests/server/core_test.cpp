@@ -337,6 +337,16 @@ TEST(ModelStoreDeletion, ACallHoldingADeletedModelFinishesOnItAndNoLaterCallFind
     }
   }
   EXPECT_EQ(models.list().size(), 2u);
+  // Deleted by another replica sharing the store: no longer answered by name.
+  const fs::path elsewhere = store.copy("h36m-dkgm-cpu", "elsewhere");
+  models.get("elsewhere");
+  fs::remove_all(elsewhere);
+  try {
+    models.get("elsewhere");
+    ADD_FAILURE() << "a model deleted from the store was answered from memory";
+  } catch (const ApiError& e) {
+    EXPECT_EQ(e.code(), ErrorCode::kNotFound) << e.what();
+  }
   try {
     models.remove("h36m-dkgm-h100");
     ADD_FAILURE() << "the active model was deleted";
