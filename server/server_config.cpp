@@ -6,6 +6,8 @@
 #include <iostream>
 #include <thread>
 
+#include "jobs/job_spec_check.h"
+
 namespace mm::service {
 namespace {
 
@@ -125,6 +127,26 @@ int parse_server_config(int argc, char** argv, ServerConfig& config) {
       ->envname("MM_CHECKPOINT_EVERY")->capture_default_str()->check(CLI::Range(1, 1000000));
   app.add_option("--max-queued-jobs", config.jobs.max_queued, "queued jobs beyond which submissions are refused")
       ->envname("MM_MAX_QUEUED_JOBS")->capture_default_str()->check(CLI::Range(1, 100000));
+  app.add_option("--max-queued-jobs-per-caller", config.jobs.max_queued_per_submitter,
+                 "queued jobs of one caller beyond which its submissions are refused: per token with --auth-token "
+                 "(every holder of the one token together), else per IP address")
+      ->envname("MM_MAX_QUEUED_JOBS_PER_CALLER")->capture_default_str()->check(CLI::Range(1, 100000));
+  app.add_option("--max-job-iterations", config.jobs.max_iterations,
+                 "most iterations a job may train (its own, its configuration's or its variant's)")
+      ->envname("MM_MAX_JOB_ITERATIONS")->capture_default_str()->check(CLI::Range(int64_t{1}, kMaxJobIterations));
+  app.add_option("--max-job-seconds", config.jobs.max_seconds,
+                 "a job's most wall time on the server running it, in seconds; past it the job is stopped (its "
+                 "checkpoint kept) and fails (0: no limit)")
+      ->envname("MM_MAX_JOB_SECONDS")->capture_default_str()->check(CLI::Range(0.0, 1e9));
+  app.add_option("--max-upload-bytes", config.core.data_root_quota.max_upload_bytes,
+                 "largest file UploadClip writes, in bytes (a REST body is also bounded by --max-message-bytes)")
+      ->envname("MM_MAX_UPLOAD_BYTES")->capture_default_str()->check(CLI::Range(int64_t{1}, int64_t{1} << 40));
+  app.add_option("--max-data-root-bytes", config.core.data_root_quota.max_root_bytes,
+                 "bytes the data root may hold, its files together, beyond which uploads are refused")
+      ->envname("MM_MAX_DATA_ROOT_BYTES")->capture_default_str()->check(CLI::Range(int64_t{0}, int64_t{1} << 50));
+  app.add_option("--max-data-root-files", config.core.data_root_quota.max_root_files,
+                 "files the data root may hold beyond which uploads are refused")
+      ->envname("MM_MAX_DATA_ROOT_FILES")->capture_default_str()->check(CLI::Range(int64_t{0}, int64_t{1} << 40));
   app.add_option("--job-store", config.jobs.job_store,
                  "where job records live: empty for SQLite in --state-dir, or a postgresql:// URI shared by "
                  "several replicas (which must then share --state-dir and --model-store)")

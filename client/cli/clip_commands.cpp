@@ -96,10 +96,35 @@ void add_upload(CLI::App* clips, const ClientSettings& settings, Action& action)
   });
 }
 
+void add_delete(CLI::App* clips, const ClientSettings& settings, Action& action) {
+  auto paths = std::make_shared<std::vector<std::string>>();
+  auto* remove = clips->add_subcommand(
+      "delete", "Remove files you uploaded from the data root (only uploads: the rest is the operator's). Files "
+                "removed before a refusal stay removed. Needs the token.");
+  remove->add_option("paths", *paths, "the files, relative to the data root as `clips list` names them")->required();
+  remove->callback([paths, &settings, &action] {
+    action = [paths, &settings] {
+      const auto server = connect(settings.connection);
+      nlohmann::json removed = nlohmann::json::array();
+      for (const auto& path : *paths) {
+        const v1::ClipFile clip = server->delete_clip(path);
+        if (settings.json) {
+          removed.push_back(to_json(clip));
+        } else {
+          std::printf("deleted %-9s %10" PRId64 "  %s\n", clip.format().c_str(),
+                      static_cast<int64_t>(clip.size_bytes()), clip.path().c_str());
+        }
+      }
+      if (settings.json) print_json({{"clips", removed}});
+      return kExitSuccess;
+    };
+  });
+}
+
 }  // namespace
 
 void add_clip_commands(CLI::App& app, const ClientSettings& settings, Action& action) {
-  auto* clips = app.add_subcommand("clips", "The motion files of the server's --data-root: list, read, upload");
+  auto* clips = app.add_subcommand("clips", "The motion files of the server's --data-root: list, read, upload, delete");
   clips->require_subcommand(1);
 
   clips->add_subcommand("list", "Every H3.6M text (.txt) and BVH file under the data root: format, bytes, path")
@@ -156,6 +181,7 @@ void add_clip_commands(CLI::App& app, const ClientSettings& settings, Action& ac
     };
   });
   add_upload(clips, settings, action);
+  add_delete(clips, settings, action);
 }
 
 }  // namespace mm::client

@@ -83,6 +83,11 @@ class GrpcConnection : public ServerConnection {
     request.set_model(name);
     return unary(&Stub::ActivateModel, request, v1::ModelInfo{});
   }
+  v1::ModelInfo delete_model(const std::string& name) override {
+    v1::DeleteModelRequest request;
+    request.set_model(name);
+    return unary(&Stub::DeleteModel, request, v1::ModelInfo{});
+  }
 
   v1::ListClipsReply list_clips() override {
     return unary(&Stub::ListClips, v1::ListClipsRequest{}, v1::ListClipsReply{});
@@ -92,6 +97,11 @@ class GrpcConnection : public ServerConnection {
   }
   v1::ClipFile upload_clip(const v1::UploadClipRequest& request) override {
     return unary(&Stub::UploadClip, request, v1::ClipFile{});
+  }
+  v1::ClipFile delete_clip(const std::string& path) override {
+    v1::DeleteClipRequest request;
+    request.set_path(path);
+    return unary(&Stub::DeleteClip, request, v1::ClipFile{});
   }
 
   v1::Job submit_job(const v1::JobSpec& spec) override {
@@ -109,6 +119,11 @@ class GrpcConnection : public ServerConnection {
     v1::CancelJobRequest request;
     request.set_id(id);
     return unary(&Stub::CancelJob, request, v1::Job{});
+  }
+  v1::Job delete_job(const std::string& id) override {
+    v1::DeleteJobRequest request;
+    request.set_id(id);
+    return unary(&Stub::DeleteJob, request, v1::Job{});
   }
 
   void watch_job(const std::string& id, const std::function<void(const v1::Job&)>& on_record) override {

@@ -1,4 +1,4 @@
-// jobs submit | watch | list | get | cancel: training runs on the server.
+// jobs submit | watch | list | get | cancel | delete: training runs on the server.
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
@@ -66,7 +66,7 @@ std::string read_config(const std::string& path) {
 }  // namespace
 
 void add_job_commands(CLI::App& app, const ClientSettings& settings, Action& action) {
-  auto* jobs = app.add_subcommand("jobs", "Training jobs: submit, watch, list, get, cancel");
+  auto* jobs = app.add_subcommand("jobs", "Training jobs: submit, watch, list, get, cancel, delete");
   jobs->require_subcommand(1);
 
   struct SubmitOptions {
@@ -165,6 +165,24 @@ void add_job_commands(CLI::App& app, const ClientSettings& settings, Action& act
       if (settings.json) {
         print_json(to_json(job));
       } else {
+        print_job_line(job);
+      }
+      return kExitSuccess;
+    };
+  });
+
+  auto delete_id = std::make_shared<std::string>();
+  auto* remove = jobs->add_subcommand(
+      "delete", "Remove a finished job's record and its folder on the server (log, checkpoint, run); the model it "
+                "published stays (needs the token)");
+  remove->add_option("id", *delete_id, "job id")->required();
+  remove->callback([delete_id, &settings, &action] {
+    action = [delete_id, &settings] {
+      const auto job = connect(settings.connection)->delete_job(*delete_id);
+      if (settings.json) {
+        print_json(to_json(job));
+      } else {
+        std::printf("deleted job: ");
         print_job_line(job);
       }
       return kExitSuccess;

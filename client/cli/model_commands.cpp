@@ -1,4 +1,4 @@
-// models list | describe | activate: the server's model store.
+// models list | describe | activate | delete: the server's model store.
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <memory>
@@ -19,7 +19,7 @@ void print_model_line(const v1::ModelInfo& m) {
 }  // namespace
 
 void add_model_commands(CLI::App& app, const ClientSettings& settings, Action& action) {
-  auto* models = app.add_subcommand("models", "The server's model store: list, describe, activate");
+  auto* models = app.add_subcommand("models", "The server's model store: list, describe, activate, delete");
   models->require_subcommand(1);
 
   models->add_subcommand("list", "Every model of the store (* marks the active one)")->callback([&settings, &action] {
@@ -67,6 +67,23 @@ void add_model_commands(CLI::App& app, const ClientSettings& settings, Action& a
         print_json(to_json(model));
       } else {
         std::printf("active model: %s (version %s)\n", model.name().c_str(), model.version().c_str());
+      }
+      return kExitSuccess;
+    };
+  });
+
+  auto doomed = std::make_shared<std::string>();
+  auto* remove = models->add_subcommand(
+      "delete", "Take a model out of the store, its folder removed (not the active model nor the server's default; "
+                "needs the token)");
+  remove->add_option("name", *doomed, "model name")->required();
+  remove->callback([doomed, &settings, &action] {
+    action = [doomed, &settings] {
+      const auto model = connect(settings.connection)->delete_model(*doomed);
+      if (settings.json) {
+        print_json(to_json(model));
+      } else {
+        std::printf("deleted model: %s (version %s)\n", model.name().c_str(), model.version().c_str());
       }
       return kExitSuccess;
     };

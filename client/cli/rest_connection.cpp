@@ -105,6 +105,9 @@ class RestConnection : public ServerConnection {
   v1::ModelInfo activate_model(const std::string& name) override {
     return model_from_json(post("/v1/models/" + segment(name) + ":activate", json::object()));
   }
+  v1::ModelInfo delete_model(const std::string& name) override {
+    return model_from_json(del("/v1/models/" + segment(name)));
+  }
 
   v1::ListClipsReply list_clips() override { return clips_from_json(get("/v1/clips")); }
   v1::ReadClipReply read_clip(const v1::ReadClipRequest& request) override {
@@ -116,6 +119,9 @@ class RestConnection : public ServerConnection {
     return clip_file_from_json(reply_of(client_.Post(("/v1/clips:upload?path=" + segment(request.path())).c_str(),
                                                      request.content(), "application/octet-stream")));
   }
+  v1::ClipFile delete_clip(const std::string& path) override {
+    return clip_file_from_json(del("/v1/clips?path=" + segment(path)));
+  }
 
   v1::Job submit_job(const v1::JobSpec& spec) override { return job_from_json(post("/v1/jobs", to_json(spec))); }
   v1::Job get_job(const std::string& id) override { return job_from_json(get("/v1/jobs/" + segment(id))); }
@@ -123,6 +129,7 @@ class RestConnection : public ServerConnection {
   v1::Job cancel_job(const std::string& id) override {
     return job_from_json(post("/v1/jobs/" + segment(id) + ":cancel", json::object()));
   }
+  v1::Job delete_job(const std::string& id) override { return job_from_json(del("/v1/jobs/" + segment(id))); }
 
   void watch_job(const std::string& id, const std::function<void(const v1::Job&)>& on_record) override {
     int status = 0;
@@ -197,6 +204,7 @@ class RestConnection : public ServerConnection {
   }
 
   json get(const std::string& path) { return reply_of(client_.Get(path.c_str())); }
+  json del(const std::string& path) { return reply_of(client_.Delete(path.c_str())); }
   json post(const std::string& path, const json& body) {
     return reply_of(client_.Post(path.c_str(), body.dump(), "application/json"));
   }

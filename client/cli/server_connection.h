@@ -32,15 +32,18 @@ class ServerConnection {
   // Empty name: the active model.
   virtual v1::ModelInfo describe_model(const std::string& name) = 0;
   virtual v1::ModelInfo activate_model(const std::string& name) = 0;
+  virtual v1::ModelInfo delete_model(const std::string& name) = 0;  // the model as it was
 
   virtual v1::ListClipsReply list_clips() = 0;
   virtual v1::ReadClipReply read_clip(const v1::ReadClipRequest& request) = 0;
   virtual v1::ClipFile upload_clip(const v1::UploadClipRequest& request) = 0;
+  virtual v1::ClipFile delete_clip(const std::string& path) = 0;  // the file as it was listed
 
   virtual v1::Job submit_job(const v1::JobSpec& spec) = 0;
   virtual v1::Job get_job(const std::string& id) = 0;
   virtual v1::ListJobsReply list_jobs() = 0;
   virtual v1::Job cancel_job(const std::string& id) = 0;
+  virtual v1::Job delete_job(const std::string& id) = 0;  // the record as it was
   // Calls `on_record` with the job's record now and after every change, and
   // returns when a record in a final state has been passed on. Throws
   // ServerError when refused, and with code UNAVAILABLE when the stream ends

@@ -165,7 +165,7 @@ json to_json(const v1::ListModelsReply& reply) {
 }
 
 json to_json(const v1::ClipFile& clip) {
-  return {{"path", clip.path()}, {"format", clip.format()}, {"size_bytes", clip.size_bytes()}};
+  return {{"path", clip.path()}, {"format", clip.format()}, {"size_bytes", clip.size_bytes()}, {"uploaded", clip.uploaded()}};
 }
 
 json to_json(const v1::ListClipsReply& reply) {
@@ -259,6 +259,7 @@ v1::ClipFile clip_file_from_json(const json& body) {
   clip.set_path(body.value("path", ""));
   clip.set_format(body.value("format", ""));
   clip.set_size_bytes(integer<int64_t>(body, "size_bytes"));
+  clip.set_uploaded(body.value("uploaded", false));
   return clip;
 }
 

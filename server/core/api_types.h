@@ -166,6 +166,7 @@ struct ClipFile {
   std::string path;    // relative to the data root, '/' separators
   std::string format;  // "h36m-text" (*.txt, 99 values a line at 50 Hz) or "bvh" (*.bvh)
   int64_t size_bytes = 0;
+  bool uploaded = false;  // written by UploadClip, so DeleteClip may remove it
 };
 struct ListClipsReply {
   std::vector<ClipFile> clips;  // sorted by path

@@ -9,7 +9,9 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <mutex>
 #include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
 
 #include "core/data_root_path.h"
 #include "format/bvh_dataset.h"
@@ -28,6 +30,14 @@ namespace fs = std::filesystem;
 // Larger files are refused before they are read: a window needs a few MB of
 // any real motion file, and a request must not make the server read gigabytes.
 constexpr uintmax_t kMaxClipFileBytes = uintmax_t{256} << 20;
+
+// The hidden folder that marks which files of the root were uploaded: an
+// empty file at the same relative path for each.
+constexpr const char* kUploadMarks = ".uploads";
+
+fs::path upload_mark(const fs::path& root, const fs::path& file) {
+  return root / kUploadMarks / file.lexically_relative(root);
+}
 
 // 50 Hz text rows per frame at the model's 25 Hz.
 constexpr int64_t kTextRowsPerModelFrame = 2;
@@ -205,6 +215,7 @@ ListClipsReply list_data_root_clips(const std::string& data_root, int max_clips)
     clip.path = relative;
     clip.format = format;
     clip.size_bytes = static_cast<int64_t>(fs::file_size(target, ignored));
+    clip.uploaded = fs::exists(upload_mark(root, target), ignored);
     reply.clips.push_back(std::move(clip));
   }
   if (error) {
@@ -296,12 +307,6 @@ void check_upload_path(const std::string& path) {
 // the file and the parser's message otherwise.
 void check_upload_content(const std::string& content, const std::string& format, const std::string& path) {
   if (content.empty()) throw invalid("content", path + ": the content is empty, expected a motion file");
-  if (content.size() > kMaxUploadedClipBytes) {
-    throw ApiError(ErrorCode::kResourceExhausted, "content",
-                   path + ": " + std::to_string(content.size()) + " bytes, expected at most " +
-                       std::to_string(kMaxUploadedClipBytes),
-                   /*too_large=*/true);
-  }
   try {
     if (format == kBvhFormat) {
       parse_bvh_text(content, path);  // its length bounded before its frames are read
@@ -314,15 +319,62 @@ void check_upload_content(const std::string& content, const std::string& format,
   }
 }
 
+ApiError over_quota(const std::string& message) {
+  return ApiError(ErrorCode::kResourceExhausted, "content", message, /*too_large=*/true);
+}
+
+void check_upload_size(const std::string& path, int64_t size, const DataRootQuota& quota) {
+  if (size > quota.max_upload_bytes) {
+    throw over_quota(path + ": " + std::to_string(size) + " bytes, more than the " +
+                     std::to_string(quota.max_upload_bytes) + " an uploaded file may have (--max-upload-bytes)");
+  }
+}
+
+// What the root would hold with the upload, against the quota; each refusal
+// names the quota, the use and the option.
+void check_root_quota(const fs::path& root, const std::string& path, int64_t size, const DataRootQuota& quota) {
+  const DataRootUse use = data_root_use(root.string());
+  if (use.bytes + size > quota.max_root_bytes) {
+    throw over_quota(path + ": the data root holds " + std::to_string(use.bytes) + " bytes, and " +
+                     std::to_string(size) + " more would pass its quota of " + std::to_string(quota.max_root_bytes) +
+                     " bytes (--max-data-root-bytes); delete uploads (DeleteClip) to make room");
+  }
+  if (use.files + 1 > quota.max_root_files) {
+    throw over_quota(path + ": the data root holds " + std::to_string(use.files) +
+                     " files, its quota (--max-data-root-files " + std::to_string(quota.max_root_files) +
+                     "); delete uploads (DeleteClip) to make room");
+  }
+}
+
 }  // namespace
 
-ClipFile write_data_root_clip(const std::string& data_root, const UploadClipRequest& request) {
+DataRootUse data_root_use(const std::string& data_root) {
+  DataRootUse use;
+  std::error_code error, ignored;
+  fs::recursive_directory_iterator it(data_root, fs::directory_options::skip_permission_denied, error), end;
+  for (; !error && it != end; it.increment(error)) {
+    if (it.depth() == 0 && it->path().filename() == kUploadMarks) {
+      it.disable_recursion_pending();  // empty bookkeeping, not the root's content
+      continue;
+    }
+    if (!it->is_regular_file(ignored) || it->is_symlink(ignored)) continue;
+    ++use.files;
+    use.bytes += static_cast<int64_t>(it->file_size(ignored));
+  }
+  if (error) throw ApiError(ErrorCode::kInternal, "", "the data root cannot be read: " + error.message());
+  return use;
+}
+
+ClipFile write_data_root_clip(const std::string& data_root, const UploadClipRequest& request,
+                              const DataRootQuota& quota) {
   const fs::path root = data_root_folder(data_root);
   check_upload_path(request.path);
   const std::string format = clip_format(fs::path(request.path));
   // A folder of the path may be a link out of the root.
   const auto target = resolve_under_data_root(root, request.path, "path");
   if (!target) throw invalid("path", "path " + quoted(request.path) + " leads out of the data root");
+  // Before the content is parsed: the size is the cheap check.
+  check_upload_size(request.path, static_cast<int64_t>(request.content.size()), quota);
   std::error_code error;
   if (fs::exists(fs::symlink_status(*target, error))) {
     throw ApiError(ErrorCode::kFailedPrecondition, "path",
@@ -333,6 +385,11 @@ ClipFile write_data_root_clip(const std::string& data_root, const UploadClipRequ
   const auto fail = [&](const std::string& what, const std::error_code& cause) {
     throw ApiError(ErrorCode::kInternal, "path", request.path + ": " + what + ": " + cause.message());
   };
+  // One upload at a time: the quota is checked against what the root holds,
+  // which another upload must not change between the check and the write.
+  static std::mutex one_upload;
+  std::lock_guard<std::mutex> lock(one_upload);
+  check_root_quota(root, request.path, static_cast<int64_t>(request.content.size()), quota);
   fs::create_directories(target->parent_path(), error);
   if (error) fail("cannot create its folder", error);
   // Written whole under a hidden name (ListClips skips it), then linked to
@@ -354,11 +411,62 @@ ClipFile write_data_root_clip(const std::string& data_root, const UploadClipRequ
                    "path " + quoted(request.path) + " was written by another upload meanwhile; expected a new path");
   }
   if (error) fail("cannot link the written file into place", error);
+  // Marked after the file is in place: a crash between the two leaves a file
+  // that cannot be deleted over the wire, never a mark that lets another
+  // file at that path be.
+  const fs::path mark = upload_mark(root, *target);
+  fs::create_directories(mark.parent_path(), error);
+  if (!error) std::ofstream(mark, std::ios::binary);
+  if (error || !fs::exists(mark, ignored)) {
+    spdlog::warn("upload {}: written, but its mark {} could not be: DeleteClip will refuse it", request.path,
+                 mark.string());
+  }
 
   ClipFile clip;
   clip.path = target->lexically_relative(root).generic_string();
   clip.format = format;
   clip.size_bytes = static_cast<int64_t>(request.content.size());
+  clip.uploaded = true;
+  return clip;
+}
+
+ClipFile delete_data_root_clip(const std::string& data_root, const std::string& path) {
+  const fs::path root = data_root_folder(data_root);
+  if (path.empty()) {
+    throw invalid("path", "path is empty, expected an uploaded .txt or .bvh file under the data root");
+  }
+  const auto resolved = resolve_under_data_root(root, path);
+  if (!resolved || *resolved == root) {
+    throw invalid("path", "path " + quoted(path) + " lies outside the data root, expected an uploaded file under it");
+  }
+  std::error_code error;
+  if (!fs::exists(fs::symlink_status(*resolved, error))) {
+    throw ApiError(ErrorCode::kNotFound, "path", "path " + quoted(path) + " names no file under the data root");
+  }
+  if (!fs::is_regular_file(fs::symlink_status(*resolved, error))) {
+    throw invalid("path", "path " + quoted(path) + " is not a file, expected an uploaded .txt or .bvh file");
+  }
+  const std::string format = clip_format(*resolved);
+  if (format.empty()) {
+    throw invalid("path", "path " + quoted(path) + " is neither H3.6M text (.txt) nor BVH (.bvh), expected an "
+                                                    "uploaded clip");
+  }
+  const fs::path mark = upload_mark(root, *resolved);
+  if (!fs::exists(mark, error)) {
+    throw ApiError(ErrorCode::kFailedPrecondition, "path",
+                   "path " + quoted(path) + " was not uploaded (UploadClip): only uploads may be deleted, the rest "
+                                            "of the data root is the operator's");
+  }
+  ClipFile clip;
+  clip.path = resolved->lexically_relative(root).generic_string();
+  clip.format = format;
+  clip.size_bytes = static_cast<int64_t>(fs::file_size(*resolved, error));
+  clip.uploaded = true;
+  // One unlink: a reader has the whole file open or finds none.
+  if (!fs::remove(*resolved, error) || error) {
+    throw ApiError(ErrorCode::kInternal, "path", clip.path + ": cannot remove the file: " + error.message());
+  }
+  fs::remove(mark, error);
   return clip;
 }
 

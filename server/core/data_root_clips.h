@@ -1,8 +1,8 @@
 // The motion files of the data root (--data-root) as clips a client can
 // pick on the server instead of uploading one: the list of them, one window
 // of one as a wire motion at the model's 25 Hz, and a new file written there
-// (a user's own mocap, to train on). ManifoldCore's ListClips, ReadClip and
-// UploadClip are these.
+// (a user's own mocap, to train on) or removed again. ManifoldCore's
+// ListClips, ReadClip, UploadClip and DeleteClip are these.
 //
 // The window is taken as the server takes an uploaded motion, so that
 // encoding it gives the code of the upload: an H3.6M text file (50 Hz) keeps
@@ -52,21 +52,52 @@ ListClipsReply list_data_root_clips(const std::string& data_root, int max_clips)
 ReadClipReply read_data_root_clip(const std::string& data_root, const ReadClipRequest& request,
                                   const ModelShape& shape);
 
-// Largest file UploadClip takes (the frontends' message limits may be lower).
-constexpr size_t kMaxUploadedClipBytes = size_t{256} << 20;
+// What the data root may hold, checked before an upload writes anything
+// (--max-upload-bytes, --max-data-root-bytes, --max-data-root-files).
+struct DataRootQuota {
+  int64_t max_upload_bytes = int64_t{64} << 20;       // one uploaded file
+  int64_t max_root_bytes = int64_t{16} << 30;         // every file under the root together
+  int64_t max_root_files = 100000;                    // files under the root, hidden ones included
+};
+
+// What the data root holds: its regular files (links not followed, hidden
+// files included, the upload marks of write_data_root_clip left out),
+// counted on every upload (one stat a file under the root).
+struct DataRootUse {
+  int64_t bytes = 0;
+  int64_t files = 0;
+};
+DataRootUse data_root_use(const std::string& data_root);
 
 // Writes `request.content` as the new file `request.path` under the data
 // root, creating its folders, and returns it as ListClips lists it. The
 // content is checked first as its extension says (H3.6M text of 99 values a
-// line; BVH of any hierarchy) and written whole under a hidden name, then
-// linked into place, so a reader or a crash never sees part of it and an
-// existing file is never replaced. FAILED_PRECONDITION without a data root;
+// line; BVH of any hierarchy) and against the quota, and written whole under
+// a hidden name, then linked into place, so a reader or a crash never sees
+// part of it and an existing file is never replaced. The file is then
+// marked as uploaded (an empty file of the same relative path under the
+// root's hidden folder ".uploads"), which is what lets DeleteClip remove it.
+// Uploads of one server are written one at a time, so that two cannot both
+// pass the quota. FAILED_PRECONDITION without a data root;
 // INVALID_ARGUMENT "path" for a path that is empty, absolute, has an empty
 // component or one starting with '.', holds a control character, has
 // another extension, or leads out of the root; FAILED_PRECONDITION "path" when a file is already there;
 // INVALID_ARGUMENT "content" for empty or malformed content (the parser's
-// message); RESOURCE_EXHAUSTED "content" over kMaxUploadedClipBytes;
+// message); RESOURCE_EXHAUSTED "content" (413) over quota.max_upload_bytes,
+// or when the root would then hold more than quota.max_root_bytes or
+// quota.max_root_files (naming the quota, the current use and the option);
 // INTERNAL when the file system refuses the write.
-ClipFile write_data_root_clip(const std::string& data_root, const UploadClipRequest& request);
+ClipFile write_data_root_clip(const std::string& data_root, const UploadClipRequest& request,
+                              const DataRootQuota& quota);
+
+// Removes a file that UploadClip wrote under the data root (found by the
+// one containment check, data_root_path.h) and returns it as it was listed.
+// Only uploaded files may be removed: the rest of the root is the operator's
+// (a dataset such as H3.6M, put there by hand), which a caller holding the
+// token may read and train on but not destroy. FAILED_PRECONDITION without
+// a data root; INVALID_ARGUMENT "path" for an empty path, one outside the
+// root, a folder or another extension; NOT_FOUND "path" when nothing is
+// there; FAILED_PRECONDITION "path" for a file that was not uploaded.
+ClipFile delete_data_root_clip(const std::string& data_root, const std::string& path);
 
 }  // namespace mm::service

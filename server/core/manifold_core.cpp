@@ -69,6 +69,7 @@ struct ManifoldCore::State {
         watch_streams(config.watch_streams) {}
 
   CoreConfig config;
+  std::string default_model;  // activated at start(): the next start needs it
   ServiceMetrics& metrics;
   TrainingJobs* jobs;
   ModelStore store;
@@ -247,7 +248,9 @@ void ManifoldCore::start() {
                          " models and none is named " + kShippedDefault + ": name the default with --default-model");
     }
   }
+  state_->store.remove_deleted_leftovers();
   const auto model = state_->store.activate(name);
+  state_->default_model = name;
   spdlog::info("model {} (version {}) active, loaded in {:.2f} s", model->name, model->version, model->load_seconds);
   state_->accepting = true;
   if (state_->jobs) {
@@ -393,6 +396,20 @@ ModelInfo ManifoldCore::activate_model(const CallContext& ctx, const std::string
   });
 }
 
+ModelInfo ManifoldCore::delete_model(const CallContext& ctx, const std::string& name) {
+  return state_->call("delete_model", ctx, [&] {
+    state_->require_token(ctx);
+    if (name == state_->default_model) {
+      throw ApiError(ErrorCode::kFailedPrecondition, "model",
+                     "model \"" + name + "\" is the one this server activates at start (--default-model), which it "
+                     "could not start without; expected another model");
+    }
+    auto model = state_->store.remove(name);
+    spdlog::info("model {} (version {}) deleted", model.name, model.version);
+    return model;
+  });
+}
+
 ListClipsReply ManifoldCore::list_clips(const CallContext& ctx) {
   return state_->call("list_clips", ctx, [&] {
     state_->require_clip_reader(ctx);
@@ -411,14 +428,26 @@ ReadClipReply ManifoldCore::read_clip(const CallContext& ctx, const ReadClipRequ
 ClipFile ManifoldCore::upload_clip(const CallContext& ctx, const UploadClipRequest& request) {
   return state_->call("upload_clip", ctx, [&] {
     state_->require_token(ctx);
-    return write_data_root_clip(state_->config.data_root, request);
+    return write_data_root_clip(state_->config.data_root, request, state_->config.data_root_quota);
+  });
+}
+
+ClipFile ManifoldCore::delete_clip(const CallContext& ctx, const std::string& path) {
+  return state_->call("delete_clip", ctx, [&] {
+    state_->require_token(ctx);
+    auto clip = delete_data_root_clip(state_->config.data_root, path);
+    spdlog::info("uploaded clip {} deleted", clip.path);
+    return clip;
   });
 }
 
 JobInfo ManifoldCore::submit_job(const CallContext& ctx, const JobSpec& spec) {
   return state_->call("submit_job", ctx, [&] {
     state_->require_token(ctx);
-    auto job = state_->training().submit(spec);
+    // Whose queue it joins: the token's when there is one (one token: every
+    // caller holding it), else the address's (loopback only, then).
+    const std::string submitter = state_->config.auth_token.empty() ? "ip:" + ctx.peer_ip : "token";
+    auto job = state_->training().submit(spec, submitter);
     spdlog::info("job {} queued: {} on {}", job.id, spec.variant, spec.dataset);
     return job;
   });
@@ -436,6 +465,13 @@ JobInfo ManifoldCore::cancel_job(const CallContext& ctx, const std::string& id) 
   return state_->call("cancel_job", ctx, [&] {
     state_->require_token(ctx);
     return state_->training().cancel(id);
+  });
+}
+
+JobInfo ManifoldCore::delete_job(const CallContext& ctx, const std::string& id) {
+  return state_->call("delete_job", ctx, [&] {
+    state_->require_token(ctx);
+    return state_->training().remove(id);
   });
 }
 

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "core/api_types.h"
+#include "core/data_root_clips.h"
 #include "core/motion_conversion.h"
 #include "core/watch_streams.h"
 
@@ -59,6 +60,7 @@ struct CoreConfig {
   // folder training datasets lie under); empty: none.
   std::string data_root;
   int max_listed_clips = 10000;  // ListClips lists the first ones by path and says it truncated
+  DataRootQuota data_root_quota;  // what uploads may add to the data root
   int max_loaded_models = 4;  // models kept in memory, the active one included
   Limits limits;
   BatchingConfig batching;
@@ -95,6 +97,12 @@ class ManifoldCore {
   // Loads `name` if needed and makes it the active model; requests in flight
   // finish on the model they started with. Needs the token.
   ModelInfo activate_model(const CallContext& ctx, const std::string& name);
+  // Takes model `name` out of the store (core/model_store.h: its folder is
+  // removed, calls in flight finish on it) and returns it as it was.
+  // FAILED_PRECONDITION "model" for the active model and for the one the
+  // server activates at start (--default-model), which it could not start
+  // without. Needs the token.
+  ModelInfo delete_model(const CallContext& ctx, const std::string& name);
 
   // The motion files of the data root (core/data_root_clips.h), and one
   // window of one in the shape of model request.model ("" for the active
@@ -105,11 +113,20 @@ class ManifoldCore {
   // Writes a new motion file under the data root (a user's own mocap, to
   // train on; core/data_root_clips.h). Needs the token.
   ClipFile upload_clip(const CallContext& ctx, const UploadClipRequest& request);
+  // Removes a file UploadClip wrote (core/data_root_clips.h: only uploads
+  // may be deleted) and returns it as it was listed. Needs the token.
+  ClipFile delete_clip(const CallContext& ctx, const std::string& path);
 
-  JobInfo submit_job(const CallContext& ctx, const JobSpec& spec);  // needs the token
+  // Needs the token. The queue is bounded per caller too
+  // (--max-queued-jobs-per-caller): per token when the server has one (with
+  // its one token, every caller holding it together), per IP address without.
+  JobInfo submit_job(const CallContext& ctx, const JobSpec& spec);
   JobInfo get_job(const CallContext& ctx, const std::string& id);
   std::vector<JobInfo> list_jobs(const CallContext& ctx);
   JobInfo cancel_job(const CallContext& ctx, const std::string& id);  // needs the token
+  // Removes a finished job's record and its folder (TrainingJobs::remove);
+  // returns the record as it was. Needs the token.
+  JobInfo delete_job(const CallContext& ctx, const std::string& id);
   // A watch of job `id`, admitted before its stream begins (so that REST
   // answers a refusal instead of its 200): ApiError as get_job gives, or
   // RESOURCE_EXHAUSTED (429) naming --max-watch-streams or

@@ -1,12 +1,17 @@
 #include "core/model_store.h"
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
+
+#include <spdlog/spdlog.h>
 
 #include "core/service_metrics.h"
 
@@ -15,6 +20,8 @@ namespace fs = std::filesystem;
 namespace {
 
 const char* const kManifest = "manifest.json";
+// A deleted model's folder between its rename and its removal.
+const char* const kDeletedPrefix = ".deleted-";
 
 bool is_plain_name(const std::string& name) {
   // A leading dot marks a folder being copied in (a job publishing its model).
@@ -137,33 +144,55 @@ void ModelStore::remember(std::shared_ptr<const LoadedModel> model) {
   }
 }
 
-std::shared_ptr<const LoadedModel> ModelStore::load(const std::string& name) {
-  const std::string dir = folder(name);
+void ModelStore::forget(const std::string& name) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  loaded_.erase(std::remove_if(loaded_.begin(), loaded_.end(), [&](const auto& m) { return m->name == name; }),
+                loaded_.end());
+}
+
+void ModelStore::touch(const std::shared_ptr<const LoadedModel>& model) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto found = std::find(loaded_.begin(), loaded_.end(), model);
+  // Not remembered any more (forgotten, or deleted meanwhile): it is not
+  // brought back, or a deleted model would answer by name again.
+  if (found == loaded_.end()) return;
+  loaded_.erase(found);
+  loaded_.push_back(model);
+}
+
+std::shared_ptr<const LoadedModel> ModelStore::load(const std::string& name, bool make_active) {
   std::lock_guard<std::mutex> one_load(load_mutex_);
+  const std::string dir = folder(name);
   const std::string version = version_of(dir);
-  if (auto model = cached(name, version)) return model;
-  const auto started = std::chrono::steady_clock::now();
-  try {
-    auto manifold = MotionManifold::load(dir);
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-    ModelShape shape;
-    shape.frames = manifold.config().frames;
-    shape.columns = manifold.normalization().input_columns();
-    shape.latent = manifold.config().latent;
-    shape.layout = layout_name(shape.columns);
-    shape.skeleton = manifold.skeleton();
-    auto model = std::shared_ptr<const LoadedModel>(
-        new LoadedModel{name, version, dir, std::move(manifold), shape, seconds});
-    metrics_.observe_model_load(name, seconds, true);
-    return model;
-  } catch (const std::exception& e) {
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-    metrics_.observe_model_load(name, seconds, false);
-    // LibTorch's messages carry a C++ backtrace after the first line.
-    std::string reason = e.what();
-    reason = reason.substr(0, reason.find('\n'));
-    throw not_loadable(name, reason);
+  std::shared_ptr<const LoadedModel> model = cached(name, version);
+  if (!model) {
+    const auto started = std::chrono::steady_clock::now();
+    try {
+      auto manifold = MotionManifold::load(dir);
+      const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+      ModelShape shape;
+      shape.frames = manifold.config().frames;
+      shape.columns = manifold.normalization().input_columns();
+      shape.latent = manifold.config().latent;
+      shape.layout = layout_name(shape.columns);
+      shape.skeleton = manifold.skeleton();
+      model = std::shared_ptr<const LoadedModel>(new LoadedModel{name, version, dir, std::move(manifold), shape, seconds});
+      metrics_.observe_model_load(name, seconds, true);
+    } catch (const std::exception& e) {
+      const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+      metrics_.observe_model_load(name, seconds, false);
+      // LibTorch's messages carry a C++ backtrace after the first line.
+      std::string reason = e.what();
+      reason = reason.substr(0, reason.find('\n'));
+      throw not_loadable(name, reason);
+    }
   }
+  if (make_active) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    active_ = model;
+  }
+  remember(model);
+  return model;
 }
 
 std::shared_ptr<const LoadedModel> ModelStore::get(const std::string& name) {
@@ -174,23 +203,63 @@ std::shared_ptr<const LoadedModel> ModelStore::get(const std::string& name) {
   }
   // A named model that is loaded answers as loaded; a change of its files is
   // taken up by activation, not by every request (hashing costs a file read).
+  // Its folder is still looked for (two stats): another replica sharing the
+  // store may have deleted it.
   if (auto model = cached(name, "")) {
-    remember(model);
-    return model;
+    std::error_code error;
+    if (fs::is_regular_file(fs::path(model->dir) / kManifest, error)) {
+      touch(model);
+      return model;
+    }
+    forget(name);
   }
-  auto model = load(name);
-  remember(model);
-  return model;
+  return load(name, false);
 }
 
-std::shared_ptr<const LoadedModel> ModelStore::activate(const std::string& name) {
-  auto model = load(name);
+std::shared_ptr<const LoadedModel> ModelStore::activate(const std::string& name) { return load(name, true); }
+
+ModelInfo ModelStore::remove(const std::string& name) {
+  static std::atomic<uint64_t> deletions{0};
+  const fs::path dir = fs::path(root_) / name;
+  const fs::path hidden = fs::path(root_) / (std::string(kDeletedPrefix) + name + "-" + std::to_string(::getpid()) + "-" +
+                                             std::to_string(deletions++));
+  ModelInfo before;
   {
-    std::lock_guard<std::mutex> lock(mutex_);
-    active_ = model;
+    std::lock_guard<std::mutex> one_change(load_mutex_);
+    before = info(name, false);
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (active_ && active_->name == name) {
+        throw ApiError(ErrorCode::kFailedPrecondition, "model",
+                       "model \"" + name + "\" is the active model; activate another one before deleting it");
+      }
+    }
+    std::error_code error;
+    fs::rename(dir, hidden, error);
+    if (error) {
+      throw ApiError(ErrorCode::kInternal, "model",
+                     "model \"" + name + "\" cannot be taken out of the store: " + error.message());
+    }
+    forget(name);
+    std::lock_guard<std::mutex> lock(versions_mutex_);
+    versions_.erase(dir.string());
   }
-  remember(model);
-  return model;
+  // Out of the lock: loads need not wait for a large folder's removal.
+  // remove_all does not follow links: a model linked into the store loses
+  // its link, not the folder it points to.
+  std::error_code error;
+  fs::remove_all(hidden, error);
+  if (error) spdlog::warn("model {} deleted, but {} could not be removed: {}", name, hidden.string(), error.message());
+  return before;
+}
+
+void ModelStore::remove_deleted_leftovers() {
+  std::error_code error;
+  for (const auto& entry : fs::directory_iterator(root_, error)) {
+    if (entry.path().filename().string().rfind(kDeletedPrefix, 0) != 0) continue;
+    std::error_code ignored;
+    fs::remove_all(entry.path(), ignored);
+  }
 }
 
 ModelInfo ModelStore::info(const std::string& name, bool details) const {

@@ -47,11 +47,26 @@ class ModelStore {
   // The active model; ApiError UNAVAILABLE when none is loaded yet.
   std::shared_ptr<const LoadedModel> active() const;
   // The model a request names: the active one for "", else `name`, loaded
-  // if needed (FAILED_PRECONDITION with the loader's reason when it cannot).
+  // if needed (FAILED_PRECONDITION with the loader's reason when it cannot);
+  // NOT_FOUND once its folder is gone, even while it is loaded (another
+  // replica sharing the store deleted it).
   std::shared_ptr<const LoadedModel> get(const std::string& name);
   // Loads `name` if needed (or if its files changed) and makes it active;
   // on failure the active model stays.
   std::shared_ptr<const LoadedModel> activate(const std::string& name);
+
+  // Takes model `name` out of the store and returns its description as it
+  // was. Its folder is renamed to a hidden name first (".deleted-<name>-..."),
+  // so that a listing or a load sees the whole model or none, then removed
+  // (a link in the store is removed, never what it points to); the model is
+  // forgotten in memory, and calls that hold it finish on it. Activations,
+  // loads and deletions are serialised, so a model being deleted is never
+  // made active. ApiError as folder() gives for the name;
+  // FAILED_PRECONDITION "model" for the active model.
+  ModelInfo remove(const std::string& name);
+  // Removes what remove() left behind when the server died between the
+  // rename and the removal.
+  void remove_deleted_leftovers();
 
   // Every model folder of the store, sorted by name; describe adds the
   // provenance, evaluation and model card.
@@ -59,9 +74,13 @@ class ModelStore {
   ModelInfo describe(const std::string& name) const;
 
  private:
-  std::shared_ptr<const LoadedModel> load(const std::string& name);
+  // Loads `name` if it is not loaded in its current version, remembers it
+  // and, with `make_active`, makes it active; under load_mutex_.
+  std::shared_ptr<const LoadedModel> load(const std::string& name, bool make_active);
   std::shared_ptr<const LoadedModel> cached(const std::string& name, const std::string& version) const;
   void remember(std::shared_ptr<const LoadedModel> model);
+  void touch(const std::shared_ptr<const LoadedModel>& model);  // most recently used, if still remembered
+  void forget(const std::string& name);  // no longer remembered (calls holding it keep it)
   ModelInfo info(const std::string& name, bool details) const;
   // content_version of `dir`, hashed again only when a file's size or
   // modification time changed: a listing must not read every model's weights.
@@ -73,7 +92,7 @@ class ModelStore {
   mutable std::mutex mutex_;
   std::shared_ptr<const LoadedModel> active_;
   std::vector<std::shared_ptr<const LoadedModel>> loaded_;  // most recently used last
-  std::mutex load_mutex_;  // one load at a time: loads are large
+  std::mutex load_mutex_;  // one load, activation or deletion at a time: loads are large
   mutable std::mutex versions_mutex_;
   mutable std::map<std::string, std::pair<std::string, std::string>> versions_;  // dir -> (file stamp, version)
 };

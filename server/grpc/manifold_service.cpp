@@ -93,6 +93,11 @@ grpc::Status ManifoldService::ActivateModel(grpc::ServerContext* context, const 
                 [&](const CallContext& ctx) { to_wire(core_.activate_model(ctx, request->model()), reply); });
 }
 
+grpc::Status ManifoldService::DeleteModel(grpc::ServerContext* context, const v1::DeleteModelRequest* request,
+                                          v1::ModelInfo* reply) {
+  return answer(context, [&](const CallContext& ctx) { to_wire(core_.delete_model(ctx, request->model()), reply); });
+}
+
 grpc::Status ManifoldService::ListClips(grpc::ServerContext* context, const v1::ListClipsRequest*,
                                         v1::ListClipsReply* reply) {
   return answer(context, [&](const CallContext& ctx) { to_wire(core_.list_clips(ctx), reply); });
@@ -106,6 +111,11 @@ grpc::Status ManifoldService::ReadClip(grpc::ServerContext* context, const v1::R
 grpc::Status ManifoldService::UploadClip(grpc::ServerContext* context, const v1::UploadClipRequest* request,
                                          v1::ClipFile* reply) {
   return answer(context, [&](const CallContext& ctx) { to_wire(core_.upload_clip(ctx, to_api(*request)), reply); });
+}
+
+grpc::Status ManifoldService::DeleteClip(grpc::ServerContext* context, const v1::DeleteClipRequest* request,
+                                         v1::ClipFile* reply) {
+  return answer(context, [&](const CallContext& ctx) { to_wire(core_.delete_clip(ctx, request->path()), reply); });
 }
 
 grpc::Status ManifoldService::SubmitJob(grpc::ServerContext* context, const v1::SubmitJobRequest* request,
@@ -129,6 +139,11 @@ grpc::Status ManifoldService::ListJobs(grpc::ServerContext* context, const v1::L
 grpc::Status ManifoldService::CancelJob(grpc::ServerContext* context, const v1::CancelJobRequest* request,
                                         v1::Job* reply) {
   return answer(context, [&](const CallContext& ctx) { to_wire(core_.cancel_job(ctx, request->id()), reply); });
+}
+
+grpc::Status ManifoldService::DeleteJob(grpc::ServerContext* context, const v1::DeleteJobRequest* request,
+                                        v1::Job* reply) {
+  return answer(context, [&](const CallContext& ctx) { to_wire(core_.delete_job(ctx, request->id()), reply); });
 }
 
 grpc::Status ManifoldService::WatchJob(grpc::ServerContext* context, const v1::WatchJobRequest* request,

@@ -48,6 +48,8 @@ class ManifoldService final : public v1::MotionManifold::Service {
                              v1::ModelInfo* reply) override;
   grpc::Status ActivateModel(grpc::ServerContext* context, const v1::ActivateModelRequest* request,
                              v1::ModelInfo* reply) override;
+  grpc::Status DeleteModel(grpc::ServerContext* context, const v1::DeleteModelRequest* request,
+                           v1::ModelInfo* reply) override;
 
   grpc::Status ListClips(grpc::ServerContext* context, const v1::ListClipsRequest* request,
                          v1::ListClipsReply* reply) override;
@@ -55,12 +57,15 @@ class ManifoldService final : public v1::MotionManifold::Service {
                         v1::ReadClipReply* reply) override;
   grpc::Status UploadClip(grpc::ServerContext* context, const v1::UploadClipRequest* request,
                           v1::ClipFile* reply) override;
+  grpc::Status DeleteClip(grpc::ServerContext* context, const v1::DeleteClipRequest* request,
+                          v1::ClipFile* reply) override;
 
   grpc::Status SubmitJob(grpc::ServerContext* context, const v1::SubmitJobRequest* request, v1::Job* reply) override;
   grpc::Status GetJob(grpc::ServerContext* context, const v1::GetJobRequest* request, v1::Job* reply) override;
   grpc::Status ListJobs(grpc::ServerContext* context, const v1::ListJobsRequest* request,
                         v1::ListJobsReply* reply) override;
   grpc::Status CancelJob(grpc::ServerContext* context, const v1::CancelJobRequest* request, v1::Job* reply) override;
+  grpc::Status DeleteJob(grpc::ServerContext* context, const v1::DeleteJobRequest* request, v1::Job* reply) override;
   grpc::Status WatchJob(grpc::ServerContext* context, const v1::WatchJobRequest* request,
                         grpc::ServerWriter<v1::Job>* writer) override;
 

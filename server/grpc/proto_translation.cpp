@@ -186,6 +186,7 @@ void to_wire(const ClipFile& clip, v1::ClipFile* out) {
   out->set_path(clip.path);
   out->set_format(clip.format);
   out->set_size_bytes(clip.size_bytes);
+  out->set_uploaded(clip.uploaded);
 }
 
 void to_wire(const ListClipsReply& reply, v1::ListClipsReply* out) {

@@ -131,6 +131,12 @@ JobDataset resolve_job_dataset(const std::string& data_root, const std::string& 
                         "one skeleton");
 }
 
+int64_t job_iterations(const JobSpec& spec) {
+  if (spec.iterations > 0) return spec.iterations;
+  if (!spec.config_json.empty()) return train_config_from_json_text(spec.config_json, "config").iterations;
+  return variant_config(spec.variant).iterations;
+}
+
 void check_job_spec(const JobSpec& spec) {
   const auto& variants = job_variants();
   // A configuration replaces the variant, which may then be left empty.

@@ -52,6 +52,10 @@ constexpr int kMaxJobBatch = 1024;
 // otherwise.
 void check_job_spec(const JobSpec& spec);
 
+// The iterations a checked spec trains: its own, else its configuration's,
+// else its variant's default.
+int64_t job_iterations(const JobSpec& spec);
+
 // The Table 1 variants the tool trains.
 const std::vector<std::string>& job_variants();
 

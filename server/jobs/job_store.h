@@ -29,13 +29,25 @@
 
 namespace mm::service {
 
+// Whether a submission found room in the queue.
+enum class QueueRoom { kInserted, kQueueFull, kSubmitterFull };
+
 class JobStore {
  public:
   virtual ~JobStore() = default;
 
-  // Adds a new record when fewer than `max_queued` jobs are queued; returns
-  // false (nothing written) otherwise. Check and insert are one transaction.
-  virtual bool insert_if_room(const JobInfo& job, int max_queued) = 0;
+  // Adds a new record of `submitter` (who sent it) when fewer than
+  // `max_queued` jobs are queued and fewer than `max_queued_per_submitter`
+  // of them are the submitter's; says which limit refused it otherwise
+  // (nothing written). Check and insert are one transaction.
+  virtual QueueRoom insert_within_limits(const JobInfo& job, const std::string& submitter, int max_queued,
+                                         int max_queued_per_submitter) = 0;
+  bool insert_if_room(const JobInfo& job, int max_queued) {
+    return insert_within_limits(job, "", max_queued, max_queued) == QueueRoom::kInserted;
+  }
+  // Deletes the record of job `id` when it is finished (succeeded, failed or
+  // cancelled); returns whether it did.
+  virtual bool remove_if_finished(const std::string& id) = 0;
   virtual std::optional<JobInfo> find(const std::string& id) const = 0;
   virtual std::vector<JobInfo> all() const = 0;  // newest first
   virtual std::map<JobState, int> counts() const = 0;  // every state, zeros included

@@ -66,6 +66,9 @@ PostgresJobStore::PostgresJobStore(const std::string& uri, double lease_seconds)
       " owner TEXT NOT NULL DEFAULT '',"
       " lease_until TIMESTAMPTZ)");
   work.exec("CREATE INDEX IF NOT EXISTS training_jobs_state ON training_jobs (state, seq)");
+  // Who submitted a job (owner is the replica that runs it); a table made
+  // before submitters were recorded gains the column, its jobs nobody's.
+  work.exec("ALTER TABLE training_jobs ADD COLUMN IF NOT EXISTS submitter TEXT NOT NULL DEFAULT ''");
   work.commit();
 }
 
@@ -76,20 +79,32 @@ pqxx::connection_base& PostgresJobStore::connection() const {
   return connection_->connection;
 }
 
-bool PostgresJobStore::insert_if_room(const JobInfo& job, int max_queued) {
+QueueRoom PostgresJobStore::insert_within_limits(const JobInfo& job, const std::string& submitter, int max_queued,
+                                                 int max_queued_per_submitter) {
   pqxx::work work(connection());
   // Without the lock two replicas could both see room for one more.
   work.exec_params("SELECT pg_advisory_xact_lock($1)", kQueueLockKey);
-  const auto queued = work.exec("SELECT COUNT(*) FROM training_jobs WHERE state = 'queued'")[0][0].as<long long>();
-  if (queued >= max_queued) return false;
+  const auto counts = work.exec_params(
+      "SELECT COUNT(*), COUNT(*) FILTER (WHERE submitter = $1) FROM training_jobs WHERE state = 'queued'",
+      submitter)[0];
+  if (counts[0].as<long long>() >= max_queued) return QueueRoom::kQueueFull;
+  if (counts[1].as<long long>() >= max_queued_per_submitter) return QueueRoom::kSubmitterFull;
   work.exec_params(
       "INSERT INTO training_jobs (id, spec, state, progress, error, published_model, created_at, started_at,"
-      " finished_at, resumes) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10)",
+      " finished_at, resumes, submitter) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11)",
       job.id, spec_to_json_text(job.spec), std::string(job_state_name(job.state)),
       progress_to_json_text(job.progress), job.error, job.published_model, job.created_at, job.started_at,
-      job.finished_at, job.resumes);
+      job.finished_at, job.resumes, submitter);
   work.commit();
-  return true;
+  return QueueRoom::kInserted;
+}
+
+bool PostgresJobStore::remove_if_finished(const std::string& id) {
+  pqxx::work work(connection());
+  const auto result = work.exec_params(
+      "DELETE FROM training_jobs WHERE id = $1 AND state IN ('succeeded', 'failed', 'cancelled')", id);
+  work.commit();
+  return result.affected_rows() == 1;
 }
 
 std::optional<JobInfo> PostgresJobStore::find(const std::string& id) const {

@@ -36,7 +36,9 @@ class PostgresJobStore final : public JobStore {
   PostgresJobStore(const std::string& uri, double lease_seconds);
   ~PostgresJobStore() override;
 
-  bool insert_if_room(const JobInfo& job, int max_queued) override;
+  QueueRoom insert_within_limits(const JobInfo& job, const std::string& submitter, int max_queued,
+                                 int max_queued_per_submitter) override;
+  bool remove_if_finished(const std::string& id) override;
   std::optional<JobInfo> find(const std::string& id) const override;
   std::vector<JobInfo> all() const override;
   std::map<JobState, int> counts() const override;

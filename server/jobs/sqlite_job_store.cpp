@@ -137,17 +137,27 @@ SqliteJobStore::SqliteJobStore(const std::string& path) : db_(std::make_unique<S
       " created_at REAL NOT NULL,"
       " started_at REAL NOT NULL DEFAULT 0,"
       " finished_at REAL NOT NULL DEFAULT 0,"
-      " resumes INTEGER NOT NULL DEFAULT 0)");
+      " resumes INTEGER NOT NULL DEFAULT 0,"
+      " submitter TEXT NOT NULL DEFAULT '')");
+  // A database written before submitters were recorded gains the column;
+  // its jobs count as nobody's.
+  Statement columns(db_->handle(), "SELECT COUNT(*) FROM pragma_table_info('jobs') WHERE name = 'submitter'");
+  columns.step();
+  if (columns.integer(0) == 0) db_->execute("ALTER TABLE jobs ADD COLUMN submitter TEXT NOT NULL DEFAULT ''");
 }
 
-bool SqliteJobStore::insert_if_room(const JobInfo& job, int max_queued) {
+QueueRoom SqliteJobStore::insert_within_limits(const JobInfo& job, const std::string& submitter, int max_queued,
+                                               int max_queued_per_submitter) {
   SqliteTransaction transaction(*db_);
-  Statement count(db_->handle(), "SELECT COUNT(*) FROM jobs WHERE state = 'queued'");
+  Statement count(db_->handle(),
+                  "SELECT COUNT(*), COALESCE(SUM(submitter = ?), 0) FROM jobs WHERE state = 'queued'");
+  count.bind(1, submitter);
   count.step();
-  if (count.integer(0) >= max_queued) return false;
+  if (count.integer(0) >= max_queued) return QueueRoom::kQueueFull;
+  if (count.integer(1) >= max_queued_per_submitter) return QueueRoom::kSubmitterFull;
   Statement insert(db_->handle(),
                    "INSERT INTO jobs (id, spec, state, progress, error, published_model, created_at, started_at,"
-                   " finished_at, resumes) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+                   " finished_at, resumes, submitter) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
   insert.bind(1, job.id)
       .bind(2, spec_to_json_text(job.spec))
       .bind(3, std::string(job_state_name(job.state)))
@@ -158,9 +168,17 @@ bool SqliteJobStore::insert_if_room(const JobInfo& job, int max_queued) {
       .bind(8, job.started_at)
       .bind(9, job.finished_at)
       .bind(10, static_cast<int64_t>(job.resumes))
+      .bind(11, submitter)
       .run();
   transaction.commit();
-  return true;
+  return QueueRoom::kInserted;
+}
+
+bool SqliteJobStore::remove_if_finished(const std::string& id) {
+  Statement remove(db_->handle(),
+                   "DELETE FROM jobs WHERE id = ? AND state IN ('succeeded', 'failed', 'cancelled')");
+  remove.bind(1, id).run();
+  return sqlite3_changes(db_->handle()) == 1;
 }
 
 std::optional<JobInfo> SqliteJobStore::find(const std::string& id) const {

@@ -55,7 +55,9 @@ class SqliteJobStore final : public JobStore {
   // Opens or creates the database at `path` (its folder must exist).
   explicit SqliteJobStore(const std::string& path);
 
-  bool insert_if_room(const JobInfo& job, int max_queued) override;
+  QueueRoom insert_within_limits(const JobInfo& job, const std::string& submitter, int max_queued,
+                                 int max_queued_per_submitter) override;
+  bool remove_if_finished(const std::string& id) override;
   std::optional<JobInfo> find(const std::string& id) const override;
   std::vector<JobInfo> all() const override;
   std::map<JobState, int> counts() const override;

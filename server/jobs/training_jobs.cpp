@@ -38,6 +38,8 @@ constexpr int kPollMilliseconds = 200;
 // How long an idle worker waits before it looks for a job again: one queued
 // by another replica wakes nobody here.
 constexpr auto kClaimPollInterval = std::chrono::seconds(1);
+// A deleted job's folder between its rename and its removal.
+const std::string kDeletedPrefix = ".deleted-";
 // Lines of the child's log kept in a failed job's error.
 constexpr size_t kErrorLogLines = 12;
 
@@ -122,6 +124,7 @@ struct TrainingJobs::State {
   bool cancel_running = false;  // cancel() asked the worker to stop it
   bool lease_lost = false;      // another replica took the running job over
   bool publishing = false;      // the running job is past training
+  Clock::time_point deadline;   // the running job's end by config.max_seconds (worker thread only)
   std::thread worker;
 
   JobStore& require_store() const {
@@ -162,6 +165,12 @@ void TrainingJobs::start() {
   const int requeued = s.store->requeue_interrupted();
   if (requeued > 0) spdlog::info("training jobs: {} job(s) interrupted by a restart queued again", requeued);
   s.recover_staged_publications();
+  // What a deletion left when the server died between rename and removal.
+  std::error_code error;
+  for (const auto& entry : fs::directory_iterator(fs::path(s.config.state_dir) / "jobs", error)) {
+    std::error_code ignored;
+    if (entry.path().filename().string().rfind(kDeletedPrefix, 0) == 0) fs::remove_all(entry.path(), ignored);
+  }
   s.started = true;
   s.worker = std::thread([&s] { s.worker_loop(); });
 }
@@ -176,9 +185,19 @@ void TrainingJobs::shutdown() {
   if (s.worker.joinable()) s.worker.join();
 }
 
-JobInfo TrainingJobs::submit(const JobSpec& spec) {
+JobInfo TrainingJobs::submit(const JobSpec& spec, const std::string& submitter) {
   State& s = *state_;
   check_job_spec(spec);
+  const int64_t iterations = job_iterations(spec);
+  if (iterations > s.config.max_iterations) {
+    const bool own = spec.iterations > 0 || spec.config_json.empty();
+    throw ApiError(ErrorCode::kResourceExhausted, own ? "iterations" : "config",
+                   (spec.iterations > 0 ? "iterations " : spec.config_json.empty() ? "the variant's iterations "
+                                                                                    : "config: iterations: ") +
+                       std::to_string(iterations) + " are more than the " + std::to_string(s.config.max_iterations) +
+                       " a job may train (the server's --max-job-iterations)",
+                   /*too_large=*/true);
+  }
   resolve_job_dataset(s.config.data_root, spec.dataset);
   std::lock_guard<std::mutex> lock(s.mutex);
   JobStore& store = s.require_store();
@@ -202,10 +221,18 @@ JobInfo TrainingJobs::submit(const JobSpec& spec) {
   job.spec = spec;
   job.state = JobState::kQueued;
   job.created_at = unix_now();
-  if (!store.insert_if_room(job, s.config.max_queued)) {
+  const QueueRoom room = store.insert_within_limits(job, submitter, s.config.max_queued, s.config.max_queued_per_submitter);
+  if (room == QueueRoom::kQueueFull) {
     throw ApiError(ErrorCode::kResourceExhausted, "",
                    "the training queue is full (" + std::to_string(s.config.max_queued) +
-                       " queued jobs), expected fewer; try again when one has started");
+                       " queued jobs, --max-queued-jobs), expected fewer; try again when one has started");
+  }
+  if (room == QueueRoom::kSubmitterFull) {
+    const std::string who = submitter == "token" ? "the holders of the server's token" : submitter.substr(submitter.find(':') + 1);
+    throw ApiError(ErrorCode::kResourceExhausted, "",
+                   "the training queue holds " + std::to_string(s.config.max_queued_per_submitter) + " queued jobs of " +
+                       who + ", the most one caller may have (--max-queued-jobs-per-caller); try again when one has "
+                       "started");
   }
   spdlog::info("training job {} queued: {}", job.id, spec_to_json_text(spec));
   s.notify_locked();
@@ -260,6 +287,43 @@ JobInfo TrainingJobs::cancel(const std::string& id) {
   if (s.running_id == id) s.cancel_running = true;
   spdlog::info("training job {} cancelled ({})", id, job_state_name(was));
   s.notify_locked();
+  return *job;
+}
+
+JobInfo TrainingJobs::remove(const std::string& id) {
+  State& s = *state_;
+  std::unique_lock<std::mutex> lock(s.mutex);
+  JobStore& store = s.require_store();
+  auto job = store.find(id);
+  if (!job) throw ApiError(ErrorCode::kNotFound, "id", "no training job with id \"" + id + "\"");
+  if (!is_terminal(job->state)) {
+    throw ApiError(ErrorCode::kFailedPrecondition, "id",
+                   "training job " + id + " is " + job_state_name(job->state) +
+                       ", expected a finished job; cancel it first");
+  }
+  // A cancelled job's child may still be checkpointing into the folder.
+  if (s.running_id == id) {
+    throw ApiError(ErrorCode::kFailedPrecondition, "id",
+                   "training job " + id + " was cancelled and its run is still stopping; try again in a few seconds");
+  }
+  if (!store.remove_if_finished(id)) {
+    throw ApiError(ErrorCode::kFailedPrecondition, "id", "training job " + id + " changed meanwhile; try again");
+  }
+  // Renamed before it is removed: the folder disappears whole at once, and
+  // its removal (a checkpoint may be large) holds no one up.
+  const fs::path dir = s.job_dir(id);
+  const fs::path hidden = dir.parent_path() / (kDeletedPrefix + id);
+  std::error_code error;
+  fs::rename(dir, hidden, error);
+  s.notify_locked();
+  lock.unlock();
+  if (error == std::errc::no_such_file_or_directory) {
+    error.clear();  // a job that never ran has no folder
+  } else if (!error) {
+    fs::remove_all(hidden, error);
+  }
+  if (error) spdlog::warn("training job {} deleted, but its folder {} could not be removed: {}", id, dir.string(), error.message());
+  spdlog::info("training job {} ({}) deleted with its folder", id, job_state_name(job->state));
   return *job;
 }
 
@@ -383,6 +447,9 @@ bool TrainingJobs::State::finish(JobInfo& job, JobState state, const std::string
 }
 
 RunEnd TrainingJobs::State::run_job(JobInfo& job) {
+  deadline = config.max_seconds > 0
+                 ? Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(config.max_seconds))
+                 : Clock::time_point::max();
   const fs::path dir = job_dir(job.id);
   fs::create_directories(dir);
   spdlog::info("training job {} started in {}", job.id, dir.string());
@@ -512,7 +579,7 @@ RunEnd TrainingJobs::State::run_child(JobInfo& job, const std::vector<std::strin
   ChildProcess child({argv, config.training_threads, log.string(), /*stdout_to_pipe=*/true});
   spdlog::info("training job {}: {} running as pid {}", job.id, what, child.pid());
 
-  bool signalled = false, killed = false;
+  bool signalled = false, killed = false, timed_out = false;
   Clock::time_point signalled_at, last_write = Clock::now() - kProgressWriteInterval;
   const auto renew_interval = lease_renew_interval(config.lease_seconds);
   const auto lease = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(config.lease_seconds));
@@ -573,6 +640,12 @@ RunEnd TrainingJobs::State::run_child(JobInfo& job, const std::vector<std::strin
       stop = stopping || cancel_running;
       lost = lease_lost;
     }
+    if (!signalled && Clock::now() >= deadline) {
+      spdlog::warn("training job {}: {} passed the wall-time limit of {} s (--max-job-seconds); stopping it", job.id,
+                   what, config.max_seconds);
+      timed_out = true;
+      stop = true;
+    }
     if (lost && !killed) {
       // Another replica resumes from the checkpoint now: a SIGTERM's last
       // checkpoint would be written under it (even one already signalled).
@@ -609,6 +682,18 @@ RunEnd TrainingJobs::State::run_child(JobInfo& job, const std::vector<std::strin
     return RunEnd::kCancelled;
   }
   if (WIFEXITED(status) && WEXITSTATUS(status) == 0) return RunEnd::kSucceeded;
+  if (timed_out) {
+    // Stopped as a cancel stops it: its checkpoint stays in the job's folder.
+    char limit[32];
+    std::snprintf(limit, sizeof limit, "%g", config.max_seconds);
+    const std::string error = "the job ran for longer than " + std::string(limit) +
+                              " s, the server's limit (--max-job-seconds), and was stopped during " + what +
+                              " at iteration " + std::to_string(job.progress.iteration) + "; its checkpoint, if any, "
+                              "is kept in " + job_dir(job.id).string();
+    spdlog::warn("training job {} failed: {}", job.id, error);
+    finish(job, JobState::kFailed, error);
+    return RunEnd::kFailed;
+  }
   if (stopped) {
     // Shut down under it: back to the queue, to resume at the next start.
     std::lock_guard<std::mutex> lock(mutex);

@@ -46,6 +46,12 @@ struct JobsConfig {
   int training_threads = 1;  // OMP_NUM_THREADS of the child
   int checkpoint_every = 100;  // iterations between checkpoints (resume point after a crash)
   int max_queued = 100;      // submissions beyond it: RESOURCE_EXHAUSTED
+  int max_queued_per_submitter = 20;  // queued jobs of one submitter (a token, an address)
+  int64_t max_iterations = 1'000'000;  // a job's iterations, the spec's or its configuration's
+  // A job's wall time on the runner that runs it (prepare and train, from
+  // when it is claimed; a resumed job starts again); 0: no limit. Past it the
+  // child is stopped as on a cancel (checkpoint kept) and the job fails.
+  double max_seconds = 48 * 3600;
   // Where the records live: "" for SQLite at <state_dir>/jobs.sqlite, or a
   // postgresql:// URI for a database shared by several replicas.
   std::string job_store;
@@ -80,13 +86,16 @@ class TrainingJobs {
   void start();
 
   // Validates the spec (dataset under the data root and a dataset; variant;
-  // numbers in range) and queues it; returns the new record at once.
-  // ApiError INVALID_ARGUMENT naming the field otherwise (see
-  // job_spec_check.h); FAILED_PRECONDITION "model_name" for a name already
-  // in the store or claimed by an unfinished job; RESOURCE_EXHAUSTED when
-  // max_queued jobs are queued; UNAVAILABLE before start() or after
-  // shutdown(). The job trains with seed `spec.seed` always.
-  JobInfo submit(const JobSpec& spec);
+  // numbers in range) and queues it for `submitter` (who sent it, as the
+  // core names callers: "token", "ip:127.0.0.1"); returns the new record at
+  // once. ApiError INVALID_ARGUMENT naming the field otherwise (see
+  // job_spec_check.h); RESOURCE_EXHAUSTED (413) "iterations" (or "config")
+  // for more than max_iterations; FAILED_PRECONDITION "model_name" for a
+  // name already in the store or claimed by an unfinished job;
+  // RESOURCE_EXHAUSTED (429) when max_queued jobs are queued, or
+  // max_queued_per_submitter of the submitter's; UNAVAILABLE before start()
+  // or after shutdown(). The job trains with seed `spec.seed` always.
+  JobInfo submit(const JobSpec& spec, const std::string& submitter = "");
   JobInfo get(const std::string& id) const;  // NOT_FOUND for an unknown id
   std::vector<JobInfo> list() const;         // newest first
   // Cancels a queued or running job (a running one stops at its next
@@ -99,6 +108,14 @@ class TrainingJobs {
   // runner commits it wins, and the model, renamed into place just before
   // the commit, is withdrawn. A succeeded record's model is always in place.
   JobInfo cancel(const std::string& id);
+  // Removes a finished job (succeeded, failed or cancelled): its record and
+  // its folder (<state_dir>/jobs/<id>: log, configuration, prepared
+  // dataset, checkpoint, run), renamed to a hidden name first and then
+  // removed. A model the job published stays in the store (DeleteModel
+  // removes it). Returns the record as it was. NOT_FOUND for an unknown id;
+  // FAILED_PRECONDITION for a queued or running job (cancel it first), and
+  // for a cancelled one whose child this server is still stopping.
+  JobInfo remove(const std::string& id);
   // Calls `on_event` with the job's record now and after every change, until
   // the job is finished (the last call carries the terminal state),
   // `on_event` returns false, or *stop becomes true (looked at every

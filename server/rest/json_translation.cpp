@@ -457,7 +457,7 @@ std::string model_list_to_json(const std::vector<ModelInfo>& models) {
 }
 
 json clip_file_json(const ClipFile& clip) {
-  return json{{"path", clip.path}, {"format", clip.format}, {"size_bytes", clip.size_bytes}};
+  return json{{"path", clip.path}, {"format", clip.format}, {"size_bytes", clip.size_bytes}, {"uploaded", clip.uploaded}};
 }
 
 std::string clip_list_to_json(const ListClipsReply& reply) {

@@ -65,4 +65,9 @@ UploadClipRequest upload_clip_request_from_query(const QueryParameters& paramete
   return request;
 }
 
+std::string delete_clip_path_from_query(const QueryParameters& parameters) {
+  check_known_and_single(parameters, {"path"});
+  return text(parameters, "path");
+}
+
 }  // namespace mm::service::rest

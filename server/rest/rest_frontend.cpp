@@ -263,6 +263,8 @@ void RestFrontend::State::handle(RouteId route, const httplib::Request& request,
       case RouteId::kActivateModel:
         rest::empty_request_from_json(body);
         return send_json(response, 200, rest::model_info_to_json(core.activate_model(context, request.matches[1].str())));
+      case RouteId::kDeleteModel:
+        return send_json(response, 200, rest::model_info_to_json(core.delete_model(context, request.matches[1].str())));
       case RouteId::kListClips:
         return send_json(response, 200, rest::clip_list_to_json(core.list_clips(context)));
       case RouteId::kReadClip:
@@ -272,6 +274,9 @@ void RestFrontend::State::handle(RouteId route, const httplib::Request& request,
         // The body is the file itself, whatever its Content-Type says.
         return send_json(response, 200, rest::clip_file_to_json(core.upload_clip(
                                             context, rest::upload_clip_request_from_query(request.params, body))));
+      case RouteId::kDeleteClip:
+        return send_json(response, 200, rest::clip_file_to_json(core.delete_clip(
+                                            context, rest::delete_clip_path_from_query(request.params))));
       case RouteId::kSubmitJob:
         return send_json(response, 200,
                          rest::job_info_to_json(core.submit_job(context, rest::job_spec_from_json(body))));
@@ -282,6 +287,8 @@ void RestFrontend::State::handle(RouteId route, const httplib::Request& request,
       case RouteId::kCancelJob:
         rest::empty_request_from_json(body);
         return send_json(response, 200, rest::job_info_to_json(core.cancel_job(context, request.matches[1].str())));
+      case RouteId::kDeleteJob:
+        return send_json(response, 200, rest::job_info_to_json(core.delete_job(context, request.matches[1].str())));
       case RouteId::kJobEvents:
         return stream_job_events(context, request.matches[1], response);
       case RouteId::kHealth:
@@ -466,6 +473,11 @@ void RestFrontend::start() {
     const std::string pattern = rest::route_regex(route.path_template);
     if (route.method == "GET") {
       server.Get(pattern, [&s, id](const httplib::Request& request, httplib::Response& response) {
+        s.handle(id, request, std::string(), response);
+      });
+    } else if (route.method == "DELETE") {
+      // A DELETE names its resource in the path or query and has no body.
+      server.Delete(pattern, [&s, id](const httplib::Request& request, httplib::Response& response) {
         s.handle(id, request, std::string(), response);
       });
     } else {

@@ -12,15 +12,15 @@ namespace mm::service::rest {
 
 enum class RouteId {
   kEncode, kDecode, kSample, kInterpolate, kAnalogy, kDenoise,
-  kListModels, kDescribeModel, kActivateModel,
-  kListClips, kReadClip, kUploadClip,
-  kSubmitJob, kListJobs, kGetJob, kCancelJob, kJobEvents,
+  kListModels, kDescribeModel, kActivateModel, kDeleteModel,
+  kListClips, kReadClip, kUploadClip, kDeleteClip,
+  kSubmitJob, kListJobs, kGetJob, kCancelJob, kDeleteJob, kJobEvents,
   kHealth, kReady, kMetrics, kOpenApi,
 };
 
 struct RestRoute {
   RouteId id;
-  std::string method;         // "GET" or "POST"
+  std::string method;         // "GET", "POST" or "DELETE"
   std::string path_template;  // OpenAPI path; {name} and {id} are path parameters
 };
 

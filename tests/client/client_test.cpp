@@ -546,6 +546,73 @@ TEST_F(ClientTest, JobCommandsReportTheServersRefusals) {
   }
 }
 
+// ----------------------------------------------------------------- delete
+
+TEST_F(ClientTest, DeleteCommandsRemoveAModelAFinishedJobAndAnUploadAndNeedTheToken) {
+  const fs::path store = server_->model_store();
+  for (const char* name : {"client-doomed-1", "client-doomed-2"}) {
+    fs::copy(fs::path(MM_SOURCE_DIR) / "models" / "h36m-dkgm-cpu", store / name, fs::copy_options::recursive);
+  }
+  // Without the token, or with a wrong one: refused, nothing removed.
+  for (const std::string& command : {"models delete client-doomed-1", "jobs delete no-such-job",
+                                     "clips delete small/S1/walking_1.txt"}) {
+    for (const auto& protocol : {grpc(), rest() + " --token wrong"}) {
+      const auto run = run_client(protocol + " " + command);
+      EXPECT_EQ(run.exit_code, 1) << command;
+      EXPECT_EQ(run.err.rfind("error: UNAUTHENTICATED: authorization: ", 0), 0u) << command << ": " << run.err;
+    }
+  }
+  EXPECT_TRUE(fs::exists(store / "client-doomed-1" / "manifest.json"));
+
+  // A model, over either protocol: gone from the listing and the store.
+  auto run = run_client(grpc() + " " + token() + " models delete client-doomed-1");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.out.find("deleted model: client-doomed-1"), std::string::npos) << run.out;
+  run = run_client(rest() + " " + token() + " --json models delete client-doomed-2");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_EQ(json::parse(run.out)["name"], "client-doomed-2");
+  const std::string listed = run_client(grpc() + " models list").out;
+  for (const char* name : {"client-doomed-1", "client-doomed-2"}) {
+    EXPECT_FALSE(fs::exists(store / name)) << name;
+    EXPECT_EQ(listed.find(name), std::string::npos) << listed;
+  }
+  const std::string active = json::parse(run_client(grpc() + " --json models describe").out)["name"];
+  run = run_client(rest() + " " + token() + " models delete " + active);
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_EQ(run.err.rfind("error: FAILED_PRECONDITION: model: ", 0), 0u) << run.err;
+
+  // A finished job: its record and folder go.
+  const auto submitted = run_client(grpc() + " " + token() + " " + kTinyJob);
+  ASSERT_EQ(submitted.exit_code, 0) << submitted.err;
+  const std::string id = submitted.out.substr(0, submitted.out.find('\n'));
+  ASSERT_EQ(run_client(grpc() + " jobs watch " + id).exit_code, 0);
+  run = run_client(rest() + " " + token() + " jobs delete " + id);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.out.find("deleted job: " + id), std::string::npos) << run.out;
+  EXPECT_FALSE(fs::exists(scratch_->path() / "state" / "jobs" / id));
+  for (const auto& protocol : {grpc(), rest()}) {
+    run = run_client(protocol + " " + token() + " jobs delete " + id);
+    EXPECT_EQ(run.exit_code, 1);
+    EXPECT_EQ(run.err.rfind("error: NOT_FOUND: id: ", 0), 0u) << run.err;
+  }
+
+  // Uploads go; the operator's files stay.
+  const fs::path data = scratch_->path() / "data";
+  for (const auto& protocol : {grpc(), rest()}) {
+    run = run_client(protocol + " " + token() + " clips upload " + s5("walking_1.txt") + " --to client-up");
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    ASSERT_TRUE(fs::exists(data / "client-up" / "walking_1.txt"));
+    run = run_client(protocol + " " + token() + " --json clips delete client-up/walking_1.txt");
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    EXPECT_EQ(json::parse(run.out)["clips"][0]["path"], "client-up/walking_1.txt");
+    EXPECT_FALSE(fs::exists(data / "client-up" / "walking_1.txt"));
+    run = run_client(protocol + " " + token() + " clips delete small/S1/walking_1.txt");
+    EXPECT_EQ(run.exit_code, 1);
+    EXPECT_EQ(run.err.rfind("error: FAILED_PRECONDITION: path: ", 0), 0u) << run.err;
+    EXPECT_TRUE(fs::exists(data / "small" / "S1" / "walking_1.txt"));
+  }
+}
+
 // A job watch outlives the server: killed and started again at the same
 // address, it resumes the job from its checkpoint and the watch follows it
 // to the end.

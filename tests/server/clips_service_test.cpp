@@ -308,7 +308,7 @@ TEST(ClipsUpload, BothProtocolsWriteNewFilesThatAreListedAndReadAndNeedTheToken)
   EXPECT_EQ(clip.size_bytes(), static_cast<int64_t>(text.size()));
   const test::Reply rest = upload_rest("mine/S5/walking_2.txt", text, "upload-token");
   ASSERT_EQ(rest.status, 200) << rest.body;
-  EXPECT_EQ(rest.document, (json{{"path", "mine/S5/walking_2.txt"}, {"format", "h36m-text"}, {"size_bytes", text.size()}}));
+  EXPECT_EQ(rest.document, (json{{"path", "mine/S5/walking_2.txt"}, {"format", "h36m-text"}, {"size_bytes", text.size()}, {"uploaded", true}}));
   for (const char* name : {"walking_1.txt", "walking_2.txt"}) {
     EXPECT_EQ(test::read_text((root / "mine" / "S5" / name).string()), text) << name;
   }

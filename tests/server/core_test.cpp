@@ -19,6 +19,7 @@
 #include "command_run.h"
 #include "core/data_root_path.h"
 #include "core/manifold_core.h"
+#include "core/model_store.h"
 #include "core/service_metrics.h"
 #include "format/bvh_file.h"
 #include "format/h36m_bvh.h"
@@ -313,6 +314,47 @@ TEST_F(CoreTest, ABrokenModelIsReportedWithItsReasonAndTheActiveOneKeepsServing)
   const auto missing = error_of([&] { core_->activate_model(kCall, "missing-weights"); });
   EXPECT_NE(std::string(missing.what()).find("rotation_decoder.pt"), std::string::npos) << missing.what();
   EXPECT_GT(metric(metrics_.text(), "mm_model_load_seconds_count{model=\"wrong-shapes\",outcome=\"failed\"}"), 0);
+}
+
+TEST(ModelStoreDeletion, ACallHoldingADeletedModelFinishesOnItAndNoLaterCallFindsIt) {
+  Store store;
+  const fs::path copy = store.copy("h36m-dkgm-cpu", "doomed");
+  ServiceMetrics metrics;
+  ModelStore models(store.path(), metrics);
+  models.activate("h36m-dkgm-h100");
+  const auto held = models.get("doomed");  // as a call in flight holds it
+  const auto before = decode_codes(held->model, sample_codes(held->model, 1, 5), held->model.default_decoder());
+  EXPECT_EQ(models.remove("doomed").name, "doomed");
+  EXPECT_FALSE(fs::exists(copy));
+  const auto after = decode_codes(held->model, sample_codes(held->model, 1, 5), held->model.default_decoder());
+  EXPECT_EQ(after.front().values, before.front().values);
+  for (const auto& call : std::vector<std::function<void()>>{[&] { models.get("doomed"); },
+                                                            [&] { models.activate("doomed"); },
+                                                            [&] { models.remove("doomed"); }}) {
+    try {
+      call();
+      ADD_FAILURE() << "the deleted model was found";
+    } catch (const ApiError& e) {
+      EXPECT_EQ(e.code(), ErrorCode::kNotFound) << e.what();
+    }
+  }
+  EXPECT_EQ(models.list().size(), 2u);
+  // Deleted by another replica sharing the store: no longer answered by name.
+  const fs::path elsewhere = store.copy("h36m-dkgm-cpu", "elsewhere");
+  models.get("elsewhere");
+  fs::remove_all(elsewhere);
+  try {
+    models.get("elsewhere");
+    ADD_FAILURE() << "a model deleted from the store was answered from memory";
+  } catch (const ApiError& e) {
+    EXPECT_EQ(e.code(), ErrorCode::kNotFound) << e.what();
+  }
+  try {
+    models.remove("h36m-dkgm-h100");
+    ADD_FAILURE() << "the active model was deleted";
+  } catch (const ApiError& e) {
+    EXPECT_EQ(e.code(), ErrorCode::kFailedPrecondition) << e.what();
+  }
 }
 
 TEST_F(CoreTest, CallsThatChangeStateNeedTheToken) {

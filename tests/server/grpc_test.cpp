@@ -828,9 +828,9 @@ TEST_F(GrpcApiTest, ReflectionListsTheServiceAndServesItsDescriptor) {
     EXPECT_EQ(m.server_streaming(), m.name() == "WatchJob") << m.name();
   }
   EXPECT_EQ(methods, (std::vector<std::string>{"Encode", "Decode", "Sample", "Interpolate", "Analogy", "Denoise",
-                                               "ListModels", "DescribeModel", "ActivateModel", "ListClips",
-                                               "ReadClip", "UploadClip", "SubmitJob", "GetJob", "ListJobs", "CancelJob",
-                                               "WatchJob"}));
+                                               "ListModels", "DescribeModel", "ActivateModel", "DeleteModel",
+                                               "ListClips", "ReadClip", "UploadClip", "DeleteClip", "SubmitJob",
+                                               "GetJob", "ListJobs", "CancelJob", "DeleteJob", "WatchJob"}));
   stream->WritesDone();
   EXPECT_TRUE(stream->Finish().ok());
 }

@@ -234,6 +234,8 @@ TEST_F(TrainingJobsTest, SubmissionRefusesBadFieldsNamingThem) {
       {[](JobSpec& s) { s.variant = ""; }, "variant"},
       {[](JobSpec& s) { s.iterations = -1; }, "iterations"},
       {[](JobSpec& s) { s.iterations = 10'000'001; }, "iterations"},
+      // Within the hard limit, beyond the server's (--max-job-iterations).
+      {[](JobSpec& s) { s.iterations = 1'000'001; }, "iterations", ErrorCode::kResourceExhausted},
       {[](JobSpec& s) { s.hidden = 7; }, "hidden"},
       {[](JobSpec& s) { s.hidden = 4097; }, "hidden"},
       {[](JobSpec& s) { s.batch = -1; }, "batch"},
@@ -268,7 +270,7 @@ TEST_F(TrainingJobsTest, SubmissionRefusesBadFieldsNamingThem) {
   refusal([&] { jobs->cancel("000000000000"); }, ErrorCode::kNotFound, "id");
   // The limits themselves are accepted (then cancelled before they run long).
   JobSpec edge = tiny_spec();
-  edge.iterations = 10'000'000;
+  edge.iterations = config_.max_iterations;
   edge.hidden = 8;
   edge.batch = 1024;
   edge.model_name = std::string(64, 'm');

@@ -1,15 +1,21 @@
 // The PostgreSQL job store on a real throwaway cluster: records round-trip,
 // the queue's bound, atomic claims across replicas, leases that keep a job,
 // expire and let another replica take it over, and a cancel written by any
-// replica ending the runner's lease.
+// replica ending the runner's lease; and, the same on PostgreSQL and SQLite,
+// each submitter's own bound on the queue and the removal of finished records
+// only.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <chrono>
+#include <filesystem>
 #include <memory>
 #include <set>
 #include <thread>
 
 #include "jobs/postgres_job_store.h"
+#include "jobs/sqlite_job_store.h"
 #include "postgres_cluster.h"
 
 namespace mm::service {
@@ -70,6 +76,51 @@ TEST_F(PostgresJobStoreTest, RecordsRoundTripAndTheQueueIsBounded) {
   EXPECT_EQ(store->counts().at(JobState::kQueued), 2);
   EXPECT_EQ(store->counts().at(JobState::kFailed), 0);
   EXPECT_EQ(store->requeue_interrupted(), 0);
+}
+
+// Each submitter's queued jobs are bounded on their own, within the queue's
+// bound; a record is removed only once finished.
+void expect_submitter_bounds_and_removal(JobStore& store, const std::string& which) {
+  SCOPED_TRACE(which);
+  const auto job = [](const std::string& id) {
+    JobInfo record;
+    record.id = id;
+    record.spec.dataset = "small";
+    record.created_at = 1700000000;
+    return record;
+  };
+  EXPECT_EQ(store.insert_within_limits(job("t1"), "token", 3, 1), QueueRoom::kInserted);
+  EXPECT_EQ(store.insert_within_limits(job("t2"), "token", 3, 1), QueueRoom::kSubmitterFull);
+  EXPECT_EQ(store.insert_within_limits(job("i1"), "ip:127.0.0.2", 3, 2), QueueRoom::kInserted);
+  EXPECT_EQ(store.insert_within_limits(job("i2"), "ip:127.0.0.2", 3, 2), QueueRoom::kInserted);
+  EXPECT_EQ(store.insert_within_limits(job("o1"), "ip:127.0.0.3", 3, 2), QueueRoom::kQueueFull);
+  EXPECT_FALSE(store.find("t2").has_value());
+  // A job that is no longer queued leaves its submitter's room.
+  const auto running = store.claim_next(1700000001);
+  ASSERT_TRUE(running.has_value());
+  EXPECT_EQ(running->id, "t1");
+  EXPECT_EQ(store.insert_within_limits(job("t3"), "token", 3, 1), QueueRoom::kInserted);
+
+  EXPECT_FALSE(store.remove_if_finished("t1")) << "a running record was removed";
+  EXPECT_FALSE(store.remove_if_finished("t3")) << "a queued record was removed";
+  JobInfo cancelled = *running;
+  cancelled.state = JobState::kCancelled;
+  ASSERT_TRUE(store.update_state_if(cancelled, JobState::kRunning));
+  EXPECT_TRUE(store.remove_if_finished("t1"));
+  EXPECT_FALSE(store.find("t1").has_value());
+  EXPECT_FALSE(store.remove_if_finished("t1"));
+  EXPECT_EQ(store.all().size(), 3u);
+}
+
+TEST_F(PostgresJobStoreTest, SubmittersHaveTheirOwnBoundAndOnlyFinishedRecordsAreRemovedInEitherStore) {
+  expect_submitter_bounds_and_removal(*replica(), "PostgreSQL");
+  const auto folder = std::filesystem::temp_directory_path() / ("mm-sqlite-store-" + std::to_string(getpid()));
+  std::filesystem::create_directories(folder);
+  {
+    SqliteJobStore sqlite((folder / "jobs.sqlite").string());
+    expect_submitter_bounds_and_removal(sqlite, "SQLite");
+  }
+  std::filesystem::remove_all(folder);
 }
 
 TEST_F(PostgresJobStoreTest, EveryQueuedJobIsClaimedExactlyOnceByConcurrentReplicas) {

@@ -326,6 +326,26 @@ class PythonClientTest(unittest.TestCase):
         self.assertEqual(states[-1], "cancelled", states)
         self.assert_refused(self.stub.GetJob, self.pb.GetJobRequest(id="no-such-job"), grpc.StatusCode.NOT_FOUND, "")
 
+        # Deleted once its run has stopped: the record is gone.
+        delete = self.pb.DeleteJobRequest(id=job.id)
+        self.assert_refused(self.stub.DeleteJob, delete, grpc.StatusCode.UNAUTHENTICATED, "authorization")
+        for _ in range(300):
+            try:
+                self.assertEqual(self.stub.DeleteJob(delete, timeout=60, metadata=auth).state, "cancelled")
+                break
+            except grpc.RpcError as error:
+                self.assertEqual(error.code(), grpc.StatusCode.FAILED_PRECONDITION, error.details())
+                time.sleep(0.2)
+        self.assert_refused(self.stub.GetJob, self.pb.GetJobRequest(id=job.id), grpc.StatusCode.NOT_FOUND, "id")
+
+    def test_the_active_model_and_the_operators_clips_are_not_deleted(self):
+        self.assert_refused(self.stub.DeleteModel, self.pb.DeleteModelRequest(model=DEFAULT_MODEL),
+                            grpc.StatusCode.UNAUTHENTICATED, "authorization")
+        self.assert_refused(self.stub.DeleteModel, self.pb.DeleteModelRequest(model=DEFAULT_MODEL),
+                            grpc.StatusCode.FAILED_PRECONDITION, "model", token=TOKEN)
+        self.assert_refused(self.stub.DeleteClip, self.pb.DeleteClipRequest(path="../outside.txt"),
+                            grpc.StatusCode.INVALID_ARGUMENT, "path", token=TOKEN)
+
     # --- refusals and the standard services
 
     def test_bad_requests_get_their_code_and_field(self):

@@ -68,14 +68,20 @@ inline Reply post(int port, const std::string& path, const nlohmann::json& body,
   return post(port, path, body.dump(), headers);
 }
 
-// GET, or POST of `body` ("{}" when null), with a bearer token; the parsed
-// reply, checked against the expected status (null when it is not JSON).
+inline Reply del(int port, const std::string& path, const httplib::Headers& headers = {}) {
+  auto client = rest_client(port);
+  return to_reply(client.Delete(path.c_str(), headers));
+}
+
+// GET, DELETE, or POST of `body` ("{}" when null), with a bearer token; the
+// parsed reply, checked against the expected status (null when it is not JSON).
 inline nlohmann::json rest_call(int port, const std::string& token, const std::string& method,
                                 const std::string& path, const nlohmann::json& body = nlohmann::json(),
                                 int expected = 200) {
-  const Reply reply = method == "GET" ? get(port, path, bearer(token))
-                                      : post(port, path, body.is_null() ? nlohmann::json::object() : body,
-                                             bearer(token));
+  const Reply reply = method == "GET"      ? get(port, path, bearer(token))
+                      : method == "DELETE" ? del(port, path, bearer(token))
+                                           : post(port, path, body.is_null() ? nlohmann::json::object() : body,
+                                                  bearer(token));
   if (reply.status != 0) EXPECT_EQ(reply.status, expected) << method << " " << path << ": " << reply.body;
   return reply.document;
 }

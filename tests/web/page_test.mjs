@@ -380,6 +380,24 @@ try {
                              { timeout: 60000 }, ownJobId);
   assert.equal((await rigServer.call('GET', 'v1/models/my-dances')).skeleton.joints.length, 57);
 
+  step('delete from the page: the finished job, an uploaded file and the published model');
+  await page.click(`#jobs tr[data-job="${ownJobId}"] .delete`);
+  await page.waitForFunction((id) => !document.querySelector(`#jobs tr[data-job="${id}"]`), { timeout: 60000 }, ownJobId);
+  assert.equal((await rigServer.call('GET', 'v1/jobs')).jobs.length, 0);
+  assert.ok(!fs.existsSync(path.join(rigServer.scratch, 'state', 'jobs', ownJobId)), 'the job folder is still there');
+  await page.waitForSelector('#uploads tr[data-path="my-dances/04.bvh"] .delete', { timeout: 60000 });
+  await page.click('#uploads tr[data-path="my-dances/04.bvh"] .delete');
+  await page.waitForFunction(() => !document.querySelector('#uploads tr[data-path="my-dances/04.bvh"]') &&
+                                   document.querySelectorAll('#uploads tr').length === 2, { timeout: 60000 });
+  assert.ok(!fs.existsSync(path.join(rigServer.scratch, 'data', 'my-dances', '04.bvh')), 'the upload is still there');
+  await page.click('#models-refresh');
+  await page.waitForSelector('#models tr[data-model="my-dances"] .delete', { timeout: 60000 });
+  assert.ok(await page.$eval('#models tr[data-model="dances"] .delete', (b) => b.disabled), 'the active model can be deleted');
+  await page.click('#models tr[data-model="my-dances"] .delete');
+  await page.waitForFunction(() => !document.querySelector('#models tr[data-model="my-dances"]'), { timeout: 60000 });
+  assert.ok(!(await rigServer.call('GET', 'v1/models')).models.some((m) => m.name === 'my-dances'));
+  assert.equal(await page.$eval('#error', (e) => (e.hidden ? '' : e.textContent)), '', 'a delete shows an error');
+
   // The only console errors since loading are the browser's own notes of the 400 and 401 replies.
   const unexpected = consoleErrors.filter((e) => !/status of (400|401)/.test(e));
   assert.deepEqual(unexpected, [], 'unexpected console errors');

@@ -3,6 +3,8 @@
 // (GET v1/clips/window) answers the file's frame count, rate and the last
 // start that still gives a full window. The data root is the operator's:
 // reading it takes the token unless the server was started with --public-clips.
+// The files that were uploaded are listed apart, each with a delete button
+// (DELETE v1/clips?path=; the rest of the data root cannot be deleted).
 import { callWithToken } from './api_client.js';
 import { runAction } from './call_log.js';
 
@@ -30,9 +32,28 @@ export async function listClips() {
   menu.replaceChildren(...clips.map((clip) =>
     new Option(`${clip.path} (${clip.format}, ${Math.ceil(clip.size_bytes / 1024)} KiB)`, clip.path)));
   if (clips.some((clip) => clip.path === chosen)) menu.value = chosen;
+  showUploads(clips.filter((clip) => clip.uploaded));
   $('clip-info').textContent = clips.length
     ? `${clips.length} files${truncated ? ', the first the server lists' : ''}: choose one for its length`
     : "no .txt or .bvh file under the server's data root";
+}
+
+function showUploads(uploads) {
+  const table = $('uploads');
+  table.replaceChildren();
+  for (const clip of uploads) {
+    const row = table.insertRow();
+    row.dataset.path = clip.path;
+    row.insertCell().textContent = `uploaded: ${clip.path} (${Math.ceil(clip.size_bytes / 1024)} KiB)`;
+    const remove = document.createElement('button');
+    remove.className = 'delete';
+    remove.textContent = 'Delete';
+    remove.addEventListener('click', () => runAction(async () => {
+      await callWithToken('DELETE', `v1/clips?path=${encodeURIComponent(clip.path)}`, { summary: clip.path });
+      await listClips();
+    }));
+    row.insertCell().append(remove);
+  }
 }
 
 // The chosen file's length, read as its first window.

@@ -1,6 +1,7 @@
 // Training jobs: submit, the list with live progress from each unfinished
 // job's Server-Sent Events (GET v1/jobs/{id}/events), its loss curves as
-// they come, and cancel.
+// they come, cancel, and delete (a finished job: its record and its folder
+// on the server; the model it published stays).
 import { callApi, callWithToken } from './api_client.js';
 import { logCall, runAction } from './call_log.js';
 import { LossChart } from './loss_chart.js';
@@ -28,11 +29,16 @@ function jobRow(job) {
   row.dataset.job = job.id;
   row.innerHTML = `<td class="id"></td><td class="dataset"></td><td class="state"></td>
     <td><progress max="1" value="0"></progress> <span class="progress"></span></td>
-    <td><button class="cancel">Cancel</button></td>`;
+    <td><button class="cancel">Cancel</button> <button class="delete">Delete</button></td>`;
   row.querySelector('.id').textContent = job.id;
   row.querySelector('.dataset').textContent = `${job.spec.dataset} ${job.spec.variant}`;
   row.querySelector('.cancel').addEventListener('click', () => runAction(async () => {
     update(await callWithToken('POST', `v1/jobs/${job.id}:cancel`));
+  }));
+  row.querySelector('.delete').addEventListener('click', () => runAction(async () => {
+    if (!window.confirm(`Delete job ${job.id}? Its record and its folder (log, checkpoint) are removed.`)) return;
+    await callWithToken('DELETE', `v1/jobs/${job.id}`);
+    forget(job.id);
   }));
   row.addEventListener('click', (event) => {
     if (event.target.tagName !== 'BUTTON') selectChart(job.id);
@@ -56,11 +62,26 @@ function update(job) {
   row.querySelector('progress').value = total ? job.progress.iteration / total : 0;
   row.querySelector('.progress').textContent = progressText(job);
   row.querySelector('.cancel').disabled = TERMINAL.has(job.state);
+  row.querySelector('.delete').disabled = !TERMINAL.has(job.state);
   if (!charts.has(job.id)) charts.set(job.id, new LossChart($('loss-chart')));
   charts.get(job.id).add(job.progress ?? {});
   // The chart shows the job picked last, or else the first one still running.
   if (!$('loss-chart').dataset.job && !TERMINAL.has(job.state)) selectChart(job.id);
   if ($('loss-chart').dataset.job === job.id) charts.get(job.id).draw();
+}
+
+// A deleted job's row, chart and stream.
+function forget(id) {
+  document.querySelector(`#jobs tr[data-job="${id}"]`)?.remove();
+  streams.get(id)?.close();
+  streams.delete(id);
+  charts.delete(id);
+  if ($('loss-chart').dataset.job === id) {
+    delete $('loss-chart').dataset.job;
+    $('loss-chart').getContext('2d').clearRect(0, 0, $('loss-chart').width, $('loss-chart').height);
+    $('loss-chart-title').textContent = 'losses';
+  }
+  $('jobs-status').textContent = `${$('jobs').rows.length} jobs`;
 }
 
 // Follows a job's events until it ends. EventSource reconnects on its own

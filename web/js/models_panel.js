@@ -1,6 +1,7 @@
 // The model store: every model with its Table 1 evaluation (mean per-joint
-// position error in mm over the clip's intervals, per decoder) and an
-// activate button, which asks for the token when the server wants one.
+// position error in mm over the clip's intervals, per decoder), an activate
+// and a delete button (the server refuses the active and the default model),
+// which ask for the token when the server wants one.
 import { callApi, callWithToken } from './api_client.js';
 import { runAction } from './call_log.js';
 
@@ -50,7 +51,16 @@ async function refresh() {
       await callWithToken('POST', `v1/models/${encodeURIComponent(model.name)}:activate`);
       await refresh();
     }));
-    nameCell.append(button);
+    const remove = document.createElement('button');
+    remove.className = 'delete';
+    remove.textContent = 'Delete';
+    remove.disabled = model.active;
+    remove.addEventListener('click', () => runAction(async () => {
+      if (!window.confirm(`Delete model ${model.name}? Its folder is removed from the server's store.`)) return;
+      await callWithToken('DELETE', `v1/models/${encodeURIComponent(model.name)}`);
+      await refresh();
+    }));
+    nameCell.append(button, ' ', remove);
     await describe(model.name, evaluationCell);
   }
 }
