@@ -435,7 +435,7 @@ ClipFile delete_data_root_clip(const std::string& data_root, const std::string& 
   if (path.empty()) {
     throw invalid("path", "path is empty, expected an uploaded .txt or .bvh file under the data root");
   }
-  const auto resolved = resolve_under_data_root(root, path);
+  const auto resolved = resolve_under_data_root(root, path, "path");
   if (!resolved || *resolved == root) {
     throw invalid("path", "path " + quoted(path) + " lies outside the data root, expected an uploaded file under it");
   }
