@@ -21,6 +21,9 @@ BodyLimit body_limit(RouteId route, bool bvh_body, size_t max_message_bytes, siz
     case RouteId::kSubmitJob:
     case RouteId::kActivateModel:
     case RouteId::kCancelJob:
+    case RouteId::kDeleteModel:
+    case RouteId::kDeleteJob:
+    case RouteId::kDeleteClip:
       return within_outer({kMaxParametersBodyBytes, "a body of parameters only"});
     default:
       return outer;

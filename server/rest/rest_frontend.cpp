@@ -476,10 +476,18 @@ void RestFrontend::start() {
         s.handle(id, request, std::string(), response);
       });
     } else if (route.method == "DELETE") {
-      // A DELETE names its resource in the path or query and has no body.
-      server.Delete(pattern, [&s, id](const httplib::Request& request, httplib::Response& response) {
-        s.handle(id, request, std::string(), response);
-      });
+      // A DELETE names its resource in the path or query; a body it may
+      // carry is bounded as parameters are, and not read. Registered with a
+      // content reader, as httplib tries those before plain handlers: the
+      // catch-all 404 below would otherwise answer first.
+      server.Delete(pattern, httplib::Server::HandlerWithContentReader(
+                                 [&s, id](const httplib::Request& request, httplib::Response& response,
+                                          const httplib::ContentReader& reader) {
+                                   std::string body;
+                                   if (s.read_body(id, request, reader, body, response)) {
+                                     s.handle(id, request, std::string(), response);
+                                   }
+                                 }));
     } else {
       server.Post(pattern, httplib::Server::HandlerWithContentReader(
                                [&s, id](const httplib::Request& request, httplib::Response& response,
