@@ -51,6 +51,8 @@ ReadClipReply read_data_root_clip(const std::string& data_root, const ReadClipRe
 
 // Largest file UploadClip takes (the frontends' message limits may be lower).
 constexpr size_t kMaxUploadedClipBytes = size_t{256} << 20;
+// Longest folder or file name of an uploaded path, in bytes.
+constexpr size_t kMaxUploadedNameBytes = 128;
 
 // Writes `request.content` as the new file `request.path` under the data
 // root, creating its folders, and returns it as ListClips lists it. The
@@ -59,8 +61,8 @@ constexpr size_t kMaxUploadedClipBytes = size_t{256} << 20;
 // linked into place, so a reader or a crash never sees part of it and an
 // existing file is never replaced. FAILED_PRECONDITION without a data root;
 // INVALID_ARGUMENT "path" for a path that is empty, absolute, has an empty
-// component or one starting with '.', has another extension, or leads out
-// of the root; FAILED_PRECONDITION "path" when a file is already there;
+// component, one starting with '.' or one over kMaxUploadedNameBytes, has
+// another extension, or leads out of the root; FAILED_PRECONDITION "path" when a file is already there;
 // INVALID_ARGUMENT "content" for empty or malformed content (the parser's
 // message); RESOURCE_EXHAUSTED "content" over kMaxUploadedClipBytes;
 // INTERNAL when the file system refuses the write.
