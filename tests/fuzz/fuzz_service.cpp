@@ -127,8 +127,8 @@ FuzzService& fuzz_service() {
     // Refusals are the expected answers to almost every input: logging
     // each would drown libFuzzer's own report.
     spdlog::set_level(spdlog::level::off);
-    char folder[] = "/tmp/mm_fuzz_XXXXXX";
-    if (mkdtemp(folder) == nullptr) fail_setup("cannot create a scratch folder under /tmp");
+    std::string folder = (fs::temp_directory_path() / "mm_fuzz_XXXXXX").string();
+    if (mkdtemp(folder.data()) == nullptr) fail_setup("cannot create a scratch folder in " + folder);
     auto* created = new Service(folder);
     std::atexit([] { delete service; });
     return created;

@@ -2,8 +2,9 @@
 // small shipped model (models/h36m-dkgm-cpu, hidden 256, so that a request
 // that gets through runs real inference quickly), with training jobs and a
 // scratch data root holding a CMU dance BVH and a small hand-made H3.6M-layout
-// text file. Built once per process, on first use; its scratch folder is
-// removed at exit.
+// text file. Built once per process, on first use, in a scratch folder under
+// $TMPDIR (or /tmp), removed at a normal exit (not after a crash: run.sh
+// gives each run a TMPDIR of its own and removes it).
 //
 // Differences from scripts/serve.sh, each to keep one input's cost small:
 // the request limits are low (4 motions, 4 samples, 8 steps, 4 denoising

@@ -22,17 +22,20 @@ cmake --build build-fuzz -j "$(nproc)" --target "${targets[@]/%/_fuzzer}"
 mkdir -p build-fuzz/artifacts
 for target in "${targets[@]}"; do
   found=$(mktemp -d)
+  scratch=$(mktemp -d)  # the service's data root and job records (fuzz_service.h)
   regressions=()
   [ -d "tests/fuzz/regressions/$target" ] && regressions=("tests/fuzz/regressions/$target")
   echo "fuzzing $target for ${seconds} s"
   # -timeout: one request taking longer is a bug (the slowest valid one
-  # takes well under a second); -rss_limit_mb: so is a request that makes
-  # the process grow past 2 GiB (it starts at about 400 MiB).
+  # takes well under a second); so is one allocation over 256 MiB (a
+  # request's own data is a few MiB at most) and a process grown past 2 GiB
+  # (it starts at about 400 MiB).
   status=0
-  "build-fuzz/tests/fuzz/${target}_fuzzer" -max_total_time="$seconds" -timeout=20 -rss_limit_mb=2048 \
-    -print_final_stats=1 -artifact_prefix="build-fuzz/artifacts/$target-" \
+  TMPDIR="$scratch" "build-fuzz/tests/fuzz/${target}_fuzzer" -max_total_time="$seconds" -timeout=20 -rss_limit_mb=2048 \
+    -malloc_limit_mb=256 -dict="tests/fuzz/$target.dict" -print_final_stats=1 \
+    -artifact_prefix="build-fuzz/artifacts/$target-" \
     "$found" "${regressions[@]}" "tests/fuzz/corpus/$target" || status=$?
-  rm -rf "$found"
+  rm -rf "$found" "$scratch"
   if [ "$status" -ne 0 ]; then
     echo "fuzzing $target failed (exit $status); the input is in build-fuzz/artifacts/" >&2
     exit "$status"
