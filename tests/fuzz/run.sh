@@ -15,7 +15,7 @@ seconds=${MM_FUZZ_SECONDS:-60}
 targets=("$@")
 ((${#targets[@]})) || targets=(rest_request grpc_request)
 
-cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=Release -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
+cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_COMPILER=clang++ \
   -DMM_BUILD_TESTS=OFF -DMM_BUILD_FUZZERS=ON > /dev/null
 cmake --build build-fuzz -j "$(nproc)" --target "${targets[@]/%/_fuzzer}"
 
