@@ -142,7 +142,7 @@ void print_answer_when_verbose(const std::string& request, int status, const std
 }
 
 void report_internal_error(const std::string& where, const std::string& message) {
-  std::cerr << "\n" << where << " answered INTERNAL, a bug for any request: " << message << "\n";
+  std::cerr << "\n" << where << " answered INTERNAL or nothing, a bug for any request: " << message << "\n";
   std::abort();
 }
 

@@ -11,8 +11,8 @@
 // The target's path and query are decoded by httplib's own functions and the
 // route is matched with the server's route table and patterns; the caller is
 // on loopback (127.0.0.1) with no token, so writes are let in.
-// A reply of status 500 aborts: every request deserves an answer that is not
-// INTERNAL.
+// A reply of status 500, or none, aborts: every request deserves an answer
+// that is not INTERNAL.
 #include <httplib.h>
 
 #include <cstddef>
@@ -102,7 +102,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     httplib::Response response;
     rest.frontend.answer(route.id, request, body, response);
     mm::fuzz::print_answer_when_verbose(request.method + " " + request.target, response.status, response.body);
-    if (response.status == 500) mm::fuzz::report_internal_error(request.method + " " + request.path, response.body);
+    if (response.status == 500 || response.status < 0)  // < 0: no answer at all
+      mm::fuzz::report_internal_error(request.method + " " + request.path,
+                                      response.status < 0 ? "no status was set" : response.body);
     return 0;
   }
   return 0;
