@@ -98,6 +98,13 @@ at::Tensor interpolate_codes(const at::Tensor& a, const at::Tensor& b, int steps
   const double cos_angle = std::clamp(a.dot(b).item<double>() / std::max(norm_a * norm_b, 1e-12), -1.0, 1.0);
   const double angle = std::acos(cos_angle);
   if (angle < 1e-6) return a.unsqueeze(0) * (1 - t) + b.unsqueeze(0) * t;  // parallel: slerp is linear
+  // Opposite codes are joined by every half great circle, none of them the
+  // arc; float codes that nearly are give an angle of pi, and the division
+  // by its sine codes of 1e11.
+  if (cos_angle < -1.0 + 1e-6) {
+    throw InputError("to: the code points opposite to from's, so no single arc joins them; expected another code, "
+                     "or method linear");
+  }
   auto unit_a = a / norm_a, unit_b = b / norm_b;
   auto direction = (at::sin((1 - t) * angle) * unit_a + at::sin(t * angle) * unit_b) / std::sin(angle);
   return direction * ((1 - t) * norm_a + t * norm_b);

@@ -20,6 +20,9 @@ if [ "${1:-}" != "--build-only" ]; then
     postgresql python3 python3-grpcio python3-grpc-tools python3-yaml curl
     libgtest-dev libgmock-dev libbenchmark-dev
   )
+  # The fuzz targets (tests/fuzz) build with clang and its libFuzzer and
+  # sanitizer runtimes; llvm's symbolizer names the lines of a crash.
+  packages+=(clang libclang-rt-dev llvm)
   # Node.js and npm run the OpenAPI validator of the tests; a machine that
   # already has them (a newer Node.js) keeps its own.
   command -v npm > /dev/null || packages+=(nodejs npm)

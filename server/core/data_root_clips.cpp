@@ -298,6 +298,12 @@ void check_upload_path(const std::string& path) {
     const std::string component = path.substr(begin, end - begin);
     if (component.empty()) refuse("has an empty component, expected names separated by single '/'");
     if (component.front() == '.') refuse("has a component starting with '.' (" + quoted(component) + "), which names hidden or parent folders");
+    // The file is first written under a longer temporary name in the same
+    // folder, and a name past the file system's 255 bytes fails only there.
+    if (component.size() > kMaxUploadedNameBytes) {
+      refuse("has a component of " + std::to_string(component.size()) + " bytes, expected at most " +
+             std::to_string(kMaxUploadedNameBytes));
+    }
     begin = end + 1;
   }
   if (clip_format(fs::path(path)).empty()) refuse("has neither extension .txt (H3.6M text) nor .bvh");

@@ -68,6 +68,8 @@ struct DataRootUse {
   int64_t files = 0;
 };
 DataRootUse data_root_use(const std::string& data_root);
+// Longest folder or file name of an uploaded path, in bytes.
+constexpr size_t kMaxUploadedNameBytes = 128;
 
 // Writes `request.content` as the new file `request.path` under the data
 // root, creating its folders, and returns it as ListClips lists it. The
@@ -80,8 +82,9 @@ DataRootUse data_root_use(const std::string& data_root);
 // Uploads of one server are written one at a time, so that two cannot both
 // pass the quota. FAILED_PRECONDITION without a data root;
 // INVALID_ARGUMENT "path" for a path that is empty, absolute, has an empty
-// component or one starting with '.', holds a control character, has
-// another extension, or leads out of the root; FAILED_PRECONDITION "path" when a file is already there;
+// component, one starting with '.' or one over kMaxUploadedNameBytes,
+// holds a control character, has another extension, or leads out of the
+// root; FAILED_PRECONDITION "path" when a file is already there;
 // INVALID_ARGUMENT "content" for empty or malformed content (the parser's
 // message); RESOURCE_EXHAUSTED "content" (413) over quota.max_upload_bytes,
 // or when the root would then hold more than quota.max_root_bytes or

@@ -543,6 +543,11 @@ void RestFrontend::start() {
 
 int RestFrontend::port() const { return state_->port; }
 
+void RestFrontend::answer(rest::RouteId route, const httplib::Request& request, const std::string& body,
+                          httplib::Response& response) {
+  state_->handle(route, request, body, response);
+}
+
 void RestFrontend::shutdown() {
   State& s = *state_;
   {

@@ -15,6 +15,12 @@
 
 #include "core/manifold_core.h"
 #include "core/service_metrics.h"
+#include "rest/rest_routes.h"
+
+namespace httplib {
+struct Request;
+struct Response;
+}  // namespace httplib
 
 namespace mm::service {
 
@@ -58,6 +64,14 @@ class RestFrontend {
   // Stops accepting connections, ends open event streams and waits for the
   // requests in flight to finish. Idempotent.
   void shutdown();
+
+  // Answers one request of `route` whose body has been read, as the routes
+  // of the started server do: the caller (request.remote_addr and its
+  // Authorization headers), the translation, the core's call, and the reply
+  // or refusal in `response`. Without a socket, for the fuzz targets
+  // (tests/fuzz); works before start().
+  void answer(rest::RouteId route, const httplib::Request& request, const std::string& body,
+              httplib::Response& response);
 
  private:
   struct State;

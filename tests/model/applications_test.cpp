@@ -158,6 +158,25 @@ TEST(LatentOperations, SphericalInterpolationFromTheZeroCodeIsTheLine) {
   EXPECT_TRUE(at::isfinite(interpolate_codes(b, zero, 3, true)).all().item<bool>());
 }
 
+TEST(LatentOperations, SphericalInterpolationBetweenOppositeCodesIsRefused) {
+  // Through the service this answered codes of 1e11 (from [999, ...] to
+  // [-999, ...]); the line between them is still there.
+  const auto a = at::randn({64});
+  const std::vector<std::pair<at::Tensor, at::Tensor>> opposite{
+      {a, -a}, {a, -2.5 * a}, {at::full({64}, 999.0f), at::full({64}, -999.0f)}};
+  for (const auto& [from, to] : opposite) {
+    EXPECT_THROW(interpolate_codes(from, to, 5, true), InputError);
+    EXPECT_TRUE(at::isfinite(interpolate_codes(from, to, 5, false)).all().item<bool>());
+  }
+  // Nearly opposite but apart by more than float rounding: the arc, its
+  // codes' norms on the line between the two norms.
+  const auto c = -a + 0.05 * at::randn({64});
+  const auto path = interpolate_codes(a, c, 5, true);
+  const auto norms = path.norm(2, 1);
+  const auto line = at::linspace(a.norm().item<float>(), c.norm().item<float>(), 5);
+  EXPECT_TRUE(at::allclose(norms, line, 1e-3, 1e-3)) << norms << line;
+}
+
 TEST(LatentOperations, AnalogyIsAMinusBPlusC) {
   auto a = at::randn({8}), b = at::randn({8}), c = at::randn({8});
   EXPECT_TRUE(at::allclose(analogy_code(a, b, c), a - b + c));

@@ -673,6 +673,8 @@ TEST_F(CoreClipsTest, UploadsThatAreBadOrReplaceAFileAreRefusedNamingTheField) {
       {{"mine//x.bvh", bvh}, ErrorCode::kInvalidArgument, "path", "empty component"},
       {{"mine/.hidden.bvh", bvh}, ErrorCode::kInvalidArgument, "path", "starting with '.'"},
       {{"mine/x.fbx", bvh}, ErrorCode::kInvalidArgument, "path", "neither extension"},
+      // Found by tests/fuzz: the file system refused its temporary name, a 500.
+      {{"mine/" + std::string(300, 'a') + ".bvh", bvh}, ErrorCode::kInvalidArgument, "path", "expected at most 128"},
       {{"folder_link/x.bvh", bvh}, ErrorCode::kInvalidArgument, "path", "leads out of the data root"},
       {{"h36m/S1/walking_1.txt", before}, ErrorCode::kFailedPrecondition, "path", "exists already"},
       {{"mine/empty.bvh", ""}, ErrorCode::kInvalidArgument, "content", "empty"},
