@@ -90,7 +90,7 @@ int parse_server_config(int argc, char** argv, ServerConfig& config) {
   app.add_option("--max-queue-length", config.core.batching.max_queue_length,
                  "requests waiting for the executor beyond which calls are refused (429)")
       ->envname("MM_MAX_QUEUE_LENGTH")->capture_default_str()->check(CLI::Range(1, 1000000));
-  app.add_option("--threads", config.core.batching.threads, "LibTorch threads of the executor (0: the CPUs this process may use: its affinity and cgroup CPU quota)")
+  app.add_option("--threads", config.core.batching.threads, "LibTorch threads of the executor (0: chosen by timing batches, the CPUs this process may use (affinity, cgroup CPU quota) or one)")
       ->envname("MM_THREADS")->capture_default_str()->check(CLI::Range(0, 1024));
   app.add_option("--rest-threads", config.rest.threads,
                  "REST worker threads: keep-alive connections served at once")

@@ -38,6 +38,8 @@ InferenceExecutor::InferenceExecutor(const BatchingConfig& config, ServiceMetric
       max_queue_delay_us_(std::max(0, config.max_queue_delay_us)),
       max_queue_length_(std::max(1, config.max_queue_length)),
       threads_(config.threads > 0 ? config.threads : usable_cpu_count()),
+      tune_threads_(config.threads <= 0),
+      tuner_(threads_),
       metrics_(metrics),
       thread_([this] { loop(); }) {}
 
@@ -159,6 +161,19 @@ void InferenceExecutor::execute(const std::vector<std::shared_ptr<Request>>& bat
   int clips = 0;
   for (const auto& request : batch) clips += request->clips;
   if (first.kind != Request::Kind::kTask) metrics_.observe_batch(first.operation(), clips);
+  // Batches of one kind take alike: the tuner compares their times.
+  const std::string kind = first.kind == Request::Kind::kTask
+                               ? std::string()
+                               : std::string(first.operation()) + " " + first.model->name + " " + first.model->version +
+                                     " " + std::to_string(static_cast<int>(first.decoder)) + " " +
+                                     std::to_string(clips);
+  const int threads = !tune_threads_ ? threads_
+                      : kind.empty()         ? tuner_.latest_choice()
+                                             : tuner_.threads_for(kind);
+  if (threads != current_threads_) {
+    at::set_num_threads(threads);
+    current_threads_ = threads;
+  }
   const auto started = Clock::now();
   try {
     if (first.kind == Request::Kind::kTask) {
@@ -187,8 +202,10 @@ void InferenceExecutor::execute(const std::vector<std::shared_ptr<Request>>& bat
         row += static_cast<size_t>(request->clips);
       }
     }
-    spdlog::debug("executor: {} of {} clips in {} requests took {:.1f} ms", first.operation(), clips, batch.size(),
-                  std::chrono::duration<double, std::milli>(Clock::now() - started).count());
+    const double seconds = std::chrono::duration<double>(Clock::now() - started).count();
+    if (!kind.empty()) tuner_.record(kind, threads, seconds);
+    spdlog::debug("executor: {} of {} clips in {} requests took {:.1f} ms with {} threads", first.operation(), clips,
+                  batch.size(), seconds * 1000, threads);
     for (const auto& request : batch) request->done.set_value();
   } catch (...) {
     for (const auto& request : batch) request->done.set_exception(std::current_exception());
@@ -199,6 +216,7 @@ void InferenceExecutor::loop() {
   // The executor's thread owns the cores: LibTorch's intra-op threads are set
   // here, for the thread that runs every inference.
   at::set_num_threads(threads_);
+  current_threads_ = threads_;
   std::unique_lock<std::mutex> lock(mutex_);
   for (;;) {
     arrived_.wait(lock, [this] { return stopping_ || !queue_.empty(); });

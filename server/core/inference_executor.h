@@ -30,6 +30,7 @@
 #include <vector>
 
 #include "core/model_store.h"
+#include "core/thread_count_tuner.h"
 
 namespace mm::service {
 
@@ -73,6 +74,11 @@ class InferenceExecutor {
   void execute(const std::vector<std::shared_ptr<Request>>& batch);
 
   const int max_batch_, max_queue_delay_us_, max_queue_length_, threads_;
+  // Chooses between threads_ and one thread by timing batches, unless the
+  // operator fixed the count (--threads); the executor's thread owns it.
+  const bool tune_threads_;
+  ThreadCountTuner tuner_;
+  int current_threads_ = 0;
   ServiceMetrics& metrics_;
   std::mutex mutex_;
   std::condition_variable arrived_;

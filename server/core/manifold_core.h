@@ -46,7 +46,7 @@ struct BatchingConfig {
   int max_batch = 32;
   int max_queue_delay_us = 60000;
   int max_queue_length = 256;
-  int threads = 0;  // LibTorch intra-op threads of the executor; 0: the CPUs the process may use (model/usable_cpus.h)
+  int threads = 0;  // LibTorch intra-op threads of the executor; 0: chosen by timing (core/thread_count_tuner.h)
 };
 
 struct CoreConfig {
