@@ -89,15 +89,23 @@ std::string ip_of_grpc_peer(const std::string& peer) {
   return "";
 }
 
-bool is_loopback_ip(const std::string& ip) {
-  in_addr v4{};
-  if (inet_pton(AF_INET, ip.c_str(), &v4) == 1) return (ntohl(v4.s_addr) >> 24) == 127;
+std::string canonical_ip(const std::string& ip) {
   in6_addr v6{};
-  if (inet_pton(AF_INET6, ip.c_str(), &v6) != 1) return false;
-  static const unsigned char kLoopback[16] = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1};
-  if (std::memcmp(v6.s6_addr, kLoopback, 16) == 0) return true;
+  if (inet_pton(AF_INET6, ip.c_str(), &v6) != 1) return ip;
   static const unsigned char kMappedPrefix[12] = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0xff, 0xff};
-  return std::memcmp(v6.s6_addr, kMappedPrefix, 12) == 0 && v6.s6_addr[12] == 127;
+  if (std::memcmp(v6.s6_addr, kMappedPrefix, 12) != 0) return ip;
+  char text[INET_ADDRSTRLEN];
+  return inet_ntop(AF_INET, v6.s6_addr + 12, text, sizeof text) != nullptr ? std::string(text) : ip;
+}
+
+bool is_loopback_ip(const std::string& ip) {
+  const std::string address = canonical_ip(ip);
+  in_addr v4{};
+  if (inet_pton(AF_INET, address.c_str(), &v4) == 1) return (ntohl(v4.s_addr) >> 24) == 127;
+  in6_addr v6{};
+  if (inet_pton(AF_INET6, address.c_str(), &v6) != 1) return false;
+  static const unsigned char kLoopback[16] = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1};
+  return std::memcmp(v6.s6_addr, kLoopback, 16) == 0;
 }
 
 bool listens_beyond_loopback(const std::string& address) {

@@ -35,6 +35,13 @@ bool tokens_equal(const std::string& given, const std::string& expected);
 // "ipv6:[::1]:5000", "ipv6:%5B::1%5D:5000"); empty for other transports.
 std::string ip_of_grpc_peer(const std::string& peer);
 
+// One client, one spelling: an IPv4 client of a dual-stack listener shows as
+// "::ffff:a.b.c.d" on one frontend and as "a.b.c.d" on the other, so an
+// IPv4-mapped IPv6 address is given as its IPv4 address; any other as it is.
+// Both frontends fill CallContext::peer_ip with it, so that the limits kept
+// per caller address (watch streams, queued jobs) count a client once.
+std::string canonical_ip(const std::string& ip);
+
 // Whether `ip` (as "127.0.0.1", "::1" or "::ffff:127.0.0.1") is a loopback
 // address: 127.0.0.0/8, ::1, or an IPv4-mapped loopback address.
 bool is_loopback_ip(const std::string& ip);

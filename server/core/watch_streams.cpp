@@ -4,22 +4,9 @@
 #include <mutex>
 
 #include "core/api_types.h"
+#include "core/caller_identity.h"
 
 namespace mm::service {
-namespace {
-
-// One client, one key: an IPv4 client of a dual-stack listener shows as
-// "::ffff:a.b.c.d" on one frontend and may show as "a.b.c.d" on the other.
-std::string client_key(const std::string& ip) {
-  const std::string mapped = "::ffff:";
-  if (ip.size() > mapped.size() && ip.compare(0, mapped.size(), mapped) == 0 &&
-      ip.find('.') != std::string::npos) {
-    return ip.substr(mapped.size());
-  }
-  return ip;
-}
-
-}  // namespace
 
 struct WatchStreams::State {
   explicit State(WatchStreamLimits l) : limits(l) {}
@@ -65,7 +52,7 @@ WatchStreams::WatchStreams(WatchStreamLimits limits) : state_(std::make_shared<S
 WatchStreams::~WatchStreams() = default;
 
 WatchStreams::Slot WatchStreams::admit(const std::string& ip) {
-  const std::string client = client_key(ip);
+  const std::string client = canonical_ip(ip);
   State& s = *state_;
   std::lock_guard<std::mutex> lock(s.mutex);
   // The total first: when the server is full, that is what a caller can

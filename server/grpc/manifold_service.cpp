@@ -41,7 +41,7 @@ CallContext call_context(const grpc::ServerContext& context) {
   const auto range = context.client_metadata().equal_range("authorization");
   for (auto it = range.first; it != range.second; ++it) authorization.emplace_back(it->second.data(), it->second.size());
   const BearerCredentials credentials = parse_authorization(authorization);
-  return CallContext{"grpc", credentials.token, credentials.problem, ip_of_grpc_peer(context.peer())};
+  return CallContext{"grpc", credentials.token, credentials.problem, canonical_ip(ip_of_grpc_peer(context.peer()))};
 }
 
 grpc::Status ManifoldService::Encode(grpc::ServerContext* context, const v1::EncodeRequest* request,

@@ -46,7 +46,7 @@ CallContext call_context(const httplib::Request& request) {
   const size_t count = request.get_header_value_count("Authorization");
   for (size_t i = 0; i < count; ++i) authorization.push_back(request.get_header_value("Authorization", i));
   const BearerCredentials credentials = parse_authorization(authorization);
-  return CallContext{"rest", credentials.token, credentials.problem, request.remote_addr};
+  return CallContext{"rest", credentials.token, credentials.problem, canonical_ip(request.remote_addr)};
 }
 
 void send_json(httplib::Response& response, int status, const std::string& body) {

@@ -295,6 +295,22 @@ TEST(AuthorizationHeader, OneParserReadsEveryFormTheSameWay) {
   EXPECT_FALSE(service::tokens_equal("", ""));
 }
 
+// A client has one address whichever frontend it called: an IPv4-mapped
+// IPv6 address is its IPv4 address, loopback or not.
+TEST(CallerAddress, AnIpv4MappedAddressIsItsIpv4Address) {
+  EXPECT_EQ(service::canonical_ip("::ffff:192.0.2.7"), "192.0.2.7");
+  EXPECT_EQ(service::canonical_ip("::FFFF:127.0.0.1"), "127.0.0.1");
+  for (const char* unchanged : {"192.0.2.7", "::1", "fd00::2", "", "not an address"}) {
+    EXPECT_EQ(service::canonical_ip(unchanged), unchanged);
+  }
+  for (const char* loopback : {"127.0.0.1", "127.3.2.1", "::1", "::ffff:127.0.0.1"}) {
+    EXPECT_TRUE(service::is_loopback_ip(loopback)) << loopback;
+  }
+  for (const char* other : {"192.0.2.7", "::ffff:192.0.2.7", "::", "0.0.0.0", "fd00::2", "", "localhost"}) {
+    EXPECT_FALSE(service::is_loopback_ip(other)) << other;
+  }
+}
+
 // Both frontends on the same table: the same header is let in or refused
 // alike, with the same message (headers the transports refuse themselves,
 // such as 10 kB, are refused, never let in).
