@@ -82,6 +82,4 @@ int WatchStreams::open() const {
   return state_->open;
 }
 
-const WatchStreamLimits& WatchStreams::limits() const { return state_->limits; }
-
 }  // namespace mm::service

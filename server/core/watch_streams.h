@@ -61,7 +61,6 @@ class WatchStreams {
   Slot admit(const std::string& ip);
 
   int open() const;  // streams holding a slot now
-  const WatchStreamLimits& limits() const;
 
  private:
   std::shared_ptr<State> state_;
