@@ -182,7 +182,6 @@ int parse_server_config(int argc, char** argv, ServerConfig& config) {
     return 2;
   }
   config.grpc.address = config.rest.address = address;
-  config.rest.max_upload_bytes = static_cast<size_t>(config.core.data_root_quota.max_upload_bytes);
   config.grpc.max_message_bytes = max_message_bytes;
   config.rest.max_body_bytes = static_cast<size_t>(max_message_bytes);
   config.rest.tls_cert_file = config.grpc.tls_cert_file;

@@ -2,15 +2,13 @@
 
 namespace mm::service::rest {
 
-BodyLimit body_limit(RouteId route, bool bvh_body, size_t max_message_bytes, size_t max_json_bytes,
-                     size_t max_upload_bytes) {
+BodyLimit body_limit(RouteId route, bool bvh_body, size_t max_message_bytes, size_t max_json_bytes) {
   const BodyLimit outer{max_message_bytes, "--max-message-bytes"};
   // The smaller of a route's own limit and the outer one, named as the one that binds.
-  // At equal bytes the route's own option is named.
-  const auto within_outer = [&](BodyLimit own) { return own.bytes <= outer.bytes ? own : outer; };
+  const auto within_outer = [&](BodyLimit own) { return own.bytes < outer.bytes ? own : outer; };
   switch (route) {
     case RouteId::kUploadClip:
-      return within_outer({max_upload_bytes, "--max-upload-bytes"});
+      return outer;
     case RouteId::kEncode:
     case RouteId::kDenoise:
       if (bvh_body) return outer;

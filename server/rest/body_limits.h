@@ -26,13 +26,11 @@ struct BodyLimit {
   std::string name;  // "--max-json-bytes", "--max-message-bytes", ...
 };
 
-// The limit of a body of `route`: uploads up to `max_upload_bytes` (the
-// core's --max-upload-bytes, so that a file over it is refused before it is
-// read), BVH bodies (`bvh_body`) up to `max_message_bytes`; JSON bodies of motions or codes (Encode,
+// The limit of a body of `route`: uploads and BVH bodies (`bvh_body`) take
+// up to `max_message_bytes`; JSON bodies of motions or codes (Encode,
 // Decode, Interpolate, Analogy, Denoise) up to `max_json_bytes`; bodies of
 // parameters up to kMaxParametersBodyBytes; none more than
 // `max_message_bytes`. A route not named here has the outer bound.
-BodyLimit body_limit(RouteId route, bool bvh_body, size_t max_message_bytes, size_t max_json_bytes,
-                     size_t max_upload_bytes);
+BodyLimit body_limit(RouteId route, bool bvh_body, size_t max_message_bytes, size_t max_json_bytes);
 
 }  // namespace mm::service::rest

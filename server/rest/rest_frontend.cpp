@@ -175,8 +175,7 @@ bool RestFrontend::State::read_body(RouteId route, const httplib::Request& reque
   const bool has_length = request.has_header("Content-Length");
   if (!has_length && !request.has_header("Transfer-Encoding")) return true;
   const rest::BodyLimit limit =
-      rest::body_limit(route, is_bvh_body(request), options.max_body_bytes, options.max_json_bytes,
-                       options.max_upload_bytes);
+      rest::body_limit(route, is_bvh_body(request), options.max_body_bytes, options.max_json_bytes);
   const auto refuse = [&](const ApiError& error) {
     // What is left of the body must not be read as the next request.
     send_error_and_close(response, error);

@@ -32,7 +32,6 @@ struct RestOptions {
   // frames x 99 values at 50 Hz are 17.0 MB with the data set's values and
   // 27.2 MB with float32 values widened to double (server/rest/README.md).
   size_t max_json_bytes = 32 << 20;
-  size_t max_upload_bytes = 64 << 20;  // an upload's body (the core's --max-upload-bytes)
   std::string tls_cert_file, tls_key_file;  // both given: HTTPS; neither: plain HTTP
   // Worker threads. Each serves one keep-alive connection at a time, so
   // clients beyond it wait for a connection to go idle (2 s): with 16, 32

@@ -265,7 +265,7 @@ TEST_F(BoundedWork, ADeclaredLengthOverTheRoutesLimitIs413BeforeTheBodyIsSent) {
       {"/v1/decode", "application/json", "40000000", "(--max-json-bytes)"},
       {"/v1/sample", "application/json", "2000000", "the limit of 1048576 bytes of POST /v1/sample (a body of parameters only)"},
       {"/v1/encode", "application/x-bvh", "100000000", "the limit of 67108864 bytes of POST /v1/encode (--max-message-bytes)"},
-      {"/v1/clips:upload?path=a.bvh", "application/octet-stream", "1000000000000", "(--max-upload-bytes)"},
+      {"/v1/clips:upload?path=a.bvh", "application/octet-stream", "1000000000000", "(--max-message-bytes)"},
   };
   for (const Case& c : cases) {
     const RawAnswer answer = raw_request(port(), headers_only(c.target, c.content_type, c.length));
