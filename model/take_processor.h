@@ -1,0 +1,166 @@
+// Takes: motions of any length and frame rate through the manifold.
+//
+// A TakeProcessor takes a take's frames as they arrive (a file read in
+// chunks, a gRPC stream), resamples them to the model's 25 Hz
+// (format/motion_resampling.h), cuts them into windows of the model's clip
+// (take_windows.h: 6 s every hop, the last aligned to the take's end), runs
+// the windows through the model in batches, and
+// - encode: hands out each window's code with its start time (a code track);
+// - reconstruct: decodes every window, joins them (take_assembly.h,
+//   crossfaded on rotations), brings the result back to the take's rate and
+//   length, carries the root translation over from the input (as Denoise
+//   does: the model does not learn it) and gives each frame's error;
+// - denoise: the same with each window projected onto the manifold
+//   (Sec. 5.4, project_onto_manifold): values given as NaN (a joint missing
+//   for some frames), and those DenoiseOptions names, are missing and filled
+//   from the manifold; keep_observed returns the observed values as given.
+//
+// Memory: the processor holds the frames of the windows in one batch and the
+// input frames not yet answered (about batch x hop seconds), not the take,
+// so a take of an hour costs what a take of ten minutes does.
+//
+// decode_code_track() is the way back: a code track, edited or not, decoded
+// into one continuous motion at any rate.
+//
+// Thread safety: a TakeProcessor is used by one thread at a time; several
+// may run on one model at once (the model's inference is const). Every
+// tensor operation runs inside the TorchRunner given, so the server runs
+// them on its inference executor. Bad input throws InputError naming what is
+// wrong (the take frame and column of a bad value, the field of a bad
+// option) before the work it would cost is done; after an exception the
+// processor is not used again.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "format/motion_text.h"
+#include "latent_operations.h"
+#include "motion_manifold.h"
+#include "take_assembly.h"
+#include "take_windows.h"
+
+namespace mm {
+
+enum class TakeOperation { kEncode, kReconstruct, kDenoise };
+const char* take_operation_name(TakeOperation operation);  // "encode" / "reconstruct" / "denoise"
+
+struct TakeOptions {
+  TakeOperation operation = TakeOperation::kReconstruct;
+  double frame_rate = kTakeModelRate;  // Hz of the input frames, 10 to 1000 ("frame_rate")
+  double hop_seconds = kDefaultHopSeconds;
+  TakeBlend blend = TakeBlend::kCrossfade;
+  bool at_model_rate = false;  // output at 25 Hz instead of the take's rate and length
+  DecoderKind decoder = DecoderKind::kRotation;
+  // Denoise only. NaN values are always missing there; these say what else
+  // is (zeros, means), how many rounds fill the gaps, and whether the
+  // observed values are returned as given.
+  DenoiseOptions denoise;
+  int batch_windows = 32;  // windows run through the model at once
+  // The longest take accepted, seconds (0: no limit), and the name a refusal
+  // gives that limit (e.g. "--max-take-seconds").
+  double max_seconds = 0;
+  std::string max_seconds_name = "the longest take";
+};
+
+// One window of a take and its code.
+struct TakeWindowCode {
+  int64_t start_frame = 0;   // 25 Hz frame of the window's start
+  double start_seconds = 0;  // start_frame / 25
+  std::vector<float> code;   // latent floats
+};
+
+// Where a processor's results go, in order, as soon as they are final.
+struct TakeSink {
+  // Each window's code (every operation).
+  std::function<void(const TakeWindowCode& window)> on_window;
+  // Output frames (reconstruct, denoise) at the output rate, in the model's
+  // input columns, with each frame's error in mm: the mean over the
+  // skeleton's joints of the distance between the output's and the input's
+  // forward-kinematics positions (the input's missing values taken from the
+  // output, so only observed rotations count).
+  std::function<void(const MotionFrames& frames, const std::vector<float>& error_mm)> on_frames;
+};
+
+// Runs the tensor work it is given (a batch of windows, forward kinematics)
+// and returns when it is done; empty: on the calling thread.
+using TorchRunner = std::function<void(const std::function<void()>& work)>;
+
+struct TakeSummary {
+  int64_t input_frames = 0;
+  double input_rate = 0;
+  int64_t model_frames = 0;  // frames at 25 Hz the take was windowed at
+  int64_t output_frames = 0;
+  double output_rate = 0;
+  int windows = 0;
+  double hop_seconds = 0;       // as rounded to 25 Hz frames
+  double mean_error_mm = 0;     // over all output frames (reconstruct, denoise)
+  double max_error_mm = 0;
+};
+
+class TakeProcessor {
+ public:
+  // `model` outlives the processor. InputError naming the option for a bad
+  // rate, hop, or denoise options; for a decoder the model lacks.
+  TakeProcessor(const MotionManifold& model, TakeOptions options, TakeSink sink, TorchRunner run = {});
+  ~TakeProcessor();
+  TakeProcessor(const TakeProcessor&) = delete;
+  TakeProcessor& operator=(const TakeProcessor&) = delete;
+
+  // Columns of an input frame: the model's (99 for H3.6M).
+  int columns() const;
+
+  // `frames` more input frames, row-major. InputError naming the take frame
+  // and column for a value that is not finite (NaN is taken as missing by
+  // denoise, in joint columns only: the root translation is carried over and
+  // cannot be missing), or beyond motion_text.h's bounds; and once the take
+  // passes max_seconds, naming it.
+  void push(const float* values, int64_t frames);
+  // Ends the take: runs the windows left, hands out the rest, and returns the
+  // summary. InputError naming the minimum when the take is shorter than one
+  // window (take_window_starts).
+  TakeSummary finish();
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
+
+// A whole take in memory through a processor: the codes and, for
+// reconstruct and denoise, the output frames and their errors.
+struct TakeResult {
+  TakeSummary summary;
+  std::vector<TakeWindowCode> windows;
+  MotionFrames frames;
+  std::vector<float> error_mm;
+};
+TakeResult process_take(const MotionManifold& model, const MotionFrames& take, const TakeOptions& options,
+                        TorchRunner run = {});
+
+struct CodeTrackDecoding {
+  double frame_rate = kTakeModelRate;  // of the output, 10 to 1000 Hz ("frame_rate")
+  // Output frames; -1: the track's length (last start + window) at that rate.
+  int64_t frames = -1;
+  TakeBlend blend = TakeBlend::kCrossfade;
+  DecoderKind decoder = DecoderKind::kRotation;
+  int batch_windows = 32;
+  double max_seconds = 0;  // as TakeOptions
+  std::string max_seconds_name = "the longest take";
+};
+
+// Decodes a code track (windows in order of start, as encode gives them;
+// only start_seconds and code are read) into one continuous motion: every
+// code decoded to a window at its start (rounded to a 25 Hz frame), the
+// windows joined as a take's are, brought to the output rate. The root does
+// not move (the model has no root translation). Results go to sink.on_frames
+// with an empty error. InputError naming "windows[i].start_seconds" (the
+// first must be 0, each at or after the previous, none leaving a frame
+// uncovered), "windows[i].code" (latent finite floats), "frame_rate" or
+// "frames", or the length limit, before anything is decoded.
+TakeSummary decode_code_track(const MotionManifold& model, const std::vector<TakeWindowCode>& track,
+                              const CodeTrackDecoding& options, const TakeSink& sink, TorchRunner run = {});
+
+}  // namespace mm
