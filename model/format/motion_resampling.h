@@ -18,6 +18,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "format/motion_text.h"
 
@@ -46,11 +47,12 @@ class MotionResampler {
   // Takes `frames` more input frames (columns values each, row-major) and
   // appends to `out` (of the same columns) every output frame they complete.
   void push(const float* values, int64_t frames, MotionFrames& out);
-  // Ends the input: appends what is left (the output frame at the last input
-  // frame's time, when one falls there). With total_output_frames >= 0, the
-  // output is then made exactly that long: frames past the input's last
-  // time repeat the last output frame's rotations with no root change, and
-  // surplus frames are not appended. Returns the output frame count.
+  // Ends the input. Every output frame up to the last input frame's time
+  // has been appended by push(); with total_output_frames larger than the
+  // output so far, frames are appended up to that count, holding the last
+  // output frame's rotations with no root change (the at most one frame
+  // time of the input that the grid of the output rate does not reach).
+  // Returns the output frame count.
   int64_t finish(MotionFrames& out, int64_t total_output_frames = -1);
 
   int64_t input_frames() const { return input_frames_; }
