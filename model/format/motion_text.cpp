@@ -102,7 +102,9 @@ void check_value_count(const TextRow& row, const std::string& source_name, int e
 }
 
 // The row's values appended to `out`, each checked.
-void parse_row(const TextRow& row, const std::string& source_name, int expected_columns, std::vector<float>& out) {
+// `nan_is_missing`: NaN is taken in the joint columns (a missing value).
+void parse_row(const TextRow& row, const std::string& source_name, int expected_columns, std::vector<float>& out,
+               bool nan_is_missing = false) {
   const int64_t line_number = row.line;
   check_value_count(row, source_name, expected_columns);
   const char* field = row.begin;
@@ -127,9 +129,15 @@ void parse_row(const TextRow& row, const std::string& source_name, int expected_
       throw InputError(location(source_name, line_number) + "value " + std::to_string(column + 1) + " " +
                        quoted(value_begin, value_end) + " is not a number, expected a decimal number");
     }
+    if (std::isnan(value) && nan_is_missing && column >= kRootTranslationValues) {
+      out.push_back(value);
+      field = field_end + 1;
+      continue;
+    }
     if (!std::isfinite(value)) {
       throw InputError(location(source_name, line_number) + "value " + std::to_string(column + 1) + " " +
-                       quoted(value_begin, value_end) + " is not finite, expected a finite number");
+                       quoted(value_begin, value_end) + " is not finite, expected a finite number" +
+                       (nan_is_missing ? " (NaN marks a missing joint value, not a root translation)" : ""));
     }
     const bool translation = column < kRootTranslationValues;
     const double bound = translation ? kMaxRootTranslationMm : kMaxRotationRadians;
@@ -155,6 +163,11 @@ void parse_row(const TextRow& row, const std::string& source_name, int expected_
 
 MotionFrames parse_motion_text_buffer(const char* data, size_t size,
                                       const std::string& source_name, int expected_columns) {
+  return parse_motion_text_buffer(data, size, source_name, expected_columns, false);
+}
+
+MotionFrames parse_motion_text_buffer(const char* data, size_t size, const std::string& source_name,
+                                      int expected_columns, bool nan_is_missing) {
   check_columns(expected_columns, source_name);
   MotionFrames motion;
   motion.columns = expected_columns;
@@ -162,7 +175,7 @@ MotionFrames parse_motion_text_buffer(const char* data, size_t size,
   // avoid repeated growth on 4 MB files.
   motion.values.reserve(size / 10 + static_cast<size_t>(expected_columns));
   for_each_row(data, size, source_name, expected_columns, [&](const TextRow& row) {
-    parse_row(row, source_name, expected_columns, motion.values);
+    parse_row(row, source_name, expected_columns, motion.values, nan_is_missing);
     return true;
   });
   if (motion.values.empty()) no_frames(source_name, expected_columns);

@@ -64,6 +64,12 @@ MotionFrames parse_motion_text_buffer(const char* data, size_t size,
                                       const std::string& source_name,
                                       int expected_columns = kH36mColumns);
 
+// The same, taking NaN ("nan", "NaN") in the joint columns when
+// `nan_is_missing`: a value missing from a take (a marker that dropped out),
+// for denoising to fill. NaN in the root translation is still refused.
+MotionFrames parse_motion_text_buffer(const char* data, size_t size, const std::string& source_name,
+                                      int expected_columns, bool nan_is_missing);
+
 // Reads and parses the file at `path`; error messages name `path`.
 // Throws InputError when the file cannot be opened or is malformed.
 MotionFrames read_motion_text(const std::string& path, int expected_columns = kH36mColumns);

@@ -205,11 +205,13 @@ std::vector<int> match_bvh_to_skeleton(const Skeleton& skeleton, const BvhFile& 
 
 namespace {
 
-// Frames k = 0 .. frames - 1 at 25 Hz from the file's frame `first`, each
-// the file's frame nearest to first + k/25 s (ties to the later), never past
-// its last frame.
+// Frames k = 0 .. frames - 1 at `rate_hz` from the file's frame `first`,
+// each the file's frame nearest to first + k / rate_hz s (ties to the
+// later), never past its last frame. At the file's own rate, its frames.
 MotionFrames import_frames(const Skeleton& skeleton, const std::vector<int>& match, const BvhFile& file,
-                           const std::string& source_name, int64_t first, int64_t frames) {
+                           const std::string& source_name, int64_t first, int64_t frames,
+                           double rate_hz = kBvhImportRate) {
+  const bool own_rate = rate_hz <= 0;
   const double unit = skeleton.bvh ? skeleton.bvh->millimetres_per_unit : 1.0;
   const int64_t source_frames = file.frame_count();
   const int channels = file.channel_count();
@@ -221,8 +223,8 @@ MotionFrames import_frames(const Skeleton& skeleton, const std::vector<int>& mat
   motion.values.assign(static_cast<size_t>(frames) * columns, 0.0f);
   Vec3 previous{0, 0, 0};
   for (int64_t k = 0; k < frames; ++k) {
-    const double t = static_cast<double>(k) / kBvhImportRate;
-    int64_t source = first + static_cast<int64_t>(std::floor(t / file.frame_time_s + 0.5));
+    const double t = own_rate ? 0.0 : static_cast<double>(k) / rate_hz;
+    int64_t source = own_rate ? first + k : first + static_cast<int64_t>(std::floor(t / file.frame_time_s + 0.5));
     if (source > source_frames - 1) source = source_frames - 1;
     const double* values = file.values.data() + source * channels;
     float* out = motion.frame(k);
@@ -246,7 +248,8 @@ MotionFrames import_frames(const Skeleton& skeleton, const std::vector<int>& mat
         for (int c = 0; c < 3; ++c) {
           const double change = k == 0 ? 0.0 : position[c] - previous[c];
           if (std::fabs(change) > kMaxRootTranslationMm) {
-            throw InputError(source_name + ": the root moves " + std::to_string(change) + " mm between 25 Hz frames " +
+            throw InputError(source_name + ": the root moves " + std::to_string(change) + " mm between " +
+                             (own_rate ? std::string("") : std::string("25 Hz ")) + "frames " +
                              std::to_string(k - 1) + " and " + std::to_string(k) + ", more than " +
                              std::to_string(kMaxRootTranslationMm) + " mm");
           }
@@ -296,6 +299,13 @@ MotionFrames skeleton_motion_window_from_bvh(const Skeleton& skeleton, const Bvh
                      " asked for");
   }
   return import_frames(skeleton, match, file, source_name, first_frame, frames);
+}
+
+MotionFrames skeleton_motion_from_bvh_at_file_rate(const Skeleton& skeleton, const BvhFile& file,
+                                                  const std::string& source_name) {
+  const std::vector<int> match = match_bvh_to_skeleton(skeleton, file, source_name);
+  if (file.frame_count() < 1) throw InputError(source_name + ": no frames");
+  return import_frames(skeleton, match, file, source_name, 0, file.frame_count(), 0.0);
 }
 
 }  // namespace mm

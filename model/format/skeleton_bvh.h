@@ -81,6 +81,14 @@ BvhFile skeleton_motion_to_bvh(const Skeleton& skeleton, const BvhLayout& layout
 MotionFrames skeleton_motion_from_bvh(const Skeleton& skeleton, const BvhFile& file, const std::string& source_name,
                                       const BvhFrameLimit& limit = {});
 
+// Every frame of the file, at its own rate (1 / frame time), as motion frames
+// of the skeleton: what skeleton_motion_from_bvh gives without resampling,
+// for takes, which are resampled on rotations (motion_resampling.h). The
+// root's change is between consecutive file frames. Throws InputError as
+// above (the file's frame count was bounded when it was parsed).
+MotionFrames skeleton_motion_from_bvh_at_file_rate(const Skeleton& skeleton, const BvhFile& file,
+                                                  const std::string& source_name);
+
 // `frames` frames at 25 Hz of the import that starts at the file's frame
 // `first_frame` (its time is 0), as skeleton_motion_from_bvh would give them
 // for the file cut there: only these frames are computed, so that a window

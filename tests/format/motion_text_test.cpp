@@ -263,5 +263,30 @@ TEST(SplitPhases, ShortSequenceGivesEmptyLatePhases) {
   EXPECT_EQ(phases[1].frame_count(), 0);
 }
 
+TEST(MotionText, NanMarksAMissingJointValueOnlyWhereAskedAndNeverInTheRoot) {
+  const std::string joints_missing = "0,0,0,nan,0.5,NaN\n1,2,3,0.1,0.2,0.3\n";
+  const MotionFrames motion = parse_motion_text_buffer(joints_missing.data(), joints_missing.size(), "take.txt", 6, true);
+  ASSERT_EQ(motion.frame_count(), 2);
+  EXPECT_TRUE(std::isnan(motion.frame(0)[3]));
+  EXPECT_EQ(motion.frame(0)[4], 0.5f);
+  EXPECT_TRUE(std::isnan(motion.frame(0)[5]));
+  try {
+    parse_motion_text_buffer(joints_missing.data(), joints_missing.size(), "take.txt", 6);
+    FAIL() << "NaN taken without nan_is_missing";
+  } catch (const InputError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("take.txt:1: value 4 \"nan\" is not finite"));
+  }
+  const std::string root_missing = "0,nan,0,0.1,0.2,0.3\n";
+  try {
+    parse_motion_text_buffer(root_missing.data(), root_missing.size(), "take.txt", 6, true);
+    FAIL() << "NaN taken in the root translation";
+  } catch (const InputError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("take.txt:1: value 2 \"nan\" is not finite"));
+    EXPECT_THAT(e.what(), HasSubstr("not a root translation"));
+  }
+  const std::string infinite = "0,0,0,inf,0.2,0.3\n";
+  EXPECT_THROW(parse_motion_text_buffer(infinite.data(), infinite.size(), "take.txt", 6, true), InputError);
+}
+
 }  // namespace
 }  // namespace mm

@@ -88,6 +88,31 @@ TEST(SkeletonBvh, CmuDanceRoundTripKeepsWorldPositionsInItsOwnLayout) {
   }
 }
 
+TEST(SkeletonBvh, AtTheFilesRateEveryFrameIsKeptAndExportsBackAtThatRate) {
+  const char* name = "indian/04.bvh";
+  const BvhFile original = read_bvh_file(cmu(name));
+  const Skeleton skeleton = bvh_skeleton(original, "cmu-dance", 10.0);
+  const MotionFrames own = skeleton_motion_from_bvh_at_file_rate(skeleton, original, name);
+  ASSERT_EQ(own.frame_count(), original.frame_count());
+  // The 25 Hz import is its frames nearest to k / 25 s: their rotations.
+  const MotionFrames at_25 = skeleton_motion_from_bvh(skeleton, original, name);
+  for (int64_t k = 0; k < at_25.frame_count(); k += 13) {
+    const int64_t frame = static_cast<int64_t>(std::floor(k / 25.0 / original.frame_time_s + 0.5));
+    for (int c = 3; c < own.columns; ++c) ASSERT_EQ(own.frame(frame)[c], at_25.frame(k)[c]) << k << " " << c;
+  }
+  // Exported at the file's rate, frame for frame the same poses.
+  const BvhFile exported = skeleton_motion_to_bvh(skeleton, *skeleton.bvh, own, 1.0 / original.frame_time_s);
+  ASSERT_EQ(exported.frame_count(), original.frame_count());
+  EXPECT_DOUBLE_EQ(exported.frame_time_s, original.frame_time_s);
+  for (int64_t f = 0; f < original.frame_count(); f += 97) {
+    const std::vector<Vec3> want = bvh_world_positions(original, f);
+    const std::vector<Vec3> got = bvh_world_positions(exported, f);
+    for (size_t j = 1; j < want.size(); ++j) {
+      for (int a = 0; a < 3; ++a) ASSERT_NEAR(got[j][a] - got[0][a], want[j][a] - want[0][a], 1e-3) << f << " " << j;
+    }
+  }
+}
+
 TEST(SkeletonBvh, AnyRotationOrderGivesTheSamePosesAndReadsBack) {
   const BvhFile original = read_bvh_file(cmu("martial/05.bvh"));
   const Skeleton skeleton = bvh_skeleton(original, "cmu-dance", 10.0);
