@@ -128,8 +128,9 @@ class TakeProcessor {
 
   // The most frames the processor held at once so far: input frames not yet
   // answered, the 25 Hz frames of windows not yet run, the windows of the
-  // batch being run, and the assembled frames not yet final. It depends on
-  // the batch, the hop and the rate, not on the take's length.
+  // batch being run, the assembled frames not yet final, and the reply being
+  // handed out. It depends on the batch, the hop and the rate, not on the
+  // take's length.
   int64_t held_frames_peak() const;
 
  private:
