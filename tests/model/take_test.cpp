@@ -286,8 +286,10 @@ TEST_F(Takes, FramesOutEqualFramesInAtTheTakesRate) {
 }
 
 // The take is reconstructed as well as its clips are one at a time: the
-// crossfaded seams cost nothing measurable. Measured on the first 60 s of
-// walking_1 and eating_1 (50 Hz): see the numbers printed.
+// seams cost nothing measurable. Measured on the first 30 s of walking_1
+// and eating_1 (50 Hz): the take 50.9 and 63.2 mm, its disjoint 6 s clips
+// alone 56.5 and 73.5 mm (the take is lower: with a 3 s hop every frame is
+// the crossfade of two windows' estimates). Bound: 1.1 x the clips'.
 TEST_F(Takes, ATakesReconstructionErrorIsCloseToThatOfItsClips) {
   MM_REQUIRE_H36M();
   for (const char* name : {"walking_1.txt", "eating_1.txt"}) {
@@ -351,8 +353,10 @@ GappedTake gapped(const MotionManifold& model, const MotionFrames& take) {
 }
 
 // Measured (walking_1, first 20 s at 50 Hz, the first five fully modelled
-// joints missing for frames 500..524): see the numbers printed; the margin
-// is pinned with headroom over them.
+// joints missing for frames 500..524): over the gap's frames the gap-free
+// reconstruction lies 46.2 mm from the truth, the filled take 50.0 mm, and
+// the two 6.8 mm apart. Margins: 15 mm over the gap-free error (four times
+// the 3.8 mm the gap costs) and 15 mm apart (2.2 times the measured).
 TEST_F(Takes, DenoiseFillsHalfASecondGapOnFiveJointsCloseToTheGapFreeReconstruction) {
   MM_REQUIRE_H36M();
   const MotionFrames take = s5("walking_1.txt", 1000);
