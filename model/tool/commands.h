@@ -36,5 +36,7 @@ void add_bench_command(CLI::App& app, Action& action);
 void add_render_commands(CLI::App& app, Action& action);
 // take encode|reconstruct|denoise|decode: motions of any length and rate.
 void add_take_commands(CLI::App& app, Action& action);
+// take-seams: where a take's windows meet, measured (model/take_seams.h).
+void add_take_seams_command(CLI::App& app, Action& action);
 
 }  // namespace mm::tool
