@@ -304,16 +304,56 @@ void add_take_decode(CLI::App* take, Action& action) {
   });
 }
 
+// take resample: a motion brought to another rate on rotations, as takes are
+// (format/motion_resampling.h), e.g. to give a take the rate of another tool.
+void add_take_resample(CLI::App* take, Action& action) {
+  struct Options {
+    TakeArguments model;
+    std::string input, out;
+    double rate = kDataSetRate, to = kTakeModelRate;
+  };
+  auto o = std::make_shared<Options>();
+  auto* command = take->add_subcommand(
+      "resample",
+      "Bring a motion to another frame rate as takes are: every joint's rotation slerped between the two nearest "
+      "frames, the root's position interpolated linearly. Covers the input's duration (a frame every 1/--to s up "
+      "to its last frame's time).");
+  o->model.add_to(command, false);
+  command->add_option("--input", o->input, "motion text at --rate, or BVH of the model's skeleton (- for standard input)")
+      ->required();
+  command->add_option("--rate", o->rate, "frame rate of a text input, Hz")->capture_default_str();
+  command->add_option("--to", o->to, "frame rate to write, Hz (10 to 1000)")->required();
+  command->add_option("--out", o->out, "BVH for a name ending in .bvh, else motion text (- for standard output)")
+      ->required();
+  command->callback([o, &action] {
+    action = [o] {
+      check_take_rate(o->rate, "--rate");
+      check_take_rate(o->to, "--to");
+      check_output_file(o->out, "--out");
+      const MotionManifold model = MotionManifold::load(o->model.model_dir);
+      const TakeInput in = read_take(o->input, o->rate, false, model.skeleton());
+      const MotionFrames out = resample_motion(in.frames, in.rate, o->to);
+      write_take(out, o->to, o->out, model.skeleton());
+      std::fprintf(message_stream({o->out}), "wrote %s (%lld frames at %g Hz from %lld at %g Hz)\n",
+                   is_standard_stream(o->out) ? "standard output" : o->out.c_str(),
+                   static_cast<long long>(out.frame_count()), o->to, static_cast<long long>(in.frames.frame_count()),
+                   in.rate);
+      return kExitSuccess;
+    };
+  });
+}
+
 }  // namespace
 
 void add_take_commands(CLI::App& app, Action& action) {
   auto* take = app.add_subcommand("take", "Takes: motions of any length and frame rate (encode, reconstruct, "
-                                          "denoise, decode).");
+                                          "denoise, decode, resample).");
   take->require_subcommand(1);
   add_take_operation(take, action, TakeOperation::kEncode);
   add_take_operation(take, action, TakeOperation::kReconstruct);
   add_take_operation(take, action, TakeOperation::kDenoise);
   add_take_decode(take, action);
+  add_take_resample(take, action);
 }
 
 }  // namespace mm::tool
