@@ -527,6 +527,19 @@ TEST(TakesOfAnotherRig, ACmuDanceAt120HzComesBackAt120HzThroughAModelOfItsRig) {
   EXPECT_NEAR(out.frame_time_s, file.frame_time_s, 1e-9);
   EXPECT_EQ(out.joints.size(), file.joints.size());
   for (double v : out.values) ASSERT_TRUE(std::isfinite(v));
+
+  // A file of the data root as the take (path=, an empty body): its own
+  // frames and rate back; a path outside the root is refused naming it.
+  const BvhFile trained_on = read_bvh_file((root / "dances/martial/03.bvh").string());
+  const Reply from_path = post_take(port, "/v1/takes:reconstruct?model=dances&path=dances/martial/03.bvh", "",
+                                    "text/plain", "application/x-bvh");
+  ASSERT_EQ(from_path.status, 200) << from_path.body.substr(0, 500);
+  EXPECT_EQ(parse_bvh_text(from_path.body, "reply.bvh").frame_count(), trained_on.frame_count());
+  EXPECT_EQ(from_path.header("X-Take-Frame-Rate"), "120");
+  const Reply outside = post_take(port, "/v1/takes:encode?model=dances&path=../escape.bvh", "", "text/plain",
+                                  "application/json");
+  EXPECT_EQ(outside.status, 400) << outside.body;
+  if (outside.document.is_object()) EXPECT_EQ(outside.field(), "path") << outside.body;
 }
 
 // S5 files one after another until `minutes` of motion at 50 Hz, handed out
@@ -611,7 +624,11 @@ TEST(TakesOfAnHour, ASixtyMinuteTakeCostsTheServerNoMoreMemoryThanATenMinuteOne)
 // A server that runs one take at a time, for the refusals.
 class BadTakes : public ::testing::Test {
  protected:
-  static void SetUpTestSuite() { server_ = new ServerProcess({"--max-take-streams", "1", "--max-take-bytes", "1048576"}); }
+  // With a token: takes need none (the access of Encode), a data-root file
+  // as the take does.
+  static void SetUpTestSuite() {
+    server_ = new ServerProcess({"--max-take-streams", "1", "--max-take-bytes", "1048576", "--auth-token", "secret"});
+  }
   static void TearDownTestSuite() {
     delete server_;
     server_ = nullptr;
@@ -757,6 +774,13 @@ TEST_F(BadTakes, BadInputIsRefusedNamingTheFieldAndLeavesNothingBehind) {
                                              "Content-Type: text/plain\r\nContent-Length: 2000000\r\n\r\n");
   EXPECT_EQ(answer.rfind("HTTP/1.1 413", 0), 0u) << answer;
   EXPECT_NE(answer.find("--max-take-bytes"), std::string::npos) << answer;
+  // path= needs the clip-read access (the token), then a data root.
+  reply = post_take(port, "/v1/takes:reconstruct?path=S5/walking_1.txt", "", "text/plain", "application/json");
+  EXPECT_EQ(reply.status, 401) << reply.body;
+  reply = post(port, "/v1/takes:reconstruct?path=S5/walking_1.txt", "",
+               {{"Accept", "application/json"}, {"Authorization", "Bearer secret"}}, "text/plain");
+  EXPECT_EQ(reply.status, 409) << reply.body;
+  if (reply.document.is_object()) EXPECT_EQ(reply.field(), "path") << reply.body;
   expect_slot_free("REST refusals");
 
   const Memory after = memory_of(server().pid());
