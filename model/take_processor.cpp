@@ -299,7 +299,6 @@ void TakeProcessor::State::run_batch(const std::vector<int64_t>& starts) {
 
 void TakeProcessor::State::hand_out_assembled(const MotionFrames& final_frames, bool last) {
   assembled_out += final_frames.frame_count();
-  note_held();
   MotionFrames output;
   output.columns = columns;
   if (!to_output) {
@@ -310,6 +309,8 @@ void TakeProcessor::State::hand_out_assembled(const MotionFrames& final_frames, 
     // before the input's last frame's time, and the last pose is held.
     if (last) to_output->finish(output, input_frames);
   }
+  // The batch's final frames, their reply and its copy for the error.
+  note_held(final_frames.frame_count() + 2 * output.frame_count());
   answer(output);
 }
 

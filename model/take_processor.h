@@ -56,8 +56,10 @@ struct TakeOptions {
   bool at_model_rate = false;  // output at 25 Hz instead of the take's rate and length
   DecoderKind decoder = DecoderKind::kRotation;
   // Denoise only. NaN values are always missing there; these say what else
-  // is (zeros, means), how many rounds fill the gaps, and whether the
-  // observed values are returned as given.
+  // is (zeros, means: tested per value at the input's rate, where a value
+  // is still exact, and then missing as a NaN is), how many rounds fill the
+  // gaps, and whether the observed values are returned as given
+  // (keep_observed needs neither zeros nor means: NaN are missing anyway).
   DenoiseOptions denoise;
   int batch_windows = 32;  // windows run through the model at once
   // The longest take accepted, seconds (0: no limit), and the name a refusal
@@ -126,8 +128,9 @@ class TakeProcessor {
 
   // The most frames the processor held at once so far: input frames not yet
   // answered, the 25 Hz frames of windows not yet run, the windows of the
-  // batch being run, and the assembled frames not yet final. It depends on
-  // the batch, the hop and the rate, not on the take's length.
+  // batch being run, the assembled frames not yet final, and the reply being
+  // handed out. It depends on the batch, the hop and the rate, not on the
+  // take's length.
   int64_t held_frames_peak() const;
 
  private:

@@ -11,6 +11,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <ctime>
 #include <limits>
 #include <string>
 #include <vector>
@@ -285,8 +286,10 @@ TEST_F(Takes, FramesOutEqualFramesInAtTheTakesRate) {
 }
 
 // The take is reconstructed as well as its clips are one at a time: the
-// crossfaded seams cost nothing measurable. Measured on the first 60 s of
-// walking_1 and eating_1 (50 Hz): see the numbers printed.
+// seams cost nothing measurable. Measured on the first 30 s of walking_1
+// and eating_1 (50 Hz): the take 50.9 and 63.2 mm, its disjoint 6 s clips
+// alone 56.5 and 73.5 mm (the take is lower: with a 3 s hop every frame is
+// the crossfade of two windows' estimates). Bound: 1.1 x the clips'.
 TEST_F(Takes, ATakesReconstructionErrorIsCloseToThatOfItsClips) {
   MM_REQUIRE_H36M();
   for (const char* name : {"walking_1.txt", "eating_1.txt"}) {
@@ -350,8 +353,10 @@ GappedTake gapped(const MotionManifold& model, const MotionFrames& take) {
 }
 
 // Measured (walking_1, first 20 s at 50 Hz, the first five fully modelled
-// joints missing for frames 500..524): see the numbers printed; the margin
-// is pinned with headroom over them.
+// joints missing for frames 500..524): over the gap's frames the gap-free
+// reconstruction lies 46.2 mm from the truth, the filled take 50.0 mm, and
+// the two 6.8 mm apart. Margins: 15 mm over the gap-free error (four times
+// the 3.8 mm the gap costs) and 15 mm apart (2.2 times the measured).
 TEST_F(Takes, DenoiseFillsHalfASecondGapOnFiveJointsCloseToTheGapFreeReconstruction) {
   MM_REQUIRE_H36M();
   const MotionFrames take = s5("walking_1.txt", 1000);
@@ -370,23 +375,28 @@ TEST_F(Takes, DenoiseFillsHalfASecondGapOnFiveJointsCloseToTheGapFreeReconstruct
   EXPECT_LT(apart, 15.0);
 }
 
-TEST_F(Takes, KeepObservedReturnsTheObservedValuesAsGiven) {
+// At 120 Hz: the gap, resampled, is NaN wherever a missing frame
+// contributes, and the reply at the take's rate keeps every other value.
+TEST_F(Takes, KeepObservedReturnsTheObservedValuesAsGivenAtTheTakesRate) {
   MM_REQUIRE_H36M();
-  const GappedTake g = gapped(*model_, s5("walking_1.txt", 1000));
-  auto o = options(TakeOperation::kDenoise, 50);
+  const GappedTake g = gapped(*model_, s5("walking_1.txt", 700));
+  const MotionFrames at_120 = resample_motion(g.take, 50, 120);
+  auto o = options(TakeOperation::kDenoise, 120);
   o.denoise.keep_observed = true;
-  const auto result = process_take(*model_, g.take, o);
-  ASSERT_EQ(result.frames.values.size(), g.take.values.size());
+  const auto result = process_take(*model_, at_120, o);
+  ASSERT_EQ(result.frames.values.size(), at_120.values.size());
   int64_t filled = 0;
-  for (size_t i = 0; i < g.take.values.size(); ++i) {
-    if (std::isnan(g.take.values[i])) {
+  for (size_t i = 0; i < at_120.values.size(); ++i) {
+    if (std::isnan(at_120.values[i])) {
       ASSERT_TRUE(std::isfinite(result.frames.values[i])) << i;
       ++filled;
     } else {
-      ASSERT_EQ(result.frames.values[i], g.take.values[i]) << i;
+      ASSERT_EQ(result.frames.values[i], at_120.values[i]) << i;
     }
   }
-  EXPECT_EQ(filled, 25 * 5 * 3);
+  // 0.5 s at 120 Hz, and the frames around it that a missing frame reaches.
+  EXPECT_GE(filled, 60 * 5 * 3);
+  EXPECT_LE(filled, 63 * 5 * 3);
 }
 
 TEST_F(Takes, BadInputIsRefusedNamingIt) {
@@ -453,8 +463,10 @@ TEST_F(Takes, AnHourLongTakeHoldsNoMoreFramesThanTenMinutes) {
   MotionManifold quick(small, model_->normalization(), model_->skeleton());
   quick.train(false);
   const MotionFrames file = read_motion_text((test::h36m_dataset_dir() / "S5" / "walking_1.txt").string());
-  auto held_peak = [&](int64_t minutes) {
-    TakeProcessor processor(quick, options(TakeOperation::kReconstruct, 50), {});
+  auto held_peak = [&](int64_t minutes, int batch_windows = 32) {
+    auto o = options(TakeOperation::kReconstruct, 50);
+    o.batch_windows = batch_windows;
+    TakeProcessor processor(quick, o, {});
     const int64_t frames = minutes * 60 * 50;
     for (int64_t pushed = 0; pushed < frames;) {
       const int64_t count = std::min(file.frame_count(), frames - pushed);
@@ -469,10 +481,15 @@ TEST_F(Takes, AnHourLongTakeHoldsNoMoreFramesThanTenMinutes) {
   std::printf("frames held at most: 10 minutes %lld, 60 minutes %lld (of 30000 and 180000)\n",
               static_cast<long long>(ten), static_cast<long long>(sixty));
   EXPECT_LE(sixty, ten);
-  // Measured 15447 at 50 Hz: the batch's 32 windows (4800 frames), the 99 s
-  // of input they span not yet answered (about 5000 frames and a push step
-  // of 2048) and the 25 Hz frames from the last window run (about 2500).
-  EXPECT_LT(ten, 20000);
+  // Measured 20247 at 50 Hz: the batch's 32 windows (4800 frames), the 96 s
+  // of input they span not yet answered (about 4800 frames, and a push step
+  // of 2048), the 25 Hz frames since the last window run (about 2500), and
+  // the reply handed out with its copy for the error (about 2 x 4800). The
+  // batch, not the take, sets it: 8 windows a batch hold about a third.
+  EXPECT_LT(ten, 25000);
+  const int64_t small_batches = held_peak(10, 8);
+  std::printf("10 minutes in batches of 8 windows: %lld\n", static_cast<long long>(small_batches));
+  EXPECT_LT(small_batches, ten / 2);
 }
 
 TEST_F(Takes, DecodingEncodesTrackGivesTheReconstructionAtTheModelsRate) {
@@ -564,18 +581,25 @@ MotionFrames ten_minutes_at_120_hz() {
 
 double seconds_of(const MotionManifold& model, const MotionFrames& take, const TakeOptions& options) {
   const auto begin = std::chrono::steady_clock::now();
+  const std::clock_t cpu_begin = std::clock();
   const auto result = process_take(model, take, options);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
-  std::printf("%lld frames at %g Hz, %d windows, %s: %.2f s, mean error %.1f mm\n",
+  const double cpu_seconds = static_cast<double>(std::clock() - cpu_begin) / CLOCKS_PER_SEC;
+  std::printf("%lld frames at %g Hz, %d windows, %s: %.2f s (%.2f s of CPU on %d threads), mean error %.1f mm\n",
               static_cast<long long>(take.frame_count()), options.frame_rate, result.summary.windows,
-              take_operation_name(options.operation), seconds, result.summary.mean_error_mm);
+              take_operation_name(options.operation), seconds, cpu_seconds, at::get_num_threads(),
+              result.summary.mean_error_mm);
   return seconds;
 }
 
 TEST_F(Takes, DISABLED_TenMinutesAt120Hz) {
   MM_REQUIRE_H36M();
   const MotionFrames take = ten_minutes_at_120_hz();
+  // As the tool and the server run: every core the process may use.
+  const int threads = at::get_num_threads();
+  at::set_num_threads(2);
   for (TakeOperation op : {TakeOperation::kEncode, TakeOperation::kReconstruct}) seconds_of(*model_, take, options(op, 120));
+  at::set_num_threads(threads);
 }
 
 TEST_F(Takes, DISABLED_TenMinutesAt120HzWithoutTheNetworksCost) {

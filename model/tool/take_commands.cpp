@@ -1,0 +1,319 @@
+// Takes: motions of any length and frame rate through the manifold
+// (take_processor.h): encode into a code track, reconstruct, denoise (NaN
+// values missing), and decode a code track back into one motion.
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "commands.h"
+#include "default_model.h"
+#include "file_arguments.h"
+#include "format/bvh_file.h"
+#include "format/input_error.h"
+#include "format/motion_resampling.h"
+#include "format/skeleton_bvh.h"
+#include "motion_files.h"
+#include "take_processor.h"
+
+namespace mm::tool {
+namespace {
+
+const char* const kTakeNote =
+    "A take is a motion of any length (at least one window: 6 s) and frame rate (10 to 1000 Hz): an H3.6M "
+    "exponential-map text file at --rate (default 50, the data set's), or a BVH file of the model's skeleton at its "
+    "own frame time (--rate does not apply). It is cut into the model's 6 s windows every --hop seconds, the last "
+    "aligned to the take's end.";
+
+// The options of a take's model, its windows and how they are joined.
+struct TakeArguments {
+  std::string model_dir = default_model_dir();
+  std::string decoder;  // empty: the model's default
+  std::string blend = "crossfade";
+
+  void add_to(CLI::App* command, bool decodes) {
+    command->add_option("--model", model_dir, "model folder (default: $MM_MODEL_DIR or the shipped model)")
+        ->capture_default_str();
+    if (!decodes) return;
+    command->add_option("--decoder", decoder, "rotation or velocity (default: rotation if the model has it)")
+        ->check(CLI::IsMember({"rotation", "velocity"}));
+    command->add_option("--blend", blend,
+                        "how overlapping windows are joined: crossfade (slerp of the rotations across the overlap) "
+                        "or cut (at the overlap's middle)")
+        ->check(CLI::IsMember({"crossfade", "cut"}))
+        ->capture_default_str();
+  }
+  DecoderKind kind(const MotionManifold& model) const {
+    return decoder.empty() ? model.default_decoder() : parse_decoder_kind(decoder);
+  }
+};
+
+// A take read from --input: its frames and rate.
+struct TakeInput {
+  MotionFrames frames;
+  double rate = 0;
+};
+
+TakeInput read_take(const std::string& path, double text_rate, bool nan_is_missing, const Skeleton& skeleton) {
+  const std::string text = read_input_file(path, "--input");
+  const std::string name = input_name(path);
+  if (is_bvh_input(path, text)) {
+    const BvhFile file = parse_bvh_text(text, name);
+    return {skeleton_motion_from_bvh_at_file_rate(skeleton, file, name), 1.0 / file.frame_time_s};
+  }
+  return {parse_motion_text_buffer(text.data(), text.size(), name, skeleton_motion_columns(skeleton), nan_is_missing),
+          text_rate};
+}
+
+// BVH of the skeleton's own layout at `rate` for a path ending in .bvh,
+// else motion text; "-" is standard output.
+void write_take(const MotionFrames& frames, double rate, const std::string& path, const Skeleton& skeleton) {
+  if (is_bvh_path(path)) {
+    write_output_file(path, write_bvh_text(skeleton_motion_to_bvh(skeleton, bvh_layout_of(skeleton), frames, rate)));
+    return;
+  }
+  std::ostringstream text;
+  write_motion_text(frames, text);
+  write_output_file(path, text.str());
+}
+
+void write_error_csv(const std::vector<float>& error_mm, double rate, const std::string& path) {
+  std::string text = "frame,seconds,error_mm\n";
+  char line[64];
+  for (size_t f = 0; f < error_mm.size(); ++f) {
+    std::snprintf(line, sizeof line, "%zu,%.6f,%.3f\n", f, f / rate, error_mm[f]);
+    text += line;
+  }
+  write_output_file(path, text);
+}
+
+nlohmann::json summary_json(const TakeSummary& s, bool encodes) {
+  nlohmann::json summary = {{"input_frames", s.input_frames}, {"input_rate", s.input_rate},
+                            {"model_frames", s.model_frames}, {"windows", s.windows},
+                            {"hop_seconds", s.hop_seconds}};
+  if (encodes) return summary;
+  summary["frames"] = s.output_frames;
+  summary["frame_rate"] = s.output_rate;
+  summary["mean_error_mm"] = s.mean_error_mm;
+  summary["max_error_mm"] = s.max_error_mm;
+  return summary;
+}
+
+nlohmann::json track_json(const TakeResult& result, int window_frames) {
+  nlohmann::json windows = nlohmann::json::array();
+  for (const auto& w : result.windows) {
+    windows.push_back({{"start_seconds", w.start_seconds}, {"start_frame", w.start_frame}, {"code", w.code}});
+  }
+  return {{"frames", result.summary.input_frames},
+          {"frame_rate", result.summary.input_rate},
+          {"window_seconds", window_frames / kTakeModelRate},
+          {"hop_seconds", result.summary.hop_seconds},
+          {"windows", std::move(windows)}};
+}
+
+// A code track's windows from JSON as take encode writes it (only
+// windows[i].start_seconds and windows[i].code are read). `name` is the
+// file's name in messages.
+std::vector<TakeWindowCode> parse_track(const std::string& text, const std::string& name) {
+  nlohmann::json document;
+  try {
+    document = nlohmann::json::parse(text);
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(name + ": not a valid code track (JSON): " + json_error_reason(e.what()));
+  }
+  if (!document.is_object() || !document.contains("windows") || !document["windows"].is_array()) {
+    throw InputError(name + ": windows: expected an array of {\"start_seconds\", \"code\"} as take encode writes");
+  }
+  std::vector<TakeWindowCode> track;
+  const auto& windows = document["windows"];
+  for (size_t i = 0; i < windows.size(); ++i) {
+    const std::string field = name + ": windows[" + std::to_string(i) + "]";
+    const auto& w = windows[i];
+    if (!w.is_object() || !w.contains("start_seconds") || !w["start_seconds"].is_number()) {
+      throw InputError(field + ".start_seconds: expected a number");
+    }
+    if (!w.contains("code") || !w["code"].is_array()) throw InputError(field + ".code: expected an array of numbers");
+    TakeWindowCode window;
+    window.start_seconds = w["start_seconds"].get<double>();
+    for (size_t k = 0; k < w["code"].size(); ++k) {
+      const auto& v = w["code"][k];
+      if (!v.is_number()) throw InputError(field + ".code[" + std::to_string(k) + "]: expected a number, found " + v.dump());
+      window.code.push_back(v.get<float>());
+    }
+    track.push_back(std::move(window));
+  }
+  return track;
+}
+
+void add_take_operation(CLI::App* take, Action& action, TakeOperation operation) {
+  struct Options {
+    TakeArguments model;
+    std::string input, out, error_csv;
+    double rate = kDataSetRate;
+    double hop = kDefaultHopSeconds;
+    bool at_model_rate = false;
+    DenoiseOptions denoise;
+  };
+  auto o = std::make_shared<Options>();
+  const bool encodes = operation == TakeOperation::kEncode;
+  const bool denoises = operation == TakeOperation::kDenoise;
+  std::string description =
+      encodes ? "Encode a take into a code track: each window's start and code, as JSON ({\"windows\": "
+                "[{\"start_seconds\", \"start_frame\", \"code\"}, ...]}), for take decode. "
+      : denoises
+          ? "Denoise a take: every window projected onto the manifold (Sec. 5.4), values given as nan (and those "
+            "--zeros-are-missing or --means-are-missing names) missing and filled from the manifold; the windows "
+            "joined, at the take's rate and length, root translation the input's. "
+          : "Reconstruct a take: every window encoded and decoded, the windows joined, at the take's rate and "
+            "length (or 25 Hz with --at-model-rate), root translation the input's. ";
+  if (!encodes) {
+    description += "Prints a summary as JSON (mean and largest per-frame error: the mean distance of the joints "
+                   "from the input's, mm). ";
+  }
+  auto* command = take->add_subcommand(take_operation_name(operation), description + kTakeNote);
+  o->model.add_to(command, !encodes);
+  command->add_option("--input,--in", o->input, "the take: motion text or BVH (- for standard input)")->required();
+  command->add_option("--rate", o->rate, "frame rate of a text take, Hz (10 to 1000)")->capture_default_str();
+  command->add_option("--hop", o->hop, "seconds between window starts (0.04 to 6)")->capture_default_str();
+  command
+      ->add_option("--out", o->out,
+                   encodes ? "code track to write (JSON; - for standard output)"
+                           : "motion to write: BVH of the model's skeleton at the reply's rate for a name ending in "
+                             ".bvh, else motion text (- for standard output)")
+      ->required();
+  if (!encodes) {
+    command->add_flag("--at-model-rate", o->at_model_rate, "reply at the model's 25 Hz instead of the take's rate");
+    command->add_option("--error-csv", o->error_csv, "also write each frame's error: frame,seconds,error_mm");
+  }
+  if (denoises) {
+    auto* zeros = command->add_flag("--zeros-are-missing", o->denoise.zeros_are_missing,
+                                    "also treat joint-angle values that are exactly zero as missing");
+    command->add_flag("--means-are-missing", o->denoise.means_are_missing,
+                      "also treat joint-angle values exactly at their training mean as missing")
+        ->excludes(zeros);
+    command->add_option("--iterations", o->denoise.iterations,
+                        "rounds of projecting and refilling the missing values")
+        ->check(CLI::PositiveNumber)
+        ->capture_default_str();
+    command->add_flag("--keep-observed", o->denoise.keep_observed,
+                      "keep the observed values as given and take the manifold's only where values are missing");
+  }
+  command->callback([o, &action, operation, encodes] {
+    action = [o, operation, encodes] {
+      check_output_file(o->out, "--out");
+      if (!o->error_csv.empty()) {
+        check_output_file(o->error_csv, "--error-csv");
+        if (is_standard_stream(o->out) && is_standard_stream(o->error_csv)) {
+          throw InputError("--out and --error-csv are both - (standard output): give one of them a file");
+        }
+      }
+      check_take_rate(o->rate, "--rate");
+      const MotionManifold model = MotionManifold::load(o->model.model_dir);
+      try {
+        take_windowing(model.config().frames, o->hop);
+      } catch (const InputError& e) {
+        throw InputError("--hop" + std::string(e.what()).substr(std::string("hop_seconds").size()));
+      }
+      const TakeInput take = read_take(o->input, o->rate, operation == TakeOperation::kDenoise, model.skeleton());
+      TakeOptions options;
+      options.operation = operation;
+      options.frame_rate = take.rate;
+      options.hop_seconds = o->hop;
+      options.blend = parse_take_blend(o->model.blend);
+      options.at_model_rate = o->at_model_rate;
+      options.decoder = o->model.kind(model);
+      options.denoise = o->denoise;
+      TakeResult result;
+      try {
+        result = process_take(model, take.frames, options);
+      } catch (const InputError& e) {
+        throw InputError(input_name(o->input) + ": " + e.what());  // what is left to refuse is the take's
+      }
+      std::FILE* messages = message_stream({o->out, o->error_csv});
+      if (encodes) {
+        write_output_file(o->out, track_json(result, model.config().frames).dump() + "\n");
+      } else {
+        write_take(result.frames, result.summary.output_rate, o->out, model.skeleton());
+        if (!o->error_csv.empty()) write_error_csv(result.error_mm, result.summary.output_rate, o->error_csv);
+      }
+      nlohmann::json report = summary_json(result.summary, encodes);
+      report["input"] = input_name(o->input);
+      report["out"] = o->out;
+      std::fprintf(messages, "%s\n", report.dump(2).c_str());
+      return kExitSuccess;
+    };
+  });
+}
+
+void add_take_decode(CLI::App* take, Action& action) {
+  struct Options {
+    TakeArguments model;
+    std::string track, out;
+    double rate = kTakeModelRate;
+    int64_t frames = -1;
+  };
+  auto o = std::make_shared<Options>();
+  auto* command = take->add_subcommand(
+      "decode",
+      "Decode a code track (as take encode writes it, edited or not) into one continuous motion: every code decoded "
+      "to a 6 s window at its start, the windows joined, at --rate. The root does not move (the model has no root "
+      "translation).");
+  o->model.add_to(command, true);
+  command->add_option("--track", o->track, "code track (JSON; - for standard input)")->required();
+  command->add_option("--rate", o->rate, "frame rate of the motion, Hz (10 to 1000)")->capture_default_str();
+  command->add_option("--frames", o->frames, "frames to write (default: the track's length at --rate)");
+  command
+      ->add_option("--out", o->out,
+                   "motion to write: BVH of the model's skeleton at --rate for a name ending in .bvh, else motion "
+                   "text (- for standard output)")
+      ->required();
+  command->callback([o, &action] {
+    action = [o] {
+      const std::string text = read_input_file(o->track, "--track");
+      check_output_file(o->out, "--out");
+      check_take_rate(o->rate, "--rate");
+      if (o->frames < -1 || o->frames == 0) {
+        throw InputError("--frames: expected a number of frames (at least 1), found " + std::to_string(o->frames));
+      }
+      const auto track = parse_track(text, input_name(o->track));
+      const MotionManifold model = MotionManifold::load(o->model.model_dir);
+      CodeTrackDecoding options;
+      options.frame_rate = o->rate;
+      options.frames = o->frames;
+      options.blend = parse_take_blend(o->model.blend);
+      options.decoder = o->model.kind(model);
+      MotionFrames motion;
+      motion.columns = model.normalization().input_columns();
+      TakeSink sink;
+      sink.on_frames = [&motion](const MotionFrames& frames, const std::vector<float>&) {
+        motion.values.insert(motion.values.end(), frames.values.begin(), frames.values.end());
+      };
+      TakeSummary summary;
+      try {
+        summary = decode_code_track(model, track, options, sink);
+      } catch (const InputError& e) {
+        throw InputError(input_name(o->track) + ": " + e.what());
+      }
+      write_take(motion, o->rate, o->out, model.skeleton());
+      std::fprintf(message_stream({o->out}), "wrote %s (%lld frames at %g Hz from %d windows)\n",
+                   is_standard_stream(o->out) ? "standard output" : o->out.c_str(),
+                   static_cast<long long>(summary.output_frames), o->rate, summary.windows);
+      return kExitSuccess;
+    };
+  });
+}
+
+}  // namespace
+
+void add_take_commands(CLI::App& app, Action& action) {
+  auto* take = app.add_subcommand("take", "Takes: motions of any length and frame rate (encode, reconstruct, "
+                                          "denoise, decode).");
+  take->require_subcommand(1);
+  add_take_operation(take, action, TakeOperation::kEncode);
+  add_take_operation(take, action, TakeOperation::kReconstruct);
+  add_take_operation(take, action, TakeOperation::kDenoise);
+  add_take_decode(take, action);
+}
+
+}  // namespace mm::tool
