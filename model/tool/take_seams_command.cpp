@@ -5,6 +5,7 @@
 
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <filesystem>
 #include <nlohmann/json.hpp>
 
 #include "cli_validators.h"
@@ -102,8 +103,8 @@ int run_take_seams(const SeamsOptions& o) {
     if (i == 0 && !o.svg.empty()) {
       render::ErrorChartOptions chart;
       chart.frame_rate = kTakeModelRate;
-      chart.title = "Per-frame error of " + o.inputs[i] + " reconstructed as one take (" +
-                    std::to_string(s.windows) + " windows of 6 s; dashed: where the cut switches windows)";
+      chart.title = std::filesystem::path(o.inputs[i]).stem().string() + " as one take of " +
+                    std::to_string(s.windows) + " windows: per-frame error (dashed: where the cut switches windows)";
       const int window = model.config().frames;
       for (size_t k = 1; k < s.window_starts.size(); ++k) {
         const int64_t middle = s.window_starts[k] + (s.window_starts[k - 1] + window - s.window_starts[k]) / 2;
