@@ -40,6 +40,8 @@ bool parse_bvh_channel(const std::string& text, BvhChannel* channel) {
 int bvh_channel_axis(BvhChannel channel) { return static_cast<int>(channel) % 3; }
 bool bvh_channel_is_position(BvhChannel channel) { return static_cast<int>(channel) < 3; }
 
+double bvh_frame_rate(const BvhFile& file) { return std::round(1e6 / file.frame_time_s) / 1e6; }
+
 int BvhFile::channel_count() const {
   int count = 0;
   for (const auto& joint : joints) count += static_cast<int>(joint.channels.size());

@@ -94,6 +94,13 @@ struct BvhFile {
   int named_joint_count() const;
 };
 
+// The file's frame rate in Hz: 1 / frame time, rounded to a millionth of a
+// hertz. Files hold the frame time to a few significant digits (ours to 9:
+// 0.00833333333 for 120 Hz, whose inverse is 120.000000048); rounded, a take
+// written at 120 Hz reads back at 120 Hz and keeps its frame count when
+// resampled to it.
+double bvh_frame_rate(const BvhFile& file);
+
 // Parses BVH text (LF or CRLF line ends, tabs or spaces, a UTF-8 byte-order
 // mark at the start). `source_name` names the file in messages. Requires
 // exactly one ROOT, unique joint names, 0..6 channels per joint with none

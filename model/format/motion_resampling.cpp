@@ -10,8 +10,11 @@ namespace mm {
 namespace {
 
 // Tolerance, in input frames, for an output time that falls on an input
-// frame but is computed a rounding error short of it (k x 4.8 at 120 Hz).
-constexpr double kOnFrame = 1e-9;
+// frame but is computed a rounding error short of it (k x 4.8 at 120 Hz),
+// or from rates a file gave to a few significant digits: a millionth of a
+// frame, which no take is long enough to accumulate from rates rounded to
+// a millionth of a hertz (bvh_frame_rate).
+constexpr double kOnFrame = 1e-6;
 
 std::string number_text(double value) {
   std::ostringstream text;

@@ -34,7 +34,7 @@ void check_take_rate(double rate_hz, const std::string& field);
 
 // Frames at to_hz covering `frames` frames at from_hz: one at every 1 / to_hz
 // from the first frame's time to the last's, floor((frames - 1) x to / from)
-// + 1 (with a tolerance of 1e-9 frame for rates whose ratio is not exact in
+// + 1 (with a tolerance of 1e-6 frame for rates whose ratio is not exact in
 // binary); 0 for no frames.
 int64_t resampled_frame_count(int64_t frames, double from_hz, double to_hz);
 

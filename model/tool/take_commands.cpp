@@ -60,7 +60,7 @@ TakeInput read_take(const std::string& path, double text_rate, bool nan_is_missi
   const std::string name = input_name(path);
   if (is_bvh_input(path, text)) {
     const BvhFile file = parse_bvh_text(text, name);
-    return {skeleton_motion_from_bvh_at_file_rate(skeleton, file, name), 1.0 / file.frame_time_s};
+    return {skeleton_motion_from_bvh_at_file_rate(skeleton, file, name), bvh_frame_rate(file)};
   }
   return {parse_motion_text_buffer(text.data(), text.size(), name, skeleton_motion_columns(skeleton), nan_is_missing),
           text_rate};

@@ -154,7 +154,7 @@ void read_bvh_window(const std::string& data, const std::string& relative, const
 
   const int64_t frames = file.frame_count();
   reply.file_frames = frames;
-  reply.file_frame_rate = 1.0 / file.frame_time_s;
+  reply.file_frame_rate = bvh_frame_rate(file);
   const std::string rate = decimal(reply.file_frame_rate);
   if (bvh_imported_frame_count(frames, file.frame_time_s) < shape.frames) {
     throw invalid("path", relative + " is shorter than one window: its " + std::to_string(frames) + " frames at " +

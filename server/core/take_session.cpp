@@ -35,7 +35,7 @@ TakeFile take_from_bvh(const std::string& data, const std::string& source, const
   TakeFile take;
   try {
     const BvhFile file = parse_bvh_text(data, source);
-    take.frame_rate = 1.0 / file.frame_time_s;
+    take.frame_rate = bvh_frame_rate(file);
     take.frames = skeleton_motion_from_bvh_at_file_rate(skeleton, file, source);
   } catch (const InputError& e) {
     throw ApiError(ErrorCode::kInvalidArgument, field, e.what());

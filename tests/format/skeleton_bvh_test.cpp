@@ -104,6 +104,12 @@ TEST(SkeletonBvh, AtTheFilesRateEveryFrameIsKeptAndExportsBackAtThatRate) {
   const BvhFile exported = skeleton_motion_to_bvh(skeleton, *skeleton.bvh, own, 1.0 / original.frame_time_s);
   ASSERT_EQ(exported.frame_count(), original.frame_count());
   EXPECT_DOUBLE_EQ(exported.frame_time_s, original.frame_time_s);
+  // Written at 120 Hz with a frame time of 9 significant digits, read back
+  // at 120 Hz (the CMU files' own 0.008333 s is 120.0048 Hz).
+  const BvhFile read_back =
+      parse_bvh_text(write_bvh_text(skeleton_motion_to_bvh(skeleton, *skeleton.bvh, own, 120.0)), "exported.bvh");
+  EXPECT_NE(1.0 / read_back.frame_time_s, 120.0);
+  EXPECT_EQ(bvh_frame_rate(read_back), 120.0);
   for (int64_t f = 0; f < original.frame_count(); f += 97) {
     const std::vector<Vec3> want = bvh_world_positions(original, f);
     const std::vector<Vec3> got = bvh_world_positions(exported, f);
