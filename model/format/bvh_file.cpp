@@ -1,6 +1,7 @@
 #include "format/bvh_file.h"
 
 #include <cerrno>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -156,11 +157,17 @@ std::string quoted(const std::string& text) { return "\"" + text + "\""; }
 
 // A finite number that is the whole of `text`, within +-bound.
 double parse_number(const Tokenizer& tokens, const Token& token, double bound, const char* what) {
+  // from_chars: exact like strtod and several times faster on the millions
+  // of values of a long take; it takes no '+', which some writers emit.
   const char* begin = token.text.c_str();
-  char* end = nullptr;
-  errno = 0;
-  const double value = std::strtod(begin, &end);
-  if (end == begin || *end != '\0') {
+  const char* end = begin + token.text.size();
+  const char* number = (begin != end && *begin == '+') ? begin + 1 : begin;
+  double value = 0;
+  auto [parsed_end, error] = std::from_chars(number, end, value);
+  // Beyond a double's range from_chars leaves `value` alone; strtod gives
+  // the infinity or the denormal or zero that the range check below reads.
+  if (error == std::errc::result_out_of_range) value = std::strtod(begin, nullptr), error = std::errc();
+  if (number == end || parsed_end != end || error != std::errc()) {
     tokens.fail(token.line, quoted(token.text) + " is not a number, expected " + what);
   }
   if (!std::isfinite(value) || std::fabs(value) > bound) {
@@ -413,8 +420,9 @@ std::string write_bvh_text(const BvhFile& file) {
   out += buffer;
   out.reserve(out.size() + file.values.size() * 11);
   for (size_t i = 0; i < file.values.size(); ++i) {
-    std::snprintf(buffer, sizeof buffer, "%.6f", file.values[i]);
-    out += buffer;
+    // "%.6f" as printf writes it (both round exactly), several times faster.
+    const auto written = std::to_chars(buffer, buffer + sizeof buffer, file.values[i], std::chars_format::fixed, 6);
+    out.append(buffer, written.ptr);
     out += ((i + 1) % channels == 0) ? '\n' : ' ';
   }
   return out;
