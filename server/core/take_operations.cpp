@@ -169,7 +169,7 @@ TakeSummaryReply run_take_on_model(const LoadedModel& model, DecoderKind decoder
     try {
       processor->push(chunk.values.data(), chunk.frames);
     } catch (const InputError& e) {
-      throw invalid("chunk.values", "frames from " + std::to_string(frames) + ": " + e.what());
+      throw invalid("chunk.values", e.what());  // names the take frame and column
     }
     frames += chunk.frames;
   }

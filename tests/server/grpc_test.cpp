@@ -26,6 +26,7 @@
 #include <iostream>
 #include <limits>
 #include <map>
+#include <set>
 #include <memory>
 #include <string>
 #include <thread>
@@ -825,12 +826,16 @@ TEST_F(GrpcApiTest, ReflectionListsTheServiceAndServesItsDescriptor) {
   std::vector<std::string> methods;
   for (const auto& m : file.service(0).method()) {
     methods.push_back(m.name());
-    EXPECT_EQ(m.server_streaming(), m.name() == "WatchJob") << m.name();
+    const std::set<std::string> replies_streamed = {"WatchJob", "ReconstructTake", "DenoiseTake", "DecodeTrack"};
+    const std::set<std::string> requests_streamed = {"EncodeTake", "ReconstructTake", "DenoiseTake"};
+    EXPECT_EQ(m.server_streaming(), replies_streamed.count(m.name()) == 1) << m.name();
+    EXPECT_EQ(m.client_streaming(), requests_streamed.count(m.name()) == 1) << m.name();
   }
   EXPECT_EQ(methods, (std::vector<std::string>{"Encode", "Decode", "Sample", "Interpolate", "Analogy", "Denoise",
                                                "ListModels", "DescribeModel", "ActivateModel", "DeleteModel",
                                                "ListClips", "ReadClip", "UploadClip", "DeleteClip", "SubmitJob",
-                                               "GetJob", "ListJobs", "CancelJob", "DeleteJob", "WatchJob"}));
+                                               "GetJob", "ListJobs", "CancelJob", "DeleteJob", "WatchJob",
+                                               "EncodeTake", "ReconstructTake", "DenoiseTake", "DecodeTrack"}));
   stream->WritesDone();
   EXPECT_TRUE(stream->Finish().ok());
 }
