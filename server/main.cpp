@@ -3,6 +3,7 @@
 // SIGTERM or SIGINT: it stops accepting calls, lets those in flight finish,
 // checkpoints the running training job (it resumes at the next start) and
 // exits 0.
+#include <malloc.h>
 #include <signal.h>
 #include <unistd.h>
 
@@ -92,6 +93,12 @@ int main(int argc, char** argv) {
   sigaddset(&stop_signals, SIGINT);
   pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
   signal(SIGPIPE, SIG_IGN);  // a client that hangs up is not a reason to die
+  // A take's buffers are megabytes, allocated on whichever connection
+  // thread serves it. glibc raises its mmap threshold after such a block
+  // is freed, and later ones then stay in that thread's arena: the peak
+  // grew by about 25 MiB with every take. A fixed threshold keeps large
+  // blocks mapped apart, given back to the system when freed.
+  mallopt(M_MMAP_THRESHOLD, 1 << 20);
 
   try {
     ServiceMetrics metrics;
