@@ -53,6 +53,37 @@ std::string segment(const std::string& value) {
   return out;
 }
 
+// A number as a query value (JSON's shortest form that reads back the same).
+std::string number(double value) { return json(value).dump(); }
+
+// The query of a take route (server/rest/README.md): the header's fields,
+// those left at their defaults left out; the rate only for text, since a
+// BVH states its own.
+std::string take_query(const v1::TakeHeader& h, bool bvh) {
+  std::string query;
+  const auto add = [&query](const std::string& name, const std::string& value) {
+    query += (query.empty() ? "?" : "&") + name + "=" + segment(value);
+  };
+  if (!h.model().empty()) add("model", h.model());
+  if (!bvh) add("frame_rate", number(h.frame_rate()));
+  if (h.hop_seconds() > 0) add("hop_seconds", number(h.hop_seconds()));
+  if (!h.blend().empty()) add("blend", h.blend());
+  if (!h.decoder().empty()) add("decoder", h.decoder());
+  if (h.at_model_rate()) add("at_model_rate", "true");
+  if (h.zeros_are_missing()) add("zeros_are_missing", "true");
+  if (h.means_are_missing()) add("means_are_missing", "true");
+  if (h.iterations() > 0) add("iterations", std::to_string(h.iterations()));
+  if (h.keep_observed()) add("keep_observed", "true");
+  return query;
+}
+
+// A take's JSON reply passed on as its gRPC stream would be.
+v1::TakeSummary pass_on_take_reply(const json& body, TakeReplySink& sink) {
+  sink.header(take_header_from_json(body));
+  sink.chunk(take_frames_from_json(body));
+  return take_summary_from_json(body);
+}
+
 class RestConnection : public ServerConnection {
  public:
   explicit RestConnection(const ConnectionOptions& options) : options_(options), client_(base_url(options)) {
@@ -183,6 +214,17 @@ class RestConnection : public ServerConnection {
     throw ServerError("UNAVAILABLE", "", "the job's event stream ended before the job did");
   }
 
+  v1::CodeTrack encode_take(const TakeUpload& take) override {
+    return code_track_from_json(post_take("/v1/takes:encode", take));
+  }
+  v1::TakeSummary transform_take(TakeOperation operation, const TakeUpload& take, TakeReplySink& sink) override {
+    const char* route = operation == TakeOperation::kDenoise ? "/v1/takes:denoise" : "/v1/takes:reconstruct";
+    return pass_on_take_reply(post_take(route, take), sink);
+  }
+  v1::TakeSummary decode_track(const v1::DecodeTrackRequest& request, TakeReplySink& sink) override {
+    return pass_on_take_reply(post("/v1/tracks:decode", to_json(request)), sink);
+  }
+
  private:
   static std::string base_url(const ConnectionOptions& options) {
     std::string url = options.rest_url;
@@ -207,6 +249,14 @@ class RestConnection : public ServerConnection {
   json del(const std::string& path) { return reply_of(client_.Delete(path.c_str())); }
   json post(const std::string& path, const json& body) {
     return reply_of(client_.Post(path.c_str(), body.dump(), "application/json"));
+  }
+
+  // The take's file as the body, as the client read it; the reply as JSON.
+  json post_take(const std::string& route, const TakeUpload& take) {
+    const std::string path = route + take_query(take.header, take.bvh);
+    const httplib::Headers headers{{"Accept", "application/json"}};
+    return reply_of(client_.Post(path.c_str(), headers, take.file_bytes,
+                                 take.bvh ? "application/x-bvh" : "text/plain"));
   }
 
   ConnectionOptions options_;
