@@ -108,6 +108,18 @@ int parse_server_config(int argc, char** argv, ServerConfig& config) {
   app.add_option("--max-watch-streams-per-client", config.core.watch_streams.max_streams_per_client,
                  "job watch streams open at once from one client address")
       ->envname("MM_MAX_WATCH_STREAMS_PER_CLIENT")->capture_default_str()->check(CLI::Range(1, 4096));
+  app.add_option("--max-take-seconds", config.core.takes.max_seconds,
+                 "the longest take (EncodeTake, ReconstructTake, DenoiseTake, DecodeTrack's reply), in seconds; "
+                 "refused as its frames arrive (413, RESOURCE_EXHAUSTED)")
+      ->envname("MM_MAX_TAKE_SECONDS")->capture_default_str()->check(CLI::Range(6.0, 1e6));
+  app.add_option("--max-take-streams", config.core.takes.max_streams,
+                 "take operations running at once, both protocols together; more are refused (429, "
+                 "RESOURCE_EXHAUSTED)")
+      ->envname("MM_MAX_TAKE_STREAMS")->capture_default_str()->check(CLI::Range(1, 4096));
+  app.add_option("--max-take-bytes", config.core.max_take_bytes,
+                 "largest take sent whole, in bytes: a REST body of /v1/takes:* (refused by its declared length, "
+                 "413) or a data-root file named by path=")
+      ->envname("MM_MAX_TAKE_BYTES")->capture_default_str()->check(CLI::Range(size_t{1024}, size_t{1} << 34));
   app.add_option("--max-loaded-models", config.core.max_loaded_models, "models kept in memory")
       ->envname("MM_MAX_LOADED_MODELS")->capture_default_str()->check(CLI::Range(1, 64));
 
@@ -184,6 +196,7 @@ int parse_server_config(int argc, char** argv, ServerConfig& config) {
   config.grpc.address = config.rest.address = address;
   config.grpc.max_message_bytes = max_message_bytes;
   config.rest.max_body_bytes = static_cast<size_t>(max_message_bytes);
+  config.rest.max_take_bytes = config.core.max_take_bytes;
   config.rest.tls_cert_file = config.grpc.tls_cert_file;
   config.rest.tls_key_file = config.grpc.tls_key_file;
   config.jobs.model_store = config.core.model_store;

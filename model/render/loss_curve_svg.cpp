@@ -39,13 +39,6 @@ std::vector<std::string> split_commas(const std::string& line) {
   }
 }
 
-// 1, 2 or 5 times a power of ten, near `rough`.
-double nice_step(double rough) {
-  const double power = std::pow(10.0, std::floor(std::log10(rough)));
-  const double fraction = rough / power;
-  return (fraction < 1.5 ? 1 : fraction < 3.5 ? 2 : fraction < 7.5 ? 5 : 10) * power;
-}
-
 // A tick label with as many decimals as the step needs; large round numbers
 // as "20k", very large or small ones in %g form.
 std::string tick_label(double value, double step) {
@@ -108,7 +101,7 @@ Axis linear_axis(double low, double high, bool extend) {
     low -= pad;
     high += pad;
   }
-  const double step = nice_step((high - low) / 4);
+  const double step = nice_tick_step((high - low) / 4);
   Axis axis;
   axis.low = extend ? std::floor(low / step) * step : low;
   axis.high = extend ? std::ceil(high / step) * step : high;

@@ -21,6 +21,12 @@ std::string xml_escape(const std::string& text) {
   return out;
 }
 
+double nice_tick_step(double rough) {
+  const double power = std::pow(10.0, std::floor(std::log10(rough)));
+  const double fraction = rough / power;
+  return (fraction < 1.5 ? 1 : fraction < 3.5 ? 2 : fraction < 7.5 ? 5 : 10) * power;
+}
+
 std::string px(double value) {
   char buffer[32];
   std::snprintf(buffer, sizeof buffer, "%.1f", value);

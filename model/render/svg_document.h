@@ -17,6 +17,10 @@ std::string xml_escape(const std::string& text);
 // drawings and a fraction of the size of full precision.
 std::string px(double value);
 
+// 1, 2 or 5 times a power of ten, near `rough` (> 0): the step between an
+// axis's ticks.
+double nice_tick_step(double rough);
+
 class SvgDocument {
  public:
   // Opens the document: an <svg> element of the given size (pixels) with a

@@ -16,6 +16,7 @@
 #include "core/model_store.h"
 #include "core/motion_conversion.h"
 #include "core/service_metrics.h"
+#include "core/take_operations.h"
 #include "format/input_error.h"
 #include "jobs/training_jobs.h"
 #include "latent_operations.h"
@@ -76,6 +77,9 @@ struct ManifoldCore::State {
   InferenceExecutor executor;
   WatchStreams watch_streams;
 
+  std::mutex takes_mutex;
+  int takes_running = 0;  // guarded by takes_mutex
+
   std::atomic<bool> accepting{false};
   std::mutex calls_mutex;
   std::condition_variable calls_done;
@@ -133,6 +137,27 @@ struct ManifoldCore::State {
   // it): read like a write unless the operator made them public.
   void require_clip_reader(const CallContext& ctx) const {
     if (!config.public_clips) require_access(ctx, "reading the data root's clips (--public-clips opens them)");
+  }
+
+  // A place among the take operations running at once, given back when the
+  // returned guard goes.
+  std::shared_ptr<void> admit_take() {
+    std::lock_guard<std::mutex> lock(takes_mutex);
+    if (takes_running >= config.takes.max_streams) {
+      throw ApiError(ErrorCode::kResourceExhausted, "",
+                     std::to_string(takes_running) + " take operations are running, the most the server runs at "
+                     "once (--max-take-streams " + std::to_string(config.takes.max_streams) +
+                     "); try again when one has finished");
+    }
+    ++takes_running;
+    return std::shared_ptr<void>(nullptr, [this](void*) {
+      std::lock_guard<std::mutex> lock(takes_mutex);
+      --takes_running;
+    });
+  }
+  TakeBounds take_bounds() const { return {config.takes, config.limits.max_denoise_iterations}; }
+  TorchRunner take_runner() {
+    return [this](const std::function<void()>& work) { executor.run(work); };
   }
 
   TrainingJobs& training() const {
@@ -366,6 +391,39 @@ MotionsReply ManifoldCore::denoise(const CallContext& ctx, const DenoiseRequest&
     reply.answered_by = {model->name, model->version};
     for (const auto& motion : denoised) reply.motions.push_back(to_wire_motion(motion, model->shape));
     return reply;
+  });
+}
+
+TakeSummaryReply ManifoldCore::run_take(const CallContext& ctx, TakeKind kind, const TakeRequest& request,
+                                        const TakeChunkReader& read, const TakeReplySink& sink) {
+  // Not announced to the executor as inference: a take spends most of its
+  // time waiting for its frames, and batches must not wait for it.
+  return state_->call(take_kind_name(kind), ctx, [&] {
+    const auto slot = state_->admit_take();
+    const auto model = state_->store.get(request.model);
+    const DecoderKind decoder = state_->decoder_for(*model, request.decoder);
+    if (request.path.empty()) {
+      return run_take_on_model(*model, decoder, kind, request, read, sink, state_->take_runner(),
+                               state_->take_bounds());
+    }
+    state_->require_clip_reader(ctx);
+    auto file = std::make_shared<const TakeFile>(read_take_file(state_->config.data_root, request.path, model->shape,
+                                                                request.frame_rate, kind == TakeKind::kDenoise,
+                                                                state_->config.max_take_bytes));
+    TakeRequest from_file = request;
+    from_file.frame_rate = file->frame_rate;
+    return run_take_on_model(*model, decoder, kind, from_file, take_file_reader(file), sink, state_->take_runner(),
+                             state_->take_bounds());
+  });
+}
+
+TakeSummaryReply ManifoldCore::decode_track(const CallContext& ctx, const DecodeTrackRequest& request,
+                                            const TakeReplySink& sink) {
+  return state_->call("decode_track", ctx, [&] {
+    const auto slot = state_->admit_take();
+    const auto model = state_->store.get(request.model);
+    const DecoderKind decoder = state_->decoder_for(*model, request.decoder);
+    return decode_track_on_model(*model, decoder, request, sink, state_->take_runner(), state_->take_bounds());
   });
 }
 

@@ -17,6 +17,7 @@
 #include "core/api_types.h"
 #include "core/data_root_clips.h"
 #include "core/motion_conversion.h"
+#include "core/take_session.h"
 #include "core/watch_streams.h"
 
 namespace mm::service {
@@ -65,6 +66,8 @@ struct CoreConfig {
   Limits limits;
   BatchingConfig batching;
   WatchStreamLimits watch_streams;  // open job watch streams, both protocols together
+  TakeLimits takes;  // take operations (core/take_session.h)
+  size_t max_take_bytes = size_t{512} << 20;  // a take read whole: a REST body, a data-root file
 };
 
 class ManifoldCore {
@@ -86,6 +89,19 @@ class ManifoldCore {
   MotionsReply interpolate(const CallContext& ctx, const InterpolateRequest& request);
   MotionsReply analogy(const CallContext& ctx, const AnalogyRequest& request);
   MotionsReply denoise(const CallContext& ctx, const DenoiseRequest& request);
+
+  // Takes (core/take_session.h): the take's frames come from `read`, or
+  // from the data-root file request.path (which needs the clip-read
+  // access); the reply goes to `sink` as it becomes final. The same access
+  // as Encode. At most --max-take-streams run at once, beyond that
+  // RESOURCE_EXHAUSTED (429) naming it; a take longer than
+  // --max-take-seconds is refused (413) as its frames arrive. The call is in
+  // flight (drain() waits for it) until it returns.
+  TakeSummaryReply run_take(const CallContext& ctx, TakeKind kind, const TakeRequest& request,
+                            const TakeChunkReader& read, const TakeReplySink& sink);
+  // A code track decoded into one motion, streamed to `sink` as run_take's.
+  TakeSummaryReply decode_track(const CallContext& ctx, const DecodeTrackRequest& request,
+                                const TakeReplySink& sink);
 
   // The shape of the motions model `name` takes ("" for the active one):
   // columns, layout and skeleton, for the frontends' BVH translation (REST's

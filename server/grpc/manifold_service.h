@@ -42,6 +42,17 @@ class ManifoldService final : public v1::MotionManifold::Service {
   grpc::Status Denoise(grpc::ServerContext* context, const v1::DenoiseRequest* request,
                        v1::MotionsReply* reply) override;
 
+  // Takes (grpc/take_rpcs.cpp): the client's stream read as the take
+  // arrives, the reply written as it becomes final.
+  grpc::Status EncodeTake(grpc::ServerContext* context, grpc::ServerReader<v1::TakeInput>* reader,
+                          v1::CodeTrack* reply) override;
+  grpc::Status ReconstructTake(grpc::ServerContext* context,
+                               grpc::ServerReaderWriter<v1::TakeOutput, v1::TakeInput>* stream) override;
+  grpc::Status DenoiseTake(grpc::ServerContext* context,
+                           grpc::ServerReaderWriter<v1::TakeOutput, v1::TakeInput>* stream) override;
+  grpc::Status DecodeTrack(grpc::ServerContext* context, const v1::DecodeTrackRequest* request,
+                           grpc::ServerWriter<v1::TakeOutput>* writer) override;
+
   grpc::Status ListModels(grpc::ServerContext* context, const v1::ListModelsRequest* request,
                           v1::ListModelsReply* reply) override;
   grpc::Status DescribeModel(grpc::ServerContext* context, const v1::DescribeModelRequest* request,

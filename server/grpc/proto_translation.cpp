@@ -242,4 +242,62 @@ void to_wire(const JobInfo& info, v1::Job* out) {
   out->set_resumes(info.resumes);
 }
 
+TakeRequest to_api(const v1::TakeHeader& header) {
+  TakeRequest request;
+  request.model = header.model();
+  request.frame_rate = header.frame_rate();
+  request.columns = header.columns();
+  request.layout = header.layout();
+  request.decoder = header.decoder();
+  request.hop_seconds = header.hop_seconds();
+  request.blend = header.blend();
+  request.at_model_rate = header.at_model_rate();
+  request.zeros_are_missing = header.zeros_are_missing();
+  request.means_are_missing = header.means_are_missing();
+  request.iterations = header.iterations();
+  request.keep_observed = header.keep_observed();
+  return request;
+}
+
+TakeWindow to_api(const v1::TakeWindow& window) {
+  TakeWindow out;
+  out.start_seconds = window.start_seconds();
+  out.start_frame = window.start_frame();
+  out.code = to_api(window.code());
+  return out;
+}
+
+DecodeTrackRequest to_api(const v1::DecodeTrackRequest& request) {
+  DecodeTrackRequest out;
+  out.model = request.model();
+  for (const auto& window : request.windows()) out.windows.push_back(to_api(window));
+  out.frame_rate = request.frame_rate();
+  out.frames = request.frames();
+  out.decoder = request.decoder();
+  out.blend = request.blend();
+  return out;
+}
+
+void to_wire(const TakeWindow& window, v1::TakeWindow* out) {
+  out->set_start_seconds(window.start_seconds);
+  out->set_start_frame(window.start_frame);
+  to_wire(window.code, out->mutable_code());
+}
+
+void to_wire(const TakeReplyStart& start, v1::TakeOutputHeader* out) {
+  to_wire(start.answered_by, out->mutable_answered_by());
+  out->set_frame_rate(start.frame_rate);
+  out->set_columns(start.columns);
+  out->set_layout(start.layout);
+}
+
+void to_wire(const TakeSummaryReply& summary, v1::TakeSummary* out) {
+  out->set_frames(summary.frames);
+  out->set_input_frames(summary.input_frames);
+  out->set_mean_error_mm(summary.mean_error_mm);
+  out->set_max_error_mm(summary.max_error_mm);
+  out->set_window_seconds(summary.window_seconds);
+  out->set_hop_seconds(summary.hop_seconds);
+}
+
 }  // namespace mm::service::wire

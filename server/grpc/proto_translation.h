@@ -13,6 +13,7 @@
 #pragma once
 
 #include "core/api_types.h"
+#include "core/take_session.h"
 #include "motionmanifold/v1/manifold.pb.h"
 
 namespace mm::service::wire {
@@ -32,6 +33,9 @@ DenoiseRequest to_api(const v1::DenoiseRequest& request);
 ReadClipRequest to_api(const v1::ReadClipRequest& request);
 UploadClipRequest to_api(const v1::UploadClipRequest& request);
 JobSpec to_api(const v1::JobSpec& spec);
+TakeRequest to_api(const v1::TakeHeader& header);
+TakeWindow to_api(const v1::TakeWindow& window);
+DecodeTrackRequest to_api(const v1::DecodeTrackRequest& request);
 
 // Core -> wire: each fills `out` (cleared first).
 void to_wire(const Motion& motion, v1::Motion* out);
@@ -45,6 +49,9 @@ void to_wire(const ListClipsReply& reply, v1::ListClipsReply* out);
 void to_wire(const ReadClipReply& reply, v1::ReadClipReply* out);
 void to_wire(const JobSpec& spec, v1::JobSpec* out);
 void to_wire(const JobProgress& progress, v1::JobProgress* out);
-void to_wire(const JobInfo& info, v1::Job* out);  // state as job_state_name(): "queued", ...
+void to_wire(const JobInfo& info, v1::Job* out);
+void to_wire(const TakeWindow& window, v1::TakeWindow* out);
+void to_wire(const TakeReplyStart& start, v1::TakeOutputHeader* out);
+void to_wire(const TakeSummaryReply& summary, v1::TakeSummary* out);  // windows apart  // state as job_state_name(): "queued", ...
 
 }  // namespace mm::service::wire

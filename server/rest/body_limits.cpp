@@ -2,7 +2,8 @@
 
 namespace mm::service::rest {
 
-BodyLimit body_limit(RouteId route, bool bvh_body, size_t max_message_bytes, size_t max_json_bytes) {
+BodyLimit body_limit(RouteId route, bool bvh_body, size_t max_message_bytes, size_t max_json_bytes,
+                     size_t max_take_bytes) {
   const BodyLimit outer{max_message_bytes, "--max-message-bytes"};
   // The smaller of a route's own limit and the outer one, named as the one that binds.
   const auto within_outer = [&](BodyLimit own) { return own.bytes < outer.bytes ? own : outer; };
@@ -13,7 +14,12 @@ BodyLimit body_limit(RouteId route, bool bvh_body, size_t max_message_bytes, siz
     case RouteId::kDenoise:
       if (bvh_body) return outer;
       return within_outer({max_json_bytes, "--max-json-bytes"});
+    case RouteId::kEncodeTake:
+    case RouteId::kReconstructTake:
+    case RouteId::kDenoiseTake:
+      return {max_take_bytes, "--max-take-bytes"};
     case RouteId::kDecode:
+    case RouteId::kDecodeTrack:
     case RouteId::kInterpolate:
     case RouteId::kAnalogy:
       return within_outer({max_json_bytes, "--max-json-bytes"});

@@ -30,7 +30,10 @@ struct BodyLimit {
 // up to `max_message_bytes`; JSON bodies of motions or codes (Encode,
 // Decode, Interpolate, Analogy, Denoise) up to `max_json_bytes`; bodies of
 // parameters up to kMaxParametersBodyBytes; none more than
-// `max_message_bytes`. A route not named here has the outer bound.
-BodyLimit body_limit(RouteId route, bool bvh_body, size_t max_message_bytes, size_t max_json_bytes);
+// `max_message_bytes`; a take (POST /v1/takes:*, motion text or BVH) up to
+// `max_take_bytes`, its own bound (a take of an hour is larger than any
+// other body). A route not named here has the outer bound.
+BodyLimit body_limit(RouteId route, bool bvh_body, size_t max_message_bytes, size_t max_json_bytes,
+                     size_t max_take_bytes);
 
 }  // namespace mm::service::rest

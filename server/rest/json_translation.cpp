@@ -486,4 +486,71 @@ std::string job_list_to_json(const std::vector<JobInfo>& jobs) {
   return dump(json{{"jobs", std::move(list)}});
 }
 
+namespace {
+
+FloatJson take_windows_json(const std::vector<TakeWindow>& windows) {
+  FloatJson list = FloatJson::array();
+  for (const TakeWindow& window : windows) {
+    list.push_back(FloatJson{{"start_seconds", window.start_seconds},
+                             {"start_frame", window.start_frame},
+                             {"code", code_json(window.code)}});
+  }
+  return list;
+}
+
+}  // namespace
+
+DecodeTrackRequest decode_track_request_from_json(const std::string& body) {
+  const json document = parse_body(body);
+  ObjectReader reader(document, "");
+  DecodeTrackRequest request;
+  reader.read("model", request.model);
+  if (const json* v = reader.find("windows")) {
+    const std::string path = reader.path("windows");
+    if (!v->is_array()) throw type_error(path, "an array of windows ({\"start_seconds\", \"code\"})", *v);
+    for (size_t i = 0; i < v->size(); ++i) {
+      ObjectReader window_reader((*v)[i], index_path(path, i));
+      TakeWindow window;
+      window_reader.read("start_seconds", window.start_seconds);
+      window_reader.read("start_frame", window.start_frame);  // as encode gives it; not read
+      if (const json* code = window_reader.find("code")) window.code = read_floats(*code, window_reader.path("code"));
+      window_reader.finish();
+      request.windows.push_back(std::move(window));
+    }
+  }
+  reader.read("frame_rate", request.frame_rate);
+  reader.read("frames", request.frames);
+  reader.read("decoder", request.decoder);
+  reader.read("blend", request.blend);
+  reader.finish();
+  return request;
+}
+
+std::string code_track_to_json(const GatheredTake& take) {
+  return dump(FloatJson{{"answered_by", answered_by_json(take.start.answered_by)},
+                        {"frames", take.summary.input_frames},
+                        {"frame_rate", take.summary.input_frame_rate},
+                        {"window_seconds", take.summary.window_seconds},
+                        {"hop_seconds", take.summary.hop_seconds},
+                        {"windows", take_windows_json(take.windows)}});
+}
+
+std::string take_reply_to_json(const GatheredTake& take) {
+  const int64_t frames = take.start.columns > 0 ? static_cast<int64_t>(take.values.size()) / take.start.columns : 0;
+  return dump(FloatJson{{"answered_by", answered_by_json(take.start.answered_by)},
+                        {"frame_rate", take.start.frame_rate},
+                        {"frames", frames},
+                        {"columns", take.start.columns},
+                        {"layout", take.start.layout},
+                        {"values", take.values},
+                        {"error_mm", take.error_mm},
+                        {"summary", FloatJson{{"frames", take.summary.frames},
+                                              {"input_frames", take.summary.input_frames},
+                                              {"mean_error_mm", take.summary.mean_error_mm},
+                                              {"max_error_mm", take.summary.max_error_mm},
+                                              {"window_seconds", take.summary.window_seconds},
+                                              {"hop_seconds", take.summary.hop_seconds}}},
+                        {"windows", take_windows_json(take.windows)}});
+}
+
 }  // namespace mm::service::rest

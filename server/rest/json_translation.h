@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "core/api_types.h"
+#include "core/take_session.h"
 
 namespace mm::service::rest {
 
@@ -46,5 +47,21 @@ std::string clip_file_to_json(const ClipFile& clip);            // {"path", "for
 std::string read_clip_reply_to_json(const ReadClipReply& reply);  // {"path", ..., "motion": {...}}
 std::string job_info_to_json(const JobInfo& job);
 std::string job_list_to_json(const std::vector<JobInfo>& jobs);  // {"jobs": [...]}
+
+// Takes (POST /v1/takes:*, /v1/tracks:decode): a reply gathered whole, as
+// REST answers it after the take's end.
+struct GatheredTake {
+  TakeReplyStart start;
+  std::vector<TakeWindow> windows;
+  std::vector<float> values;    // frames x start.columns
+  std::vector<float> error_mm;  // one a frame; empty for a decoded track
+  TakeSummaryReply summary;
+};
+// {"model", "windows": [{"start_seconds", "code"}], "frame_rate", "frames", "decoder", "blend"}
+DecodeTrackRequest decode_track_request_from_json(const std::string& body);
+// {"answered_by", "frames", "frame_rate", "window_seconds", "hop_seconds", "windows": [...]}
+std::string code_track_to_json(const GatheredTake& take);
+// {"answered_by", "frame_rate", "frames", "columns", "layout", "values", "error_mm", "summary", "windows"}
+std::string take_reply_to_json(const GatheredTake& take);
 
 }  // namespace mm::service::rest

@@ -46,7 +46,60 @@ int64_t integer(const QueryParameters& parameters, const std::string& name) {
   return parsed;
 }
 
+// A number (frame_rate, hop_seconds): "nan" and "inf" pass, so that the
+// core refuses them naming the field and the value.
+double real(const QueryParameters& parameters, const std::string& name, double fallback) {
+  const auto found = parameters.find(name);
+  if (found == parameters.end()) return fallback;
+  const std::string& value = found->second;
+  char* end = nullptr;
+  const double parsed = std::strtod(value.c_str(), &end);
+  if (value.empty() || end != value.c_str() + value.size() || value.find_first_of(" \t") != std::string::npos) {
+    throw invalid(name, "expected a number, got \"" + value + "\"");
+  }
+  return parsed;
+}
+
+bool boolean(const QueryParameters& parameters, const std::string& name) {
+  const std::string value = text(parameters, name);
+  if (value.empty() || value == "false") return false;
+  if (value == "true") return true;
+  throw invalid(name, "expected true or false, got \"" + value + "\"");
+}
+
 }  // namespace
+
+TakeRequest take_request_from_query(const QueryParameters& parameters, bool denoise, bool bvh_body) {
+  std::set<std::string> known = {"model", "frame_rate", "hop_seconds", "blend", "decoder", "at_model_rate", "path"};
+  if (denoise) known.insert({"zeros_are_missing", "means_are_missing", "iterations", "keep_observed"});
+  check_known_and_single(parameters, known);
+  TakeRequest request;
+  request.model = text(parameters, "model");
+  if (bvh_body && parameters.count("frame_rate")) {
+    throw invalid("frame_rate", "a BVH body's rate is its Frame Time; frame_rate is for motion text only");
+  }
+  // Motion text without a rate: the H3.6M files' 50 Hz. 0 for a path: the
+  // core takes the file's own (a BVH's Frame Time, 50 Hz for text).
+  const bool has_path = parameters.count("path") > 0;
+  request.frame_rate = real(parameters, "frame_rate", has_path ? 0.0 : 50.0);
+  request.hop_seconds = real(parameters, "hop_seconds", 0.0);
+  request.blend = text(parameters, "blend");
+  request.decoder = text(parameters, "decoder");
+  request.at_model_rate = boolean(parameters, "at_model_rate");
+  request.path = text(parameters, "path");
+  if (has_path && request.path.empty()) throw invalid("path", "path is empty, expected a file under the data root");
+  if (denoise) {
+    request.zeros_are_missing = boolean(parameters, "zeros_are_missing");
+    request.means_are_missing = boolean(parameters, "means_are_missing");
+    const int64_t iterations = integer(parameters, "iterations");
+    if (iterations < 0 || iterations > 1000000) {
+      throw invalid("iterations", "expected 0 (four) to 1000000, got " + std::to_string(iterations));
+    }
+    request.iterations = static_cast<int>(iterations);
+    request.keep_observed = boolean(parameters, "keep_observed");
+  }
+  return request;
+}
 
 ReadClipRequest read_clip_request_from_query(const QueryParameters& parameters) {
   check_known_and_single(parameters, {"model", "path", "start"});

@@ -12,6 +12,7 @@
 #include <string>
 
 #include "core/api_types.h"
+#include "core/take_session.h"
 
 namespace mm::service::rest {
 
@@ -26,5 +27,12 @@ UploadClipRequest upload_clip_request_from_query(const QueryParameters& paramete
 
 // ?path=<relative path of an uploaded file> (DELETE /v1/clips): the path.
 std::string delete_clip_path_from_query(const QueryParameters& parameters);
+
+// POST /v1/takes:encode|reconstruct|denoise: ?model, frame_rate (motion
+// text only; default 50), hop_seconds, blend, decoder, at_model_rate
+// (true|false), path (a data-root file as the take), and for denoise
+// (`denoise`) zeros_are_missing, means_are_missing, iterations, keep_observed.
+// frame_rate with a BVH body (`bvh_body`) is refused: its rate is its Frame Time.
+TakeRequest take_request_from_query(const QueryParameters& parameters, bool denoise, bool bvh_body);
 
 }  // namespace mm::service::rest

@@ -22,6 +22,7 @@
 #include "rest/openapi_document.h"
 #include "rest/query_translation.h"
 #include "rest/rest_routes.h"
+#include "rest/take_routes.h"
 
 namespace mm::service {
 
@@ -175,7 +176,8 @@ bool RestFrontend::State::read_body(RouteId route, const httplib::Request& reque
   const bool has_length = request.has_header("Content-Length");
   if (!has_length && !request.has_header("Transfer-Encoding")) return true;
   const rest::BodyLimit limit =
-      rest::body_limit(route, is_bvh_body(request), options.max_body_bytes, options.max_json_bytes);
+      rest::body_limit(route, is_bvh_body(request), options.max_body_bytes, options.max_json_bytes,
+                       options.max_take_bytes);
   const auto refuse = [&](const ApiError& error) {
     // What is left of the body must not be read as the next request.
     send_error_and_close(response, error);
@@ -256,6 +258,11 @@ void RestFrontend::State::handle(RouteId route, const httplib::Request& request,
           return send_motions(response, request, core.denoise(context, denoise), core);
         }
         return send_motions(response, request, core.denoise(context, rest::denoise_request_from_json(body)), core);
+      case RouteId::kEncodeTake:
+      case RouteId::kReconstructTake:
+      case RouteId::kDenoiseTake:
+      case RouteId::kDecodeTrack:
+        return rest::answer_take(core, route, context, request, body, response);
       case RouteId::kListModels:
         return send_json(response, 200, rest::model_list_to_json(core.list_models(context)));
       case RouteId::kDescribeModel:
@@ -449,7 +456,8 @@ void RestFrontend::start() {
   httplib::Server& server = *s.server;
   const size_t threads = static_cast<size_t>(std::max(1, s.options.threads) + std::max(0, s.options.watch_streams));
   server.new_task_queue = [threads] { return new httplib::ThreadPool(threads); };
-  server.set_payload_max_length(s.options.max_body_bytes);
+  // The largest body of any route: read_body holds each route to its own.
+  server.set_payload_max_length(std::max(s.options.max_body_bytes, s.options.max_take_bytes));
   // Idle keep-alive connections hold a worker and delay shutdown by as long.
   server.set_keep_alive_timeout(2);
   // httplib writes a reply's headers and body separately: with Nagle's

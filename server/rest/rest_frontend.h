@@ -32,6 +32,9 @@ struct RestOptions {
   // frames x 99 values at 50 Hz are 17.0 MB with the data set's values and
   // 27.2 MB with float32 values widened to double (server/rest/README.md).
   size_t max_json_bytes = 32 << 20;
+  // A take's body (POST /v1/takes:*): motion text of an hour at 50 Hz is
+  // about 180 MB.
+  size_t max_take_bytes = size_t{512} << 20;
   std::string tls_cert_file, tls_key_file;  // both given: HTTPS; neither: plain HTTP
   // Worker threads. Each serves one keep-alive connection at a time, so
   // clients beyond it wait for a connection to go idle (2 s): with 16, 32

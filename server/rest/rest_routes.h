@@ -12,6 +12,7 @@ namespace mm::service::rest {
 
 enum class RouteId {
   kEncode, kDecode, kSample, kInterpolate, kAnalogy, kDenoise,
+  kEncodeTake, kReconstructTake, kDenoiseTake, kDecodeTrack,
   kListModels, kDescribeModel, kActivateModel, kDeleteModel,
   kListClips, kReadClip, kUploadClip, kDeleteClip,
   kSubmitJob, kListJobs, kGetJob, kCancelJob, kDeleteJob, kJobEvents,

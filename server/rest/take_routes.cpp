@@ -1,0 +1,125 @@
+#include "rest/take_routes.h"
+
+#include <httplib.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <memory>
+#include <sstream>
+
+#include "format/input_error.h"
+#include "format/skeleton_bvh.h"
+#include "rest/bvh_translation.h"
+#include "rest/json_translation.h"
+#include "rest/query_translation.h"
+
+namespace mm::service::rest {
+namespace {
+
+constexpr const char* kJsonType = "application/json";
+constexpr const char* kTextType = "text/plain";
+
+// The core's reply gathered into `take`.
+TakeReplySink gathering_sink(GatheredTake& take) {
+  TakeReplySink sink;
+  sink.on_start = [&take](const TakeReplyStart& start) { take.start = start; };
+  sink.on_window = [&take](const TakeWindow& window) { take.windows.push_back(window); };
+  sink.on_frames = [&take](const float* values, const float* error_mm, int64_t count) {
+    take.values.insert(take.values.end(), values, values + count * take.start.columns);
+    if (error_mm != nullptr) take.error_mm.insert(take.error_mm.end(), error_mm, error_mm + count);
+  };
+  return sink;
+}
+
+std::string decimal(double value) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.6g", value);
+  return text;
+}
+
+bool names_text(const std::string& accept) {
+  std::string lower = accept;
+  std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return std::tolower(c); });
+  return lower.find(kTextType) != std::string::npos;
+}
+
+// The reply's frames by Accept, with the summary in X-Take-* headers for
+// the formats that have no room for it.
+void send_frames(const GatheredTake& take, const httplib::Request& request, const ModelShape& shape,
+                 httplib::Response& response) {
+  const std::string accept = request.get_header_value("Accept");
+  response.status = 200;
+  if (!names_bvh(accept) && !names_text(accept)) {
+    return response.set_content(take_reply_to_json(take), kJsonType);
+  }
+  MotionFrames frames;
+  frames.columns = take.start.columns;
+  frames.values = take.values;
+  response.set_header("X-Take-Frames", std::to_string(frames.frame_count()));
+  response.set_header("X-Take-Frame-Rate", decimal(take.start.frame_rate));
+  response.set_header("X-Take-Mean-Error-Mm", decimal(take.summary.mean_error_mm));
+  response.set_header("X-Take-Max-Error-Mm", decimal(take.summary.max_error_mm));
+  response.set_header("X-Take-Windows", std::to_string(take.summary.windows));
+  if (names_bvh(accept)) {
+    try {
+      return response.set_content(
+          write_bvh_text(skeleton_motion_to_bvh(shape.skeleton, bvh_layout_of(shape.skeleton), frames,
+                                                take.start.frame_rate)),
+          kBvhType);
+    } catch (const InputError& error) {
+      throw ApiError(ErrorCode::kInternal, "", std::string("the reply cannot be written as BVH: ") + error.what());
+    }
+  }
+  std::ostringstream text;
+  write_motion_text(frames, text);
+  response.set_content(text.str(), kTextType);
+}
+
+TakeKind kind_of(RouteId route) {
+  switch (route) {
+    case RouteId::kEncodeTake: return TakeKind::kEncode;
+    case RouteId::kDenoiseTake: return TakeKind::kDenoise;
+    default: return TakeKind::kReconstruct;
+  }
+}
+
+}  // namespace
+
+void answer_take(ManifoldCore& core, RouteId route, const CallContext& context, const httplib::Request& request,
+                 const std::string& body, httplib::Response& response) {
+  GatheredTake take;
+  if (route == RouteId::kDecodeTrack) {
+    const DecodeTrackRequest track = decode_track_request_from_json(body);
+    take.summary = core.decode_track(context, track, gathering_sink(take));
+    return send_frames(take, request, core.model_shape(take.start.answered_by.model), response);
+  }
+  const TakeKind kind = kind_of(route);
+  const bool bvh_body = names_bvh(request.get_header_value("Content-Type"));
+  TakeRequest take_request = take_request_from_query(request.params, kind == TakeKind::kDenoise, bvh_body);
+  TakeChunkReader read;
+  if (take_request.path.empty()) {
+    if (body.empty()) {
+      throw ApiError(ErrorCode::kInvalidArgument, "body",
+                     "the body is empty, expected the take (motion text, or BVH with Content-Type: "
+                     "application/x-bvh) or path=<a file under the data root>");
+    }
+    const ModelShape shape = core.model_shape(take_request.model);
+    auto file = std::make_shared<const TakeFile>(
+        bvh_body ? take_from_bvh(body, "request body", "body", shape.skeleton)
+                 : take_from_text(body, "request body", "body", shape.columns, take_request.frame_rate,
+                                  kind == TakeKind::kDenoise));
+    take_request.frame_rate = file->frame_rate;
+    read = take_file_reader(std::move(file));
+  } else if (!body.empty()) {
+    throw ApiError(ErrorCode::kInvalidArgument, "body",
+                   "a take named by path= has an empty body, found " + std::to_string(body.size()) + " bytes");
+  }
+  take.summary = core.run_take(context, kind, take_request, read, gathering_sink(take));
+  if (kind == TakeKind::kEncode) {
+    response.status = 200;
+    return response.set_content(code_track_to_json(take), kJsonType);
+  }
+  send_frames(take, request, core.model_shape(take.start.answered_by.model), response);
+}
+
+}  // namespace mm::service::rest
