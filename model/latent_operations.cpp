@@ -135,17 +135,24 @@ std::vector<MotionFrames> denoise_motions(const MotionManifold& model, const std
 }
 
 at::Tensor project_onto_manifold(const MotionManifold& model, const at::Tensor& normalized, const at::Tensor& missing,
-                                 DecoderKind kind, int iterations) {
+                                 DecoderKind kind, int iterations, at::Tensor* codes) {
   c10::InferenceMode inference;
-  if (!missing.defined()) return model.decode(model.encode(normalized), kind);
+  at::Tensor code;
+  if (!missing.defined()) {
+    code = model.encode(normalized);
+    if (codes) *codes = code;
+    return model.decode(code, kind);
+  }
   // Fill the gaps with the manifold's own estimate and project again: each
   // round's code sees only observed values and the previous round's fill.
   auto filled = normalized.masked_fill(missing, 0.0);
   at::Tensor decoded;
   for (int round = 0; round < iterations; ++round) {
-    decoded = model.decode(model.encode(filled), kind);
+    code = model.encode(filled);
+    decoded = model.decode(code, kind);
     filled = at::where(missing, decoded, normalized);
   }
+  if (codes) *codes = code;
   return decoded;
 }
 

@@ -73,9 +73,11 @@ std::vector<MotionFrames> denoise_motions(const MotionManifold& model, const std
 // The same on normalised clips (B, frames, D) on the model's device.
 // `missing` is an undefined tensor (nothing missing) or a bool mask of the
 // clips' shape; missing values start at the training mean (zero, normalised)
-// and are refilled from the decoded motion `iterations` times.
+// and are refilled from the decoded motion `iterations` times. `codes`, when
+// given, receives the codes (B, latent) the result was decoded from (the
+// last round's), so that a caller that reports codes need not encode again.
 at::Tensor project_onto_manifold(const MotionManifold& model, const at::Tensor& normalized, const at::Tensor& missing,
-                                 DecoderKind kind, int iterations);
+                                 DecoderKind kind, int iterations, at::Tensor* codes = nullptr);
 
 // Bool mask (..., D) of the modelled values that `options` says are
 // missing in raw frames (..., input columns): exactly zero

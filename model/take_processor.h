@@ -124,6 +124,12 @@ class TakeProcessor {
   // window (take_window_starts).
   TakeSummary finish();
 
+  // The most frames the processor held at once so far: input frames not yet
+  // answered, the 25 Hz frames of windows not yet run, the windows of the
+  // batch being run, and the assembled frames not yet final. It depends on
+  // the batch, the hop and the rate, not on the take's length.
+  int64_t held_frames_peak() const;
+
  private:
   struct State;
   std::unique_ptr<State> state_;
@@ -142,7 +148,8 @@ TakeResult process_take(const MotionManifold& model, const MotionFrames& take, c
 
 struct CodeTrackDecoding {
   double frame_rate = kTakeModelRate;  // of the output, 10 to 1000 Hz ("frame_rate")
-  // Output frames; -1: the track's length (last start + window) at that rate.
+  // Output frames; -1 or 0: the track's length (last start + window) at
+  // that rate. More frames than that hold the last pose; fewer end early.
   int64_t frames = -1;
   TakeBlend blend = TakeBlend::kCrossfade;
   DecoderKind decoder = DecoderKind::kRotation;
