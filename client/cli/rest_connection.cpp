@@ -84,6 +84,24 @@ v1::TakeSummary pass_on_take_reply(const json& body, TakeReplySink& sink) {
   return take_summary_from_json(body);
 }
 
+// A take's reply as the file the sink asked for, its summary from the
+// X-Take-* headers (no window codes: those come only with JSON).
+v1::TakeSummary pass_on_whole_file(const httplib::Response& response, int64_t input_frames, TakeReplySink& sink) {
+  const auto number = [&response](const char* name) {
+    const std::string value = response.get_header_value(name);
+    if (value.empty()) throw std::runtime_error(std::string("the take's reply lacks its ") + name + " header");
+    return std::stod(value);
+  };
+  v1::TakeSummary summary;
+  summary.set_frames(static_cast<int64_t>(number("X-Take-Frames")));
+  summary.set_input_frames(input_frames);
+  summary.set_mean_error_mm(number("X-Take-Mean-Error-Mm"));
+  summary.set_max_error_mm(number("X-Take-Max-Error-Mm"));
+  sink.whole_file(response.body, summary.frames(), number("X-Take-Frame-Rate"),
+                  static_cast<int64_t>(number("X-Take-Windows")));
+  return summary;
+}
+
 class RestConnection : public ServerConnection {
  public:
   explicit RestConnection(const ConnectionOptions& options) : options_(options), client_(base_url(options)) {
@@ -219,10 +237,17 @@ class RestConnection : public ServerConnection {
   }
   v1::TakeSummary transform_take(TakeOperation operation, const TakeUpload& take, TakeReplySink& sink) override {
     const char* route = operation == TakeOperation::kDenoise ? "/v1/takes:denoise" : "/v1/takes:reconstruct";
-    return pass_on_take_reply(post_take(route, take), sink);
+    const std::string type = sink.whole_file_type();
+    if (type.empty()) return pass_on_take_reply(post_take(route, take), sink);
+    const auto result = take_response(route, take, type);
+    return pass_on_whole_file(checked(result), take.frames.frame_count(), sink);
   }
   v1::TakeSummary decode_track(const v1::DecodeTrackRequest& request, TakeReplySink& sink) override {
-    return pass_on_take_reply(post("/v1/tracks:decode", to_json(request)), sink);
+    const std::string type = sink.whole_file_type();
+    if (type.empty()) return pass_on_take_reply(post("/v1/tracks:decode", to_json(request)), sink);
+    const auto result = client_.Post("/v1/tracks:decode", httplib::Headers{{"Accept", type}}, to_json(request).dump(),
+                                     "application/json");
+    return pass_on_whole_file(checked(result), 0, sink);
   }
 
  private:
@@ -253,10 +278,19 @@ class RestConnection : public ServerConnection {
 
   // The take's file as the body, as the client read it; the reply as JSON.
   json post_take(const std::string& route, const TakeUpload& take) {
+    return reply_of(take_response(route, take, "application/json"));
+  }
+  // The same, the reply as `accept` asks.
+  httplib::Result take_response(const std::string& route, const TakeUpload& take, const std::string& accept) {
     const std::string path = route + take_query(take.header, take.bvh);
-    const httplib::Headers headers{{"Accept", "application/json"}};
-    return reply_of(client_.Post(path.c_str(), headers, take.file_bytes,
-                                 take.bvh ? "application/x-bvh" : "text/plain"));
+    return client_.Post(path.c_str(), httplib::Headers{{"Accept", accept}}, take.file_bytes,
+                        take.bvh ? "application/x-bvh" : "text/plain");
+  }
+  // A successful response, or the refusal thrown.
+  const httplib::Response& checked(const httplib::Result& result) const {
+    if (!result) throw unreachable(result.error());
+    if (result->status != 200) throw error_of_response(result->status, result->body);
+    return *result;
   }
 
   ConnectionOptions options_;

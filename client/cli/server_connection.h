@@ -38,6 +38,16 @@ class TakeReplySink {
   virtual ~TakeReplySink() = default;
   virtual void header(const v1::TakeOutputHeader& header) = 0;
   virtual void chunk(const v1::FrameChunk& chunk) = 0;
+
+  // REST only: the media type of a file this sink takes whole, as the
+  // server writes it for that Accept ("application/x-bvh", "text/plain"),
+  // instead of frames; empty: frames (the JSON reply, with each frame's
+  // error and every window's code).
+  virtual std::string whole_file_type() const { return ""; }
+  // That file, with the frames and rate the server gave beside it.
+  virtual void whole_file(const std::string& bytes, int64_t frames, double frame_rate, int64_t windows) {
+    (void)bytes, (void)frames, (void)frame_rate, (void)windows;
+  }
 };
 
 class ServerConnection {

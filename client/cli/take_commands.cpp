@@ -68,7 +68,8 @@ void report(const ClientSettings& settings, const std::string& out, const TakeFi
     std::printf("%s: %" PRId64 " frames at %g Hz from %" PRId64 " input frames, %d windows, error mean %.2f mm, "
                 "max %.2f mm\n",
                 out.c_str(), written.frames(), written.frame_rate(), static_cast<int64_t>(summary.input_frames()),
-                summary.windows_size(), summary.mean_error_mm(), summary.max_error_mm());
+                static_cast<int>(written.windows() >= 0 ? written.windows() : summary.windows_size()),
+                summary.mean_error_mm(), summary.max_error_mm());
   }
 }
 
@@ -122,7 +123,7 @@ void add_take_transform(CLI::App* take, const ClientSettings& settings, Action& 
       ModelRigs rigs(*server);
       TakeUpload take = read_take(o->input, rigs, o->model, denoise);
       o->set_header(take.header);
-      TakeFileWriter writer(o->out, o->error_csv, &rigs.of(o->model).skeleton);
+      TakeFileWriter writer(o->out, o->error_csv, &rigs.of(o->model).skeleton, !settings.json);
       const v1::TakeSummary summary = server->transform_take(operation, take, writer);
       writer.finish();
       report(settings, o->out, writer, summary);
@@ -164,7 +165,7 @@ void add_track_decode(CLI::App* track, const ClientSettings& settings, Action& a
       // The rig (for a BVH) of the model that will answer, asked first.
       const Skeleton* skeleton = is_bvh_path(o->out) ? &rigs.of(o->model).skeleton : nullptr;
       request.set_model(rigs.pinned(o->model));
-      TakeFileWriter writer(o->out, "", skeleton);
+      TakeFileWriter writer(o->out, "", skeleton, !settings.json);
       const v1::TakeSummary summary = server->decode_track(request, writer);
       writer.finish();
       if (settings.json) {

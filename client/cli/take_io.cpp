@@ -55,8 +55,10 @@ TakeUpload read_take(const TakeSource& source, ModelRigs& rigs, const std::strin
   return take;
 }
 
-TakeFileWriter::TakeFileWriter(std::string path, std::string error_csv, const Skeleton* skeleton)
-    : path_(std::move(path)), error_csv_(std::move(error_csv)), skeleton_(skeleton), bvh_(is_bvh_path(path_)) {
+TakeFileWriter::TakeFileWriter(std::string path, std::string error_csv, const Skeleton* skeleton,
+                               bool whole_file_allowed)
+    : path_(std::move(path)), error_csv_(std::move(error_csv)), skeleton_(skeleton), bvh_(is_bvh_path(path_)),
+      whole_file_allowed_(whole_file_allowed && error_csv_.empty()) {
   if (bvh_ && skeleton_ == nullptr) throw std::logic_error("TakeFileWriter: a BVH output needs the skeleton");
 }
 
@@ -100,7 +102,25 @@ void TakeFileWriter::chunk(const v1::FrameChunk& chunk) {
   }
 }
 
+std::string TakeFileWriter::whole_file_type() const {
+  if (!whole_file_allowed_) return "";
+  return bvh_ ? "application/x-bvh" : "text/plain";
+}
+
+void TakeFileWriter::whole_file(const std::string& bytes, int64_t frames, double frame_rate, int64_t windows) {
+  if (path_ == "-") {
+    std::cout << bytes << std::flush;
+  } else {
+    write_file_atomically(path_, bytes);
+  }
+  frames_ = frames;
+  header_.set_frame_rate(frame_rate);
+  windows_ = windows;
+  whole_ = true;
+}
+
 void TakeFileWriter::finish() {
+  if (whole_) return;  // written whole as it came, and no error CSV asked for
   if (bvh_) {
     write_file_atomically(path_, write_bvh_text(skeleton_motion_to_bvh(*skeleton_, bvh_layout_of(*skeleton_), held_,
                                                                        header_.frame_rate())));

@@ -37,26 +37,34 @@ TakeUpload read_take(const TakeSource& source, ModelRigs& rigs, const std::strin
 // is ever seen; "-" streams to standard output), BVH of `skeleton` is
 // written whole by finish() at the reply's rate. With a non-empty
 // `error_csv`, each frame's error goes there ("frame,seconds,error_mm").
+// With `whole_file_allowed` (no error CSV, no --json) a REST reply may be
+// the file itself, as the server writes it for Accept: BVH or text.
 // Not thread safe; used by one thread at a time.
 class TakeFileWriter : public TakeReplySink {
  public:
   // `skeleton` is needed (and must outlive the writer) for a .bvh path.
-  TakeFileWriter(std::string path, std::string error_csv, const Skeleton* skeleton);
+  TakeFileWriter(std::string path, std::string error_csv, const Skeleton* skeleton, bool whole_file_allowed);
   ~TakeFileWriter() override;
 
   void header(const v1::TakeOutputHeader& header) override;
   void chunk(const v1::FrameChunk& chunk) override;
+  std::string whole_file_type() const override;
+  void whole_file(const std::string& bytes, int64_t frames, double frame_rate, int64_t windows) override;
   // Completes the files. Throws InputError or std::runtime_error when they
   // cannot be written.
   void finish();
 
   int64_t frames() const { return frames_; }
   double frame_rate() const { return header_.frame_rate(); }
+  // Windows the server said it used, for a whole file; -1 otherwise.
+  int64_t windows() const { return windows_; }
 
  private:
   std::string path_, error_csv_, temporary_;
   const Skeleton* skeleton_;
   bool bvh_ = false;
+  bool whole_file_allowed_ = false, whole_ = false;
+  int64_t windows_ = -1;
   v1::TakeOutputHeader header_;
   std::ofstream text_;
   MotionFrames held_;  // BVH: the frames until finish()

@@ -127,13 +127,18 @@ TEST_F(TakeClientTest, ReconstructOfAWholeS5FileKeepsItsFramesRateAndRootOverBot
     EXPECT_EQ(n, input.size());
     EXPECT_GT(sum / n, 0.0);
   }
-  // The same take as BVH, at its rate.
-  const auto bvh = dir_.file("walk.bvh");
-  const auto run = run_client(grpc() + " take reconstruct --in " + s5("walking_1.txt") + " --out " + bvh);
+  // The same take as BVH, at its rate: written here from gRPC's frames, and
+  // over REST the server's own BVH (Accept: application/x-bvh), the same bytes.
+  const auto bvh = dir_.file("walk.bvh"), rest_bvh = dir_.file("walk-rest.bvh");
+  auto run = run_client(grpc() + " take reconstruct --in " + s5("walking_1.txt") + " --out " + bvh);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const auto timing = bvh_timing(bvh);
   EXPECT_EQ(timing.frames, static_cast<long>(input.size()));
   EXPECT_NEAR(timing.frame_time, 0.02, 1e-6);
+  run = run_client(rest() + " take reconstruct --in " + s5("walking_1.txt") + " --out " + rest_bvh);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.out.find(std::to_string(input.size()) + " frames at 50 Hz"), std::string::npos) << run.out;
+  EXPECT_TRUE(read_text(bvh) == read_text(rest_bvh)) << "gRPC's and REST's BVH differ";
 }
 
 TEST_F(TakeClientTest, EncodeWritesACodeTrackThatTrackDecodeTurnsIntoA120HzBvhWhichReconstructsAtItsRate) {
