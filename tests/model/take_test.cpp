@@ -550,20 +550,42 @@ TEST_F(Takes, ACodeTrackWithAGapOrUnsortedStartsIsRefusedNamingTheWindow) {
       << refused(encoded.windows, too_long);
 }
 
-// Measured, not asserted: a ten-minute take at 120 Hz reconstructed end to
-// end. Run with --gtest_also_run_disabled_tests.
-TEST_F(Takes, DISABLED_TenMinutesAt120HzReconstructed) {
-  MM_REQUIRE_H36M();
+// Measured, not asserted: a ten-minute take at 120 Hz encoded and
+// reconstructed end to end, and the same through a network of negligible
+// cost (what the processor itself costs). Run with
+// --gtest_also_run_disabled_tests.
+MotionFrames ten_minutes_at_120_hz() {
   const MotionFrames file = read_motion_text((test::h36m_dataset_dir() / "S5" / "walking_1.txt").string());
   MotionFrames take;
   take.columns = file.columns;
   while (take.frame_count() < 10 * 60 * 50) take.values.insert(take.values.end(), file.values.begin(), file.values.end());
-  take = resample_motion(frames_of(take, 0, 10 * 60 * 50), 50, 120);
+  return resample_motion(frames_of(take, 0, 10 * 60 * 50), 50, 120);
+}
+
+double seconds_of(const MotionManifold& model, const MotionFrames& take, const TakeOptions& options) {
   const auto begin = std::chrono::steady_clock::now();
-  const auto result = process_take(*model_, take, options(TakeOperation::kReconstruct, 120));
+  const auto result = process_take(model, take, options);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
-  std::printf("10 minutes at 120 Hz (%lld frames, %d windows): %.2f s, mean error %.1f mm\n",
-              static_cast<long long>(take.frame_count()), result.summary.windows, seconds, result.summary.mean_error_mm);
+  std::printf("%lld frames at %g Hz, %d windows, %s: %.2f s, mean error %.1f mm\n",
+              static_cast<long long>(take.frame_count()), options.frame_rate, result.summary.windows,
+              take_operation_name(options.operation), seconds, result.summary.mean_error_mm);
+  return seconds;
+}
+
+TEST_F(Takes, DISABLED_TenMinutesAt120Hz) {
+  MM_REQUIRE_H36M();
+  const MotionFrames take = ten_minutes_at_120_hz();
+  for (TakeOperation op : {TakeOperation::kEncode, TakeOperation::kReconstruct}) seconds_of(*model_, take, options(op, 120));
+}
+
+TEST_F(Takes, DISABLED_TenMinutesAt120HzWithoutTheNetworksCost) {
+  MM_REQUIRE_H36M();
+  ModelConfig small = model_->config();
+  small.hidden = 16;
+  small.latent = 8;
+  MotionManifold quick(small, model_->normalization(), model_->skeleton());
+  quick.train(false);
+  seconds_of(quick, ten_minutes_at_120_hz(), options(TakeOperation::kReconstruct, 120));
 }
 
 }  // namespace
