@@ -1,5 +1,5 @@
 // The client's commands, one file per group: inference (encode ... denoise),
-// models, clips of the data root and jobs. Each adds its subcommands to the app; the one the user
+// models, clips of the data root, jobs and takes. Each adds its subcommands to the app; the one the user
 // picked sets `action`, which main() runs after parsing and whose result is
 // the exit status (server_error.h). Errors are thrown: ServerError (exit 1),
 // InputError (exit 2).
@@ -29,6 +29,7 @@ void add_inference_commands(CLI::App& app, const ClientSettings& settings, Actio
 void add_model_commands(CLI::App& app, const ClientSettings& settings, Action& action);
 void add_clip_commands(CLI::App& app, const ClientSettings& settings, Action& action);
 void add_job_commands(CLI::App& app, const ClientSettings& settings, Action& action);
+void add_take_commands(CLI::App& app, const ClientSettings& settings, Action& action);
 
 // Prints `value` on standard output, indented, with a newline.
 void print_json(const nlohmann::json& value);

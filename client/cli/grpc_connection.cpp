@@ -2,9 +2,12 @@
 // metadata, the refusal's field from the trailing `mm-error-field`.
 #include <grpcpp/grpcpp.h>
 
+#include <algorithm>
 #include <chrono>
+#include <exception>
 #include <fstream>
 #include <sstream>
+#include <thread>
 
 #include "format/input_error.h"
 #include "motionmanifold/v1/manifold.grpc.pb.h"
@@ -43,6 +46,37 @@ std::string read_file(const std::string& path, const std::string& option) {
   std::stringstream text;
   text << in.rdbuf();
   return text.str();
+}
+
+// The take's header, then its frames in chunks of kTakeChunkFrames; stops
+// early when the server has ended the call (Finish then says why).
+template <typename Stream>
+void send_take(Stream& stream, const TakeUpload& take) {
+  v1::TakeInput message;
+  *message.mutable_header() = take.header;
+  message.mutable_header()->set_columns(take.frames.columns);
+  if (!stream.Write(message)) return;
+  const int64_t frames = take.frames.frame_count();
+  for (int64_t first = 0; first < frames; first += kTakeChunkFrames) {
+    const int64_t count = std::min<int64_t>(kTakeChunkFrames, frames - first);
+    message.Clear();
+    v1::FrameChunk* chunk = message.mutable_chunk();
+    chunk->set_frames(static_cast<int32_t>(count));
+    const float* values = take.frames.frame(first);
+    chunk->mutable_values()->Add(values, values + count * take.frames.columns);
+    if (!stream.Write(message)) return;
+  }
+}
+
+// One message of a take's reply: the header and chunks to the sink, the
+// summary kept. Returns whether it was the summary.
+bool pass_on(const v1::TakeOutput& output, TakeReplySink& sink, v1::TakeSummary& summary) {
+  switch (output.part_case()) {
+    case v1::TakeOutput::kHeader: sink.header(output.header()); return false;
+    case v1::TakeOutput::kChunk: sink.chunk(output.chunk()); return false;
+    case v1::TakeOutput::kSummary: summary = output.summary(); return true;
+    default: return false;
+  }
 }
 
 class GrpcConnection : public ServerConnection {
@@ -143,6 +177,75 @@ class GrpcConnection : public ServerConnection {
     if (!status.ok()) throw error_of(status, context);
     // The server ended the stream without a final record: it is stopping.
     throw ServerError("UNAVAILABLE", "", "the job's stream ended before the job did");
+  }
+
+  v1::CodeTrack encode_take(const TakeUpload& take) override {
+    grpc::ClientContext context;
+    prepare(context, /*deadline=*/false);
+    v1::CodeTrack track;
+    auto writer = stub_->EncodeTake(&context, &track);
+    send_take(*writer, take);
+    writer->WritesDone();
+    const grpc::Status status = writer->Finish();
+    if (!status.ok()) throw error_of(status, context);
+    return track;
+  }
+
+  v1::TakeSummary transform_take(TakeOperation operation, const TakeUpload& take, TakeReplySink& sink) override {
+    grpc::ClientContext context;
+    prepare(context, /*deadline=*/false);
+    auto stream = operation == TakeOperation::kDenoise ? stub_->DenoiseTake(&context)
+                                                       : stub_->ReconstructTake(&context);
+    // The reply is read while the take is still being sent: the server
+    // answers frames as they are final, and a client that only wrote would
+    // stall it once the reply's flow-control window filled.
+    v1::TakeSummary summary;
+    bool summary_seen = false;
+    std::exception_ptr sink_error;
+    std::thread reader([&] {
+      v1::TakeOutput output;
+      while (stream->Read(&output)) {
+        try {
+          if (pass_on(output, sink, summary)) summary_seen = true;
+        } catch (...) {
+          sink_error = std::current_exception();
+          context.TryCancel();
+          return;
+        }
+      }
+    });
+    send_take(*stream, take);
+    stream->WritesDone();
+    reader.join();
+    const grpc::Status status = stream->Finish();
+    if (sink_error) std::rethrow_exception(sink_error);
+    if (!status.ok()) throw error_of(status, context);
+    if (!summary_seen) throw ServerError("UNAVAILABLE", "", "the take's reply ended without its summary");
+    return summary;
+  }
+
+  v1::TakeSummary decode_track(const v1::DecodeTrackRequest& request, TakeReplySink& sink) override {
+    grpc::ClientContext context;
+    prepare(context, /*deadline=*/false);
+    auto reader = stub_->DecodeTrack(&context, request);
+    v1::TakeSummary summary;
+    bool summary_seen = false;
+    std::exception_ptr sink_error;
+    v1::TakeOutput output;
+    while (reader->Read(&output)) {
+      if (sink_error) continue;  // cancelled: what is left is drained
+      try {
+        if (pass_on(output, sink, summary)) summary_seen = true;
+      } catch (...) {
+        sink_error = std::current_exception();
+        context.TryCancel();
+      }
+    }
+    const grpc::Status status = reader->Finish();
+    if (sink_error) std::rethrow_exception(sink_error);
+    if (!status.ok()) throw error_of(status, context);
+    if (!summary_seen) throw ServerError("UNAVAILABLE", "", "the track's reply ended without its summary");
+    return summary;
   }
 
  private:

@@ -20,7 +20,8 @@ namespace {
 int run(int argc, char** argv) {
   CLI::App app{
       "motion-manifold-client: a client of motion-manifold-server (gRPC, or REST with --rest): the latent space of "
-      "human motion (encode, decode, sample, interpolate, analogy, denoise), its models and its training jobs.\n"
+      "human motion (encode, decode, sample, interpolate, analogy, denoise), takes of any length, its models and its "
+      "training jobs.\n"
       "Exit status: 0 success, 1 the server refused or could not be reached, 2 bad usage or a bad local file."};
   app.set_version_flag("--version", "motion-manifold-client " MM_VERSION);
   app.require_subcommand(1);
@@ -34,6 +35,7 @@ int run(int argc, char** argv) {
   add_model_commands(app, settings, action);
   add_clip_commands(app, settings, action);
   add_job_commands(app, settings, action);
+  add_take_commands(app, settings, action);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -53,6 +53,55 @@ std::string segment(const std::string& value) {
   return out;
 }
 
+// A number as a query value (JSON's shortest form that reads back the same).
+std::string number(double value) { return json(value).dump(); }
+
+// The query of a take route (server/rest/README.md): the header's fields,
+// those left at their defaults left out; the rate only for text, since a
+// BVH states its own.
+std::string take_query(const v1::TakeHeader& h, bool bvh) {
+  std::string query;
+  const auto add = [&query](const std::string& name, const std::string& value) {
+    query += (query.empty() ? "?" : "&") + name + "=" + segment(value);
+  };
+  if (!h.model().empty()) add("model", h.model());
+  if (!bvh) add("frame_rate", number(h.frame_rate()));
+  if (h.hop_seconds() > 0) add("hop_seconds", number(h.hop_seconds()));
+  if (!h.blend().empty()) add("blend", h.blend());
+  if (!h.decoder().empty()) add("decoder", h.decoder());
+  if (h.at_model_rate()) add("at_model_rate", "true");
+  if (h.zeros_are_missing()) add("zeros_are_missing", "true");
+  if (h.means_are_missing()) add("means_are_missing", "true");
+  if (h.iterations() > 0) add("iterations", std::to_string(h.iterations()));
+  if (h.keep_observed()) add("keep_observed", "true");
+  return query;
+}
+
+// A take's JSON reply passed on as its gRPC stream would be.
+v1::TakeSummary pass_on_take_reply(const json& body, TakeReplySink& sink) {
+  sink.header(take_header_from_json(body));
+  sink.chunk(take_frames_from_json(body));
+  return take_summary_from_json(body);
+}
+
+// A take's reply as the file the sink asked for, its summary from the
+// X-Take-* headers (no window codes: those come only with JSON).
+v1::TakeSummary pass_on_whole_file(const httplib::Response& response, int64_t input_frames, TakeReplySink& sink) {
+  const auto number = [&response](const char* name) {
+    const std::string value = response.get_header_value(name);
+    if (value.empty()) throw std::runtime_error(std::string("the take's reply lacks its ") + name + " header");
+    return std::stod(value);
+  };
+  v1::TakeSummary summary;
+  summary.set_frames(static_cast<int64_t>(number("X-Take-Frames")));
+  summary.set_input_frames(input_frames);
+  summary.set_mean_error_mm(number("X-Take-Mean-Error-Mm"));
+  summary.set_max_error_mm(number("X-Take-Max-Error-Mm"));
+  sink.whole_file(response.body, summary.frames(), number("X-Take-Frame-Rate"),
+                  static_cast<int64_t>(number("X-Take-Windows")));
+  return summary;
+}
+
 class RestConnection : public ServerConnection {
  public:
   explicit RestConnection(const ConnectionOptions& options) : options_(options), client_(base_url(options)) {
@@ -183,6 +232,24 @@ class RestConnection : public ServerConnection {
     throw ServerError("UNAVAILABLE", "", "the job's event stream ended before the job did");
   }
 
+  v1::CodeTrack encode_take(const TakeUpload& take) override {
+    return code_track_from_json(post_take("/v1/takes:encode", take));
+  }
+  v1::TakeSummary transform_take(TakeOperation operation, const TakeUpload& take, TakeReplySink& sink) override {
+    const char* route = operation == TakeOperation::kDenoise ? "/v1/takes:denoise" : "/v1/takes:reconstruct";
+    const std::string type = sink.whole_file_type();
+    if (type.empty()) return pass_on_take_reply(post_take(route, take), sink);
+    const auto result = take_response(route, take, type);
+    return pass_on_whole_file(checked(result), take.frames.frame_count(), sink);
+  }
+  v1::TakeSummary decode_track(const v1::DecodeTrackRequest& request, TakeReplySink& sink) override {
+    const std::string type = sink.whole_file_type();
+    if (type.empty()) return pass_on_take_reply(post("/v1/tracks:decode", to_json(request)), sink);
+    const auto result = client_.Post("/v1/tracks:decode", httplib::Headers{{"Accept", type}}, to_json(request).dump(),
+                                     "application/json");
+    return pass_on_whole_file(checked(result), 0, sink);
+  }
+
  private:
   static std::string base_url(const ConnectionOptions& options) {
     std::string url = options.rest_url;
@@ -207,6 +274,23 @@ class RestConnection : public ServerConnection {
   json del(const std::string& path) { return reply_of(client_.Delete(path.c_str())); }
   json post(const std::string& path, const json& body) {
     return reply_of(client_.Post(path.c_str(), body.dump(), "application/json"));
+  }
+
+  // The take's file as the body, as the client read it; the reply as JSON.
+  json post_take(const std::string& route, const TakeUpload& take) {
+    return reply_of(take_response(route, take, "application/json"));
+  }
+  // The same, the reply as `accept` asks.
+  httplib::Result take_response(const std::string& route, const TakeUpload& take, const std::string& accept) {
+    const std::string path = route + take_query(take.header, take.bvh);
+    return client_.Post(path.c_str(), httplib::Headers{{"Accept", accept}}, take.file_bytes,
+                        take.bvh ? "application/x-bvh" : "text/plain");
+  }
+  // A successful response, or the refusal thrown.
+  const httplib::Response& checked(const httplib::Result& result) const {
+    if (!result) throw unreachable(result.error());
+    if (result->status != 200) throw error_of_response(result->status, result->body);
+    return *result;
   }
 
   ConnectionOptions options_;

@@ -11,11 +11,44 @@
 #include <string>
 
 #include "connection_options.h"
+#include "format/motion_text.h"
 #include "motionmanifold/v1/manifold.pb.h"
 
 namespace mm::client {
 
 namespace v1 = motionmanifold::v1;
+
+// A take to send (take_io.h reads one): what to do with it, its frames in the
+// model's layout for gRPC, and the file itself for REST's body, which the
+// server reads as the client did (text at header.frame_rate, or BVH at its
+// own Frame Time).
+struct TakeUpload {
+  v1::TakeHeader header;
+  MotionFrames frames;
+  std::string file_bytes;
+  bool bvh = false;
+};
+
+enum class TakeOperation { kReconstruct, kDenoise };
+
+// Where a take's reply goes as it arrives: its header once, then its frames
+// chunk by chunk (each with its frames' errors, empty for DecodeTrack).
+class TakeReplySink {
+ public:
+  virtual ~TakeReplySink() = default;
+  virtual void header(const v1::TakeOutputHeader& header) = 0;
+  virtual void chunk(const v1::FrameChunk& chunk) = 0;
+
+  // REST only: the media type of a file this sink takes whole, as the
+  // server writes it for that Accept ("application/x-bvh", "text/plain"),
+  // instead of frames; empty: frames (the JSON reply, with each frame's
+  // error and every window's code).
+  virtual std::string whole_file_type() const { return ""; }
+  // That file, with the frames and rate the server gave beside it.
+  virtual void whole_file(const std::string& bytes, int64_t frames, double frame_rate, int64_t windows) {
+    (void)bytes, (void)frames, (void)frame_rate, (void)windows;
+  }
+};
 
 class ServerConnection {
  public:
@@ -49,7 +82,19 @@ class ServerConnection {
   // ServerError when refused, and with code UNAVAILABLE when the stream ends
   // before the job does (the server stopped): the caller may watch again.
   virtual void watch_job(const std::string& id, const std::function<void(const v1::Job&)>& on_record) = 0;
+
+  // Takes. Frames go to the server in chunks of at most kTakeChunkFrames
+  // (gRPC) or as the file's body (REST); the reply's frames are passed to
+  // `sink` as they arrive and its summary (every window's code included) is
+  // returned. No deadline: a take may be an hour long.
+  virtual v1::CodeTrack encode_take(const TakeUpload& take) = 0;
+  virtual v1::TakeSummary transform_take(TakeOperation operation, const TakeUpload& take, TakeReplySink& sink) = 0;
+  virtual v1::TakeSummary decode_track(const v1::DecodeTrackRequest& request, TakeReplySink& sink) = 0;
 };
+
+// Frames a chunk of a take's request stream: 2048 x 99 floats is 0.8 MB,
+// well under gRPC's 4 MB message limit.
+constexpr int kTakeChunkFrames = 2048;
 
 // The connection `options` ask for (REST with options.rest, else gRPC).
 // Throws InputError when a local file it needs (the CA) cannot be read.

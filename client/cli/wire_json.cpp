@@ -64,6 +64,28 @@ Int integer(const json& body, const char* key) {
   return body[key].get<Int>();
 }
 
+json take_window_json(const v1::TakeWindow& window) {
+  return {{"start_seconds", window.start_seconds()},
+          {"start_frame", window.start_frame()},
+          {"code", code_json(window.code())}};
+}
+
+json take_windows_json(const google::protobuf::RepeatedPtrField<v1::TakeWindow>& windows) {
+  json out = json::array();
+  for (const auto& w : windows) out.push_back(take_window_json(w));
+  return out;
+}
+
+void read_take_windows(const json& body, google::protobuf::RepeatedPtrField<v1::TakeWindow>* windows) {
+  if (!body.contains("windows")) return;
+  for (const auto& w : body.at("windows")) {
+    v1::TakeWindow* window = windows->Add();
+    window->set_start_seconds(w.at("start_seconds").get<double>());
+    window->set_start_frame(integer<int64_t>(w, "start_frame"));
+    read_code(w.at("code"), window->mutable_code());
+  }
+}
+
 }  // namespace
 
 json to_json(const v1::EncodeRequest& request) {
@@ -209,6 +231,83 @@ json to_json(const v1::ListJobsReply& reply) {
   json jobs = json::array();
   for (const auto& j : reply.jobs()) jobs.push_back(to_json(j));
   return {{"jobs", std::move(jobs)}};
+}
+
+json to_json(const v1::DecodeTrackRequest& request) {
+  json windows = json::array();
+  for (const auto& w : request.windows()) {
+    windows.push_back({{"start_seconds", w.start_seconds()}, {"code", code_json(w.code())}});
+  }
+  json body = {{"model", request.model()}, {"windows", std::move(windows)}, {"frame_rate", request.frame_rate()},
+               {"frames", request.frames()}};
+  if (!request.decoder().empty()) body["decoder"] = request.decoder();
+  if (!request.blend().empty()) body["blend"] = request.blend();
+  return body;
+}
+
+json to_json(const v1::CodeTrack& track) {
+  return {{"answered_by", answered_by_json(track.answered_by())},
+          {"frames", track.frames()},
+          {"frame_rate", track.frame_rate()},
+          {"window_seconds", track.window_seconds()},
+          {"hop_seconds", track.hop_seconds()},
+          {"windows", take_windows_json(track.windows())}};
+}
+
+json to_json(const v1::TakeSummary& summary) {
+  return {{"summary",
+           {{"frames", summary.frames()},
+            {"input_frames", summary.input_frames()},
+            {"mean_error_mm", summary.mean_error_mm()},
+            {"max_error_mm", summary.max_error_mm()},
+            {"window_seconds", summary.window_seconds()},
+            {"hop_seconds", summary.hop_seconds()}}},
+          {"windows", take_windows_json(summary.windows())}};
+}
+
+v1::CodeTrack code_track_from_json(const json& body) {
+  v1::CodeTrack track;
+  read_answered_by(body, track.mutable_answered_by());
+  track.set_frames(integer<int64_t>(body, "frames"));
+  track.set_frame_rate(body.value("frame_rate", 0.0));
+  track.set_window_seconds(body.value("window_seconds", 0.0));
+  track.set_hop_seconds(body.value("hop_seconds", 0.0));
+  read_take_windows(body, track.mutable_windows());
+  return track;
+}
+
+v1::TakeOutputHeader take_header_from_json(const json& body) {
+  v1::TakeOutputHeader header;
+  read_answered_by(body, header.mutable_answered_by());
+  header.set_frame_rate(body.at("frame_rate").get<double>());
+  header.set_columns(body.at("columns").get<int>());
+  header.set_layout(body.value("layout", ""));
+  return header;
+}
+
+v1::FrameChunk take_frames_from_json(const json& body) {
+  v1::FrameChunk chunk;
+  chunk.set_frames(body.at("frames").get<int32_t>());
+  auto* values = chunk.mutable_values();
+  values->Reserve(static_cast<int>(body.at("values").size()));
+  for (const auto& v : body.at("values")) values->Add(v.get<float>());
+  if (body.contains("error_mm")) {
+    for (const auto& e : body.at("error_mm")) chunk.add_error_mm(e.get<float>());
+  }
+  return chunk;
+}
+
+v1::TakeSummary take_summary_from_json(const json& body) {
+  v1::TakeSummary summary;
+  const json& s = body.at("summary");
+  summary.set_frames(integer<int64_t>(s, "frames"));
+  summary.set_input_frames(integer<int64_t>(s, "input_frames"));
+  summary.set_mean_error_mm(s.value("mean_error_mm", 0.0));
+  summary.set_max_error_mm(s.value("max_error_mm", 0.0));
+  summary.set_window_seconds(s.value("window_seconds", 0.0));
+  summary.set_hop_seconds(s.value("hop_seconds", 0.0));
+  read_take_windows(body, summary.mutable_windows());
+  return summary;
 }
 
 v1::EncodeReply encode_reply_from_json(const json& body) {

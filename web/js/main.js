@@ -2,6 +2,7 @@
 // each of which talks to the server only through the REST API (api_client.js).
 import { SkeletonView } from './skeleton_view.js';
 import { setUpManifoldPanel } from './manifold_panel.js';
+import { setUpTakePanel } from './take_panel.js';
 import { setUpJobsPanel } from './jobs_panel.js';
 import { setUpModelsPanel } from './models_panel.js';
 import { setUpClipPicker } from './data_root_clips.js';
@@ -17,6 +18,7 @@ try {
   setUpManifoldPanel(view);
   // Read by the browser test: what the view draws.
   window.motionManifoldPage = { view };
+  setUpTakePanel(view);
 } catch (error) {
   // No WebGL, say: the jobs and models still work.
   showError(`the 3D view cannot start: ${error.message}`);

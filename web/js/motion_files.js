@@ -33,16 +33,31 @@ export function atModelRate(motion) {
   return { ...motion, frames, frame_rate: MODEL_RATE, values };
 }
 
-// A BVH of `skeleton` (model_skeletons.js) as a 25 Hz wire motion, through
-// three.js's BVHLoader: the inverse of model/format/skeleton_bvh.h, joints
+// A whole text file as a wire motion at `rate` (a take: every row). A
+// malformed file gives whatever it holds, for the server to refuse.
+export function textTake(text, rate) {
+  const rows = text.split(/\r?\n/).filter((line) => line.trim() !== '').map((line) => line.split(',').map(Number));
+  const columns = rows.length ? rows[0].length : 0;
+  return { frames: rows.length, columns, frame_rate: rate, layout: layoutOfColumns(columns), values: rows.flat() };
+}
+
+// A BVH of `skeleton` (model_skeletons.js) as a 25 Hz wire motion, as the
+// server reads one for a clip.
+export function bvhToModelRateMotion(text, skeleton) {
+  return bvhToMotion(text, skeleton, MODEL_RATE);
+}
+
+// A BVH of `skeleton` as a wire motion at `rate` (null: every frame of the
+// file at its own rate, as the server reads a take), through three.js's
+// BVHLoader: the inverse of model/format/skeleton_bvh.h, joints
 // matched by name (the root's translation is left at zero: the model does
 // not learn it). A joint's local
 // rotation in the row-vector convention is the transpose of the BVH's
 // (column-vector) rotation, so its exponential map is minus the axis-angle
-// of the BVH quaternion. Frames are resampled to 25 Hz by taking the file's
+// of the BVH quaternion. Frames are resampled by taking the file's
 // frame nearest in time (ties to the later), as the server does. Joints
 // absent from the file (the leaves written as End Sites) are unrotated.
-export function bvhToModelRateMotion(text, skeleton) {
+export function bvhToMotion(text, skeleton, rate = null) {
   const { columns, jointNames } = skeleton;
   const { clip } = new BVHLoader().parse(text);
   const tracks = new Map(clip.tracks.map((track) => [track.name, track]));
@@ -50,10 +65,11 @@ export function bvhToModelRateMotion(text, skeleton) {
   const fileFrames = anyTrack.times.length;
   // From the text: the loader's times are float32, whose rounding can lose a frame here.
   const frameTime = Number(/Frame Time:\s*(\S+)/i.exec(text)?.[1] ?? 1 / MODEL_RATE);
-  const outFrames = Math.floor((fileFrames - 1) * frameTime * MODEL_RATE + 1e-6) + 1;
+  const outRate = rate ?? 1 / frameTime;
+  const outFrames = rate === null ? fileFrames : Math.floor((fileFrames - 1) * frameTime * outRate + 1e-6) + 1;
   const values = new Array(outFrames * columns).fill(0);
   for (let k = 0; k < outFrames; ++k) {
-    const source = Math.min(fileFrames - 1, Math.floor(k / MODEL_RATE / frameTime + 0.5));
+    const source = rate === null ? k : Math.min(fileFrames - 1, Math.floor(k / outRate / frameTime + 0.5));
     jointNames.forEach((name, j) => {
       const track = tracks.get(`${name}.quaternion`);
       if (!track) return;
@@ -65,5 +81,5 @@ export function bvhToModelRateMotion(text, skeleton) {
       values.splice(k * columns + 3 + 3 * j, 3, scale * x, scale * y, scale * z);
     });
   }
-  return { frames: outFrames, columns, frame_rate: MODEL_RATE, layout: layoutOfColumns(columns), values };
+  return { frames: outFrames, columns, frame_rate: outRate, layout: layoutOfColumns(columns), values };
 }

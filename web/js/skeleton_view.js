@@ -69,6 +69,7 @@ export class SkeletonView {
   constructor({ container, playButton, slider, frameLabel, legend, overlayBox }) {
     Object.assign(this, { container, playButton, slider, frameLabel, legend, overlayBox });
     this.figures = [];
+    this.frameListeners = [];  // called with the frame shown, at every change
     this.frame = 0;
     this.playing = false;
     this.renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
@@ -97,8 +98,10 @@ export class SkeletonView {
     this.renderer.setAnimationLoop((time) => this.tick(time));
   }
 
-  // Replaces the figures: [{label, positions, parents, frameRate}], and plays.
+  // Replaces the figures: [{label, positions, parents, frameRate}], and
+  // plays; what listened to the frame of the figures before stops.
   show(figures) {
+    this.frameListeners = [];
     this.figures.forEach((f) => f.dispose(this.scene));
     this.figures = figures.map((f, i) => new Figure(this.scene, { colour: FIGURE_COLOURS[i % FIGURE_COLOURS.length], ...f }));
     this.arrange();
@@ -150,6 +153,13 @@ export class SkeletonView {
     this.figures.forEach((f) => f.pose(frame));
     this.slider.value = String(frame);
     this.frameLabel.textContent = `frame ${frame + 1} / ${this.frameCount} at ${this.frameRate} Hz`;
+    this.frameListeners.forEach((listener) => listener(frame));
+  }
+
+  // Pauses and shows `frame` (a click on a take's strip or error plot).
+  seek(frame) {
+    this.pause();
+    this.setFrame(Math.max(0, Math.min(this.frameCount - 1, frame)));
   }
 
   tick(time) {

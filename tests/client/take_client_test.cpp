@@ -1,0 +1,268 @@
+// motion-manifold-client's take commands end to end: the real client binary
+// against the real server on loopback, a whole H3.6M file and a 120 Hz BVH
+// streamed over gRPC and sent over REST, their replies at the input's rate
+// and length, code tracks written and decoded, and refusals with their exit
+// statuses (1: the server refused, 2: bad local input).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "command_run.h"
+#include "server_process.h"
+#include "test_environment.h"
+
+namespace mm {
+namespace {
+
+using nlohmann::json;
+using test::read_text;
+
+test::CommandRun run_client(const std::string& arguments) { return test::run_command(MM_CLIENT_PATH, arguments); }
+
+std::string s5(const std::string& name) { return (test::h36m_dataset_dir() / "S5" / name).string(); }
+
+std::vector<std::vector<double>> motion_rows(const std::string& path) {
+  std::vector<std::vector<double>> rows;
+  std::ifstream in(path);
+  for (std::string line; std::getline(in, line);) {
+    if (line.empty()) continue;
+    std::vector<double> row;
+    std::stringstream values(line);
+    for (std::string v; std::getline(values, v, ',');) row.push_back(std::stod(v));
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+// A BVH file's "Frames:" and "Frame Time:".
+struct BvhTiming {
+  long frames = -1;
+  double frame_time = 0;
+};
+
+BvhTiming bvh_timing(const std::string& path) {
+  BvhTiming timing;
+  std::ifstream in(path);
+  for (std::string line; std::getline(in, line);) {
+    if (line.rfind("Frames:", 0) == 0) timing.frames = std::stol(line.substr(7));
+    if (line.rfind("Frame Time:", 0) == 0) {
+      timing.frame_time = std::stod(line.substr(11));
+      break;
+    }
+  }
+  return timing;
+}
+
+// Non-blank lines of a file.
+size_t line_count(const std::string& path) {
+  size_t lines = 0;
+  std::ifstream in(path);
+  for (std::string line; std::getline(in, line);) lines += !line.empty();
+  return lines;
+}
+
+// Windows of 6 s every 3 s over `seconds`, the last aligned to the end.
+size_t windows_over(double seconds) { return static_cast<size_t>(std::ceil((seconds - 6.0) / 3.0 - 1e-9)) + 1; }
+
+// One server for the suite, without a token: take operations need none.
+class TakeClientTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    if (test::has_h36m()) server_ = new test::ServerProcess(std::vector<std::string>{});
+  }
+  static void TearDownTestSuite() {
+    delete server_;
+    server_ = nullptr;
+  }
+  void SetUp() override {
+    MM_REQUIRE_H36M();
+    ASSERT_NE(server_, nullptr);
+  }
+
+  static std::string grpc() { return "--server " + server_->grpc_target(); }
+  static std::string rest() { return "--rest --rest-url " + server_->rest_url(); }
+
+  static test::ServerProcess* server_;
+  test::ScratchDir dir_;
+};
+
+test::ServerProcess* TakeClientTest::server_ = nullptr;
+
+TEST_F(TakeClientTest, ReconstructOfAWholeS5FileKeepsItsFramesRateAndRootOverBothProtocols) {
+  const auto input = motion_rows(s5("walking_1.txt"));
+  ASSERT_GT(input.size(), 1000u);
+  for (const auto& protocol : {grpc(), rest()}) {
+    const auto out = dir_.file("walk.txt"), errors = dir_.file("walk-error.csv");
+    const auto run = run_client(protocol + " take reconstruct --in " + s5("walking_1.txt") + " --out " + out +
+                                " --error-csv " + errors);
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    EXPECT_NE(run.out.find(std::to_string(input.size()) + " frames at 50 Hz"), std::string::npos) << run.out;
+    const auto output = motion_rows(out);
+    ASSERT_EQ(output.size(), input.size()) << protocol;
+    for (size_t f = 0; f < output.size(); ++f) {
+      ASSERT_EQ(output[f].size(), 99u);
+      // The root's translation is the input's, copied.
+      for (int c = 0; c < 3; ++c) ASSERT_NEAR(output[f][c], input[f][c], 1e-4) << f;
+    }
+    // A header and one line a frame, each a finite error in mm.
+    EXPECT_EQ(line_count(errors), input.size() + 1);
+    std::ifstream csv(errors);
+    std::string line;
+    std::getline(csv, line);
+    EXPECT_EQ(line, "frame,seconds,error_mm");
+    double sum = 0;
+    size_t n = 0;
+    while (std::getline(csv, line)) {
+      const double error = std::stod(line.substr(line.rfind(',') + 1));
+      ASSERT_TRUE(std::isfinite(error) && error >= 0) << line;
+      sum += error;
+      ++n;
+    }
+    EXPECT_EQ(n, input.size());
+    EXPECT_GT(sum / n, 0.0);
+  }
+  // The same take as BVH, at its rate: written here from gRPC's frames, and
+  // over REST the server's own BVH (Accept: application/x-bvh), the same bytes.
+  const auto bvh = dir_.file("walk.bvh"), rest_bvh = dir_.file("walk-rest.bvh");
+  auto run = run_client(grpc() + " take reconstruct --in " + s5("walking_1.txt") + " --out " + bvh);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const auto timing = bvh_timing(bvh);
+  EXPECT_EQ(timing.frames, static_cast<long>(input.size()));
+  EXPECT_NEAR(timing.frame_time, 0.02, 1e-6);
+  run = run_client(rest() + " take reconstruct --in " + s5("walking_1.txt") + " --out " + rest_bvh);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.out.find(std::to_string(input.size()) + " frames at 50 Hz"), std::string::npos) << run.out;
+  EXPECT_TRUE(read_text(bvh) == read_text(rest_bvh)) << "gRPC's and REST's BVH differ";
+}
+
+TEST_F(TakeClientTest, EncodeWritesACodeTrackThatTrackDecodeTurnsIntoA120HzBvhWhichReconstructsAtItsRate) {
+  const size_t input_frames = motion_rows(s5("walking_1.txt")).size();
+  const double seconds = (input_frames - 1) / 50.0;
+  json tracks[2];
+  int i = 0;
+  for (const auto& protocol : {grpc(), rest()}) {
+    const auto track = dir_.file("track" + std::to_string(i) + ".json");
+    const auto run = run_client(protocol + " take encode --in " + s5("walking_1.txt") + " --out " + track);
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    tracks[i] = json::parse(read_text(track));
+    EXPECT_EQ(tracks[i]["frames"], input_frames);
+    EXPECT_EQ(tracks[i]["frame_rate"], 50.0);
+    ASSERT_EQ(tracks[i]["windows"].size(), windows_over(seconds)) << tracks[i].dump().substr(0, 400);
+    EXPECT_EQ(tracks[i]["windows"][0]["code"].size(), 64u);
+    EXPECT_EQ(tracks[i]["windows"][1]["start_seconds"], 3.0);
+    ++i;
+  }
+  // Both protocols give the same track.
+  for (size_t w = 0; w < tracks[0]["windows"].size(); ++w) {
+    for (size_t k = 0; k < 64; ++k) {
+      ASSERT_NEAR(tracks[0]["windows"][w]["code"][k].get<double>(), tracks[1]["windows"][w]["code"][k].get<double>(),
+                  1e-4);
+    }
+  }
+
+  // The track decoded at 120 Hz: a BVH of H3.6M's skeleton covering the take.
+  const auto decoded = dir_.file("decoded120.bvh");
+  auto run = run_client(grpc() + " track decode --in " + dir_.file("track0.json") + " --rate 120 --out " + decoded);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const auto timing = bvh_timing(decoded);
+  EXPECT_NEAR(timing.frame_time, 1.0 / 120, 1e-6);
+  // The track ends with its last window, whose start is on the model's 25 Hz grid: within 0.04 s of the take's end.
+  EXPECT_LE(timing.frames, static_cast<long>(seconds * 120) + 1);
+  EXPECT_GE(timing.frames, static_cast<long>((seconds - 0.04) * 120));
+  // REST decodes the same track (as REST's own encode wrote it) to as many frames.
+  run = run_client(rest() + " track decode --in " + dir_.file("track1.json") + " --rate 120 --out " +
+                   dir_.file("decoded120.txt"));
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_EQ(static_cast<long>(line_count(dir_.file("decoded120.txt"))), timing.frames);
+
+  // That 120 Hz BVH is a take of its own: reconstructed at 120 Hz, frame for frame.
+  for (const auto& protocol : {grpc(), rest()}) {
+    const auto out = dir_.file("again.bvh"), errors = dir_.file("again.csv");
+    run = run_client(protocol + " take reconstruct --in " + decoded + " --out " + out + " --error-csv " + errors);
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    const auto again = bvh_timing(out);
+    EXPECT_EQ(again.frames, timing.frames) << protocol;
+    EXPECT_NEAR(again.frame_time, 1.0 / 120, 1e-6) << protocol;
+    EXPECT_EQ(static_cast<long>(line_count(errors)), timing.frames + 1);
+    EXPECT_NE(run.out.find("at 120 Hz"), std::string::npos) << run.out;
+  }
+  // With --at-model-rate the reply comes at 25 Hz.
+  run = run_client(grpc() + " take reconstruct --at-model-rate --in " + decoded + " --out " + dir_.file("at25.txt"));
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_EQ(static_cast<long>(line_count(dir_.file("at25.txt"))), (timing.frames - 1) * 25 / 120 + 1);
+}
+
+TEST_F(TakeClientTest, DenoiseFillsTheMissingValuesOfATextTake) {
+  // The first 20 s of S5 walking with one joint's values missing (nan).
+  auto rows = motion_rows(s5("walking_1.txt"));
+  rows.resize(1000);
+  std::string text;
+  for (auto& row : rows) {
+    for (size_t c = 0; c < row.size(); ++c) {
+      char value[32];
+      std::snprintf(value, sizeof value, "%.7f", row[c]);
+      text += (c ? "," : "") + std::string(c >= 21 && c < 24 ? "nan" : value);
+    }
+    text += "\n";
+  }
+  const auto noisy = dir_.write("noisy.txt", text);
+  for (const auto& protocol : {grpc(), rest()}) {
+    const auto out = dir_.file("clean.txt");
+    const auto run = run_client(protocol + " take denoise --keep-observed --in " + noisy + " --out " + out);
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    const auto clean = motion_rows(out);
+    ASSERT_EQ(clean.size(), rows.size());
+    for (size_t f = 0; f < clean.size(); ++f) {
+      for (int c = 21; c < 24; ++c) ASSERT_TRUE(std::isfinite(clean[f][c])) << f;
+      ASSERT_NEAR(clean[f][30], rows[f][30], 1e-4) << "observed values are kept";
+    }
+  }
+}
+
+TEST_F(TakeClientTest, RefusalsExitOneWithTheServersMessageAndBadLocalInputExitsTwo) {
+  // Shorter than one window: the server names the minimum.
+  std::string text;
+  std::ifstream in(s5("walking_1.txt"));
+  std::string line;
+  for (int f = 0; f < 200 && std::getline(in, line); ++f) text += line + "\n";
+  const auto short_take = dir_.write("short.txt", text);
+  for (const auto& protocol : {grpc(), rest()}) {
+    auto run = run_client(protocol + " take reconstruct --in " + short_take + " --out " + dir_.file("out.txt"));
+    EXPECT_EQ(run.exit_code, 1) << run.err;
+    EXPECT_EQ(run.err.rfind("error: INVALID_ARGUMENT: ", 0), 0u) << run.err;
+    EXPECT_NE(run.err.find("6"), std::string::npos) << run.err;
+    EXPECT_FALSE(std::filesystem::exists(dir_.file("out.txt")));
+
+    run = run_client(protocol + " take encode --blend nope --in " + s5("walking_1.txt") + " --out " +
+                     dir_.file("t.json"));
+    EXPECT_EQ(run.exit_code, 2) << "encode has no --blend: " << run.err;
+    run = run_client(protocol + " take reconstruct --blend nope --in " + s5("walking_1.txt") + " --out " +
+                     dir_.file("out.txt"));
+    EXPECT_EQ(run.exit_code, 1) << run.err;
+    EXPECT_EQ(run.err.rfind("error: INVALID_ARGUMENT: blend: ", 0), 0u) << run.err;
+  }
+  // Bad local input, before any call.
+  auto run = run_client(grpc() + " take reconstruct --rate 5 --in " + s5("walking_1.txt") + " --out " +
+                        dir_.file("o.txt"));
+  EXPECT_EQ(run.exit_code, 2) << run.err;
+  run = run_client(grpc() + " take reconstruct --in " + s5("walking_1.txt") + " --out " + dir_.file("o.csv"));
+  EXPECT_EQ(run.exit_code, 2) << run.err;
+  EXPECT_NE(run.err.find("o.csv"), std::string::npos) << run.err;
+  run = run_client(grpc() + " take reconstruct --in " + dir_.write("bad.bvh", "HIERARCHY\n") + " --out " +
+                   dir_.file("o.txt"));
+  EXPECT_EQ(run.exit_code, 2) << run.err;
+  EXPECT_NE(run.err.find("bad.bvh"), std::string::npos) << run.err;
+  run = run_client(grpc() + " track decode --in " + dir_.write("t.json", "{\"windows\": [{\"code\": [1]}]}") +
+                   " --out " + dir_.file("o.txt"));
+  EXPECT_EQ(run.exit_code, 2) << run.err;
+  EXPECT_NE(run.err.find("windows[0].start_seconds"), std::string::npos) << run.err;
+}
+
+}  // namespace
+}  // namespace mm

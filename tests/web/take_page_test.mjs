@@ -1,0 +1,164 @@
+// The page's Take view in a real browser (Debian's Chromium, headless,
+// puppeteer-core) against the real server behind a path prefix
+// (server_harness.mjs): a whole S5 file loaded as a take is reconstructed
+// over REST (POST v1/takes:reconstruct) and plays at 50 Hz with every frame
+// of the file, its code track drawn as one cell per window, its per-frame
+// error plotted for every frame; clicking a cell, clicking the plot and
+// moving the slider put both skeletons at that frame, drawn as the model
+// library's FK of the file's row and of the server's reconstruction within
+// 0.1 mm; the same file read by the server from its data root (path=)
+// plays its reconstruction. The screenshot (web-take.png) is of a take the
+// server made itself (sampled codes decoded as a track), since H3.6M never
+// goes into docs/.
+//
+//   node take_page_test.mjs NODE_MODULES   (ctest: web_take_view_in_chromium)
+import assert from 'node:assert/strict';
+import fs from 'node:fs';
+import { createRequire } from 'node:module';
+import os from 'node:os';
+import path from 'node:path';
+import { pathToFileURL } from 'node:url';
+import { largestDistanceMm, referencePositions, writeMotionText } from './fk_reference.mjs';
+import { environment, h36mDatasetDir, startServer } from './server_harness.mjs';
+
+const TOLERANCE_MM = 0.1;
+const nodeModules = process.argv[2];
+const puppeteer = createRequire(pathToFileURL(`${nodeModules}/`))('puppeteer-core');
+const screenshotDir = process.env.MM_WEB_SCREENSHOT_DIR || path.join(nodeModules, '..', 'screenshots');
+fs.mkdirSync(screenshotDir, { recursive: true });
+const scratch = fs.mkdtempSync(path.join(os.tmpdir(), 'mm-web-take-'));
+
+function step(text) {
+  console.log(`-- ${text}`);
+}
+
+const server = await startServer();
+const browser = await puppeteer.launch({
+  executablePath: environment('MM_CHROMIUM'),
+  headless: true,
+  args: ['--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--window-size=1500,1000'],
+  defaultViewport: { width: 1500, height: 1000 },
+});
+try {
+  const page = await browser.newPage();
+  const consoleErrors = [];
+  page.on('console', (message) => message.type() === 'error' && consoleErrors.push(message.text()));
+  page.on('pageerror', (error) => consoleErrors.push(`uncaught: ${error.message}`));
+  const describe = () => page.evaluate(() => window.motionManifoldPage.view.describe());
+  const describeTake = () => page.evaluate(() => window.motionManifoldPage.take.describe());
+  const setRange = (selector, value) => page.$eval(selector, (input, v) => {
+    input.value = String(v);
+    input.dispatchEvent(new Event('input'));
+  }, value);
+  // Waits for the take view to show `frames` frames, failing with the
+  // page's error banner when that shows instead.
+  const waitForTake = async (name) => {
+    await page.waitForFunction((n) => !document.getElementById('error').hidden ||
+                                      document.getElementById('take-info').textContent.startsWith(`${n}:`),
+                               { timeout: 300000 }, name);
+    const banner = await page.$eval('#error', (e) => (e.hidden ? '' : e.textContent));
+    assert.equal(banner, '', `waiting for the take ${name}, the page shows an error`);
+  };
+  const reconstructFile = async (file, rate) => {
+    await (await page.$('#take-file')).uploadFile(file);
+    await page.$eval('#take-rate', (e, v) => (e.value = String(v)), rate);
+    await page.click('#take-button');
+    await waitForTake(path.basename(file));
+  };
+
+  step(`load ${server.pageUrl}`);
+  await page.goto(server.pageUrl, { waitUntil: 'load' });
+  await page.waitForSelector('body[data-loaded=true]', { timeout: 60000 });
+  assert.deepEqual(consoleErrors, [], 'console errors while loading');
+
+  step('a whole S5 file as a take: every frame plays at 50 Hz beside its reconstruction');
+  const s5File = path.join(h36mDatasetDir(), 'S5', 'walking_1.txt');
+  const rows = fs.readFileSync(s5File, 'utf8').trim().split('\n');
+  // The server's own reply to the same take, for the windows and the reconstruction.
+  const direct = await fetch(`${server.direct}/v1/takes:reconstruct?frame_rate=50`, {
+    method: 'POST', headers: { 'Content-Type': 'text/plain' }, body: fs.readFileSync(s5File) });
+  assert.equal(direct.status, 200, await direct.clone().text());
+  const reply = await direct.json();
+  assert.equal(reply.frames, rows.length);
+  await reconstructFile(s5File, 50);
+  let view = await describe();
+  assert.equal(view.figures.length, 2);
+  assert.equal(view.figures[0].label, 'walking_1.txt');
+  assert.match(view.figures[1].label, /^reconstruction \(\d+\.\d mm\)$/);
+  for (const figure of view.figures) {
+    assert.equal(figure.joints, 32);
+    assert.equal(figure.frames, rows.length, 'frames played');
+  }
+  assert.equal(view.playing, true);
+  assert.match(await page.$eval('#frame-label', (e) => e.textContent), new RegExp(`/ ${rows.length} at 50 Hz`));
+  await page.waitForFunction((before) => window.motionManifoldPage.view.describe().frame !== before,
+                             { timeout: 10000 }, view.frame);
+  const take = await describeTake();
+  console.log(`   ${JSON.stringify(take)}`);
+  assert.equal(take.frames, rows.length);
+  assert.equal(take.frameRate, 50);
+  assert.equal(take.windows, reply.windows.length);
+  assert.equal(take.cells, reply.windows.length, 'one strip cell per window');
+  assert.equal(take.errorFrames, rows.length);
+  assert.equal(Number(await page.$eval('#take-error', (e) => e.dataset.frames)), rows.length, 'the error plot has every frame');
+
+  step('scrubbing moves both skeletons to the frame: the FK of the file and of the reconstruction');
+  const originalReference = referencePositions(s5File);
+  const reconstructionFile = path.join(scratch, 'reconstruction.txt');
+  writeMotionText(reconstructionFile, reply);
+  const reconstructionReference = referencePositions(reconstructionFile);
+  const checkBothAt = async (frame, how) => {
+    view = await describe();
+    assert.equal(view.frame, frame, how);
+    assert.equal(view.playing, false, `${how}: seeking pauses`);
+    const original = largestDistanceMm(view.figures[0].drawnPositionsMm, originalReference[frame]);
+    const reconstructed = largestDistanceMm(view.figures[1].drawnPositionsMm, reconstructionReference[frame]);
+    console.log(`   ${how}, frame ${frame}: largest distances ${original.toExponential(2)} mm (original), ` +
+                `${reconstructed.toExponential(2)} mm (reconstruction)`);
+    assert.ok(original < TOLERANCE_MM, `${how}: the original lies ${original} mm from the FK at frame ${frame}`);
+    assert.ok(reconstructed < TOLERANCE_MM, `${how}: the reconstruction lies ${reconstructed} mm from the FK at frame ${frame}`);
+  };
+  const cell = Math.floor(reply.windows.length / 2);
+  await page.click(`#take-strip .cell:nth-child(${cell + 1})`);
+  await checkBothAt(reply.windows[cell].start_frame, `strip cell ${cell + 1}`);
+  // The plot's x runs over the frames after a 38 px margin (take_panel.js).
+  const plot = await page.$eval('#take-error', (e) => ({ width: e.width, clientWidth: e.clientWidth }));
+  const clickX = 38 + 0.25 * (plot.width - 38);
+  await page.click('#take-error', { offset: { x: (clickX * plot.clientWidth) / plot.width, y: 40 } });
+  view = await describe();
+  const plotFrame = view.frame;
+  assert.ok(Math.abs(plotFrame - 0.25 * (rows.length - 1)) <= (rows.length / plot.width) * 2,
+            `a click at a quarter of the plot shows frame ${plotFrame} of ${rows.length}`);
+  await checkBothAt(plotFrame, 'error plot');
+  await setRange('#frame', rows.length - 1);
+  await checkBothAt(rows.length - 1, 'slider');
+
+  step("the same file read by the server from its data root (path=)");
+  await page.select('#clip-path', 'small/S5/walking_1.txt');
+  await page.click('#take-clip-button');
+  await waitForTake('small/S5/walking_1.txt');
+  view = await describe();
+  assert.equal(view.figures.length, 1);
+  assert.equal(view.figures[0].frames, rows.length);
+  assert.equal((await describeTake()).cells, reply.windows.length);
+
+  step('a take of the model\'s own for the screenshot: sampled codes decoded as a track, 50 Hz');
+  const { codes } = await server.call('POST', 'v1/sample', { count: 6, seed: 11 });
+  const track = await server.call('POST', 'v1/tracks:decode', {
+    windows: codes.map((code, i) => ({ start_seconds: 3 * i, code })), frame_rate: 50 });
+  const ownFile = path.join(scratch, 'sampled_track.txt');
+  writeMotionText(ownFile, track);
+  await reconstructFile(ownFile, 50);
+  assert.equal((await describe()).figures[0].frames, track.frames);
+  await page.click('#play');
+  await setRange('#frame', Math.floor(track.frames * 0.4));
+  await page.screenshot({ path: path.join(screenshotDir, 'web-take.png') });
+  assert.deepEqual(consoleErrors, [], 'console errors');
+} catch (error) {
+  console.error(server.log().slice(-4000));
+  throw error;
+} finally {
+  await browser.close();
+  await server.stop();
+  fs.rmSync(scratch, { recursive: true, force: true });
+}

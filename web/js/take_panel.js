@@ -1,0 +1,192 @@
+// A take: a whole recording of any length and rate, reconstructed by the
+// server window by window (POST v1/takes:reconstruct, its JSON reply) and
+// played over the original at the take's own rate, with its code track as a
+// strip over time (a cell per window, coloured by the codes' first three
+// principal components) and each frame's error plotted below; clicking the
+// strip or the plot, or moving the view's slider, seeks both skeletons.
+import { callApi, callWithToken } from './api_client.js';
+import { runAction } from './call_log.js';
+import { motionPositions } from './forward_kinematics.js';
+import { skeletonOf } from './model_skeletons.js';
+import { bvhToMotion, textTake } from './motion_files.js';
+
+const $ = (id) => document.getElementById(id);
+
+// The first `count` principal directions of `rows` (power iteration with
+// deflation on their covariance), each row's coordinates along them.
+function principalCoordinates(rows, count) {
+  const n = rows.length, d = rows[0].length;
+  const mean = new Array(d).fill(0);
+  rows.forEach((r) => r.forEach((v, i) => (mean[i] += v / n)));
+  const centred = rows.map((r) => r.map((v, i) => v - mean[i]));
+  const covariance = Array.from({ length: d }, () => new Array(d).fill(0));
+  for (const r of centred) for (let i = 0; i < d; ++i) for (let j = 0; j < d; ++j) covariance[i][j] += r[i] * r[j];
+  const coordinates = centred.map(() => []);
+  for (let c = 0; c < count; ++c) {
+    // A fixed start, so the same track is coloured the same way every time.
+    let v = Array.from({ length: d }, (_, i) => 1 + ((i * 7919) % 13) / 13);
+    for (let iteration = 0; iteration < 100; ++iteration) {
+      const next = covariance.map((row) => row.reduce((sum, x, j) => sum + x * v[j], 0));
+      const norm = Math.hypot(...next);
+      if (norm < 1e-12) break;
+      v = next.map((x) => x / norm);
+    }
+    const lambda = covariance.reduce((sum, row, i) => sum + v[i] * row.reduce((s, x, j) => s + x * v[j], 0), 0);
+    for (let i = 0; i < d; ++i) for (let j = 0; j < d; ++j) covariance[i][j] -= lambda * v[i] * v[j];
+    centred.forEach((r, k) => coordinates[k].push(r.reduce((sum, x, i) => sum + x * v[i], 0)));
+  }
+  return coordinates;
+}
+
+// One CSS colour per code: its first three principal coordinates, each
+// scaled over the track to 0..255, as red, green and blue.
+export function codeColours(codes) {
+  if (codes.length < 2) return codes.map(() => 'rgb(128, 128, 128)');
+  const coordinates = principalCoordinates(codes, 3);
+  const ranges = [0, 1, 2].map((c) => {
+    const values = coordinates.map((x) => x[c]);
+    return [Math.min(...values), Math.max(...values)];
+  });
+  return coordinates.map((x) => {
+    const [r, g, b] = ranges.map(([lo, hi], c) => Math.round(hi > lo ? (255 * (x[c] - lo)) / (hi - lo) : 128));
+    return `rgb(${r}, ${g}, ${b})`;
+  });
+}
+
+// The code track as a strip: cell i from window i's start to window i+1's
+// (the last to the take's end), left to right over the take's duration.
+function drawStrip(strip, windows, frames, rate, view) {
+  const duration = Math.max((frames - 1) / rate, 1e-9);
+  const colours = codeColours(windows.map((w) => w.code));
+  strip.replaceChildren(...windows.map((w, i) => {
+    const end = i + 1 < windows.length ? windows[i + 1].start_seconds : duration;
+    const cell = document.createElement('div');
+    cell.className = 'cell';
+    cell.style.left = `${(100 * w.start_seconds) / duration}%`;
+    cell.style.width = `${(100 * Math.max(0, end - w.start_seconds)) / duration}%`;
+    cell.style.background = colours[i];
+    cell.dataset.startFrame = String(w.start_frame);
+    cell.title = `window ${i + 1} of ${windows.length}: ${w.start_seconds.toFixed(2)} s, frame ${w.start_frame}`;
+    cell.addEventListener('click', () => view.seek(w.start_frame));
+    return cell;
+  }));
+  const cursor = document.createElement('div');
+  cursor.className = 'cursor';
+  strip.append(cursor);
+  return (frame) => (cursor.style.left = `${(100 * frame) / Math.max(frames - 1, 1)}%`);
+}
+
+// Each frame's error (mm) over the take, with a cursor at the frame shown;
+// returns the function that moves the cursor.
+function drawErrorPlot(canvas, errors, rate, view) {
+  const { width, height } = canvas;
+  const margin = { left: 38, bottom: 16, top: 6 };
+  const plotWidth = width - margin.left, plotHeight = height - margin.bottom - margin.top;
+  const top = Math.max(...errors, 1e-6);
+  const x = (frame) => margin.left + (plotWidth * frame) / Math.max(errors.length - 1, 1);
+  const y = (error) => margin.top + plotHeight * (1 - error / top);
+  const base = document.createElement('canvas');
+  base.width = width;
+  base.height = height;
+  const g = base.getContext('2d');
+  g.fillStyle = '#12151b';
+  g.fillRect(0, 0, width, height);
+  g.fillStyle = '#99a';
+  g.font = '11px system-ui';
+  g.fillText(`${top.toFixed(0)} mm`, 2, margin.top + 9);
+  g.fillText('0', 2, margin.top + plotHeight);
+  g.fillText(`${((errors.length - 1) / rate).toFixed(1)} s`, width - 40, height - 3);
+  g.strokeStyle = '#ff8a3d';
+  g.beginPath();
+  errors.forEach((error, frame) => (frame ? g.lineTo(x(frame), y(error)) : g.moveTo(x(frame), y(error))));
+  g.stroke();
+  canvas.dataset.frames = String(errors.length);
+  const context = canvas.getContext('2d');
+  const cursorAt = (frame) => {
+    context.drawImage(base, 0, 0);
+    context.strokeStyle = '#dde';
+    context.beginPath();
+    context.moveTo(x(frame), margin.top);
+    context.lineTo(x(frame), margin.top + plotHeight);
+    context.stroke();
+  };
+  cursorAt(0);
+  canvas.onclick = (event) => {
+    const fraction = (event.offsetX * (width / canvas.clientWidth) - margin.left) / plotWidth;
+    view.seek(Math.round(Math.max(0, Math.min(1, fraction)) * (errors.length - 1)));
+  };
+  return cursorAt;
+}
+
+// What the take view shows, for the browser test.
+const shown = { frames: 0, frameRate: 0, windows: 0, errorFrames: 0, meanErrorMm: 0 };
+
+// Draws a take's reply: the reconstruction over `original` (a wire motion
+// at the reply's rate, or null when the page has no copy of the take), the
+// strip and the error plot.
+async function showTake(view, name, reply, original) {
+  const skeleton = await skeletonOf(reply.answered_by.model, reply.answered_by.version);
+  const reconstruction = { frames: reply.frames, columns: reply.columns, values: reply.values };
+  const label = `reconstruction (${reply.summary.mean_error_mm.toFixed(1)} mm)`;
+  const figures = [{ label, positions: motionPositions(reconstruction, skeleton), parents: skeleton.parents,
+                     frameRate: reply.frame_rate }];
+  if (original) {
+    figures.unshift({ label: name, positions: motionPositions(original, skeleton), parents: skeleton.parents,
+                      frameRate: reply.frame_rate });
+  }
+  const moveStripCursor = drawStrip($('take-strip'), reply.windows, reply.frames, reply.frame_rate, view);
+  const movePlotCursor = drawErrorPlot($('take-error'), reply.error_mm, reply.frame_rate, view);
+  // The reconstruction over the original, on one spot.
+  $('overlay').checked = true;
+  view.show(figures);
+  view.frameListeners.push((frame) => {
+    moveStripCursor(frame);
+    movePlotCursor(frame);
+  });
+  Object.assign(shown, { frames: reply.frames, frameRate: reply.frame_rate, windows: reply.windows.length,
+                         errorFrames: reply.error_mm.length, meanErrorMm: reply.summary.mean_error_mm });
+  const { summary } = reply;
+  $('take-info').textContent = `${name}: ${reply.frames} frames at ${reply.frame_rate} Hz, ${reply.windows.length} ` +
+    `windows of ${summary.window_seconds} s every ${summary.hop_seconds} s; error mean ${summary.mean_error_mm.toFixed(1)} ` +
+    `mm, max ${summary.max_error_mm.toFixed(1)} mm; answered by ${reply.answered_by.model}`;
+  $('result').textContent = `take reconstructed window by window: click the strip or the plot to seek`;
+}
+
+function takeQuery(extra) {
+  const query = new URLSearchParams(extra);
+  const hop = $('take-hop').value;
+  if (hop) query.set('hop_seconds', hop);
+  return query.toString();
+}
+
+// A file of the user's: sent as it is (text at the rate given, or BVH at
+// its own), and read here too, to draw it under its reconstruction.
+async function reconstructTakeFile(view) {
+  const file = $('take-file').files[0];
+  if (!file) throw new Error('choose a take first: exponential-map text or BVH of the model\'s skeleton');
+  const text = await file.text();
+  const isBvh = file.name.toLowerCase().endsWith('.bvh');
+  const rate = Number($('take-rate').value);
+  const reply = await callApi('POST', `v1/takes:reconstruct?${takeQuery(isBvh ? {} : { frame_rate: rate })}`,
+                              { body: text, contentType: isBvh ? 'application/x-bvh' : 'text/plain', summary: file.name });
+  const skeleton = await skeletonOf(reply.answered_by.model, reply.answered_by.version);
+  await showTake(view, file.name, reply, isBvh ? bvhToMotion(text, skeleton) : textTake(text, rate));
+}
+
+// A file of the server's data root (the menu of the first panel), read by
+// the server itself (path=; the clip-read access): only the reconstruction
+// is drawn, since the page holds no copy of the file.
+async function reconstructTakeClip(view) {
+  const path = $('clip-path').value;
+  if (!path) throw new Error("choose a file of the server's data root first (Refresh lists them)");
+  const text = path.toLowerCase().endsWith('.txt') ? { frame_rate: $('take-rate').value } : {};
+  const reply = await callWithToken('POST', `v1/takes:reconstruct?${takeQuery({ path, ...text })}`,
+                                    { summary: path });
+  await showTake(view, path, reply, null);
+}
+
+export function setUpTakePanel(view) {
+  window.motionManifoldPage.take = { describe: () => ({ ...shown, cells: $('take-strip').querySelectorAll('.cell').length }) };
+  $('take-button').addEventListener('click', () => runAction(() => reconstructTakeFile(view)));
+  $('take-clip-button').addEventListener('click', () => runAction(() => reconstructTakeClip(view)));
+}
