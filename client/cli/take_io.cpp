@@ -43,7 +43,7 @@ TakeUpload read_take(const TakeSource& source, ModelRigs& rigs, const std::strin
   const ModelRig& rig = rigs.of(model);
   if (take.bvh) {
     take.frames = skeleton_motion_from_bvh_at_file_rate(rig.skeleton, *parsed, source.path);
-    take.header.set_frame_rate(1.0 / parsed->frame_time_s);
+    take.header.set_frame_rate(bvh_frame_rate(*parsed));
   } else {
     take.frames = parse_motion_text_buffer(take.file_bytes.data(), take.file_bytes.size(), source.path, rig.columns,
                                            missing_allowed);

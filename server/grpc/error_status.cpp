@@ -18,7 +18,8 @@ grpc::StatusCode status_code(ErrorCode code) {
 grpc::Status error_status(const ApiError& error, grpc::ServerContext* context) {
   std::string message = error.what();
   if (!error.field().empty()) {
-    message = error.field() + ": " + message;
+    // A library message that already opens with the field is not named twice.
+    if (message.rfind(error.field() + ": ", 0) != 0) message = error.field() + ": " + message;
     context->AddTrailingMetadata(kErrorFieldKey, error.field());
   }
   return grpc::Status(status_code(error.code()), message);
