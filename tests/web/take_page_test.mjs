@@ -7,7 +7,10 @@
 // moving the slider put both skeletons at that frame, drawn as the model
 // library's FK of the file's row and of the server's reconstruction within
 // 0.1 mm; the same file read by the server from its data root (path=)
-// plays its reconstruction. The screenshot (web-take.png) is of a take the
+// plays its reconstruction. "Download BVH" gets the take shown as a BVH
+// file (Accept: application/x-bvh) with the take's frame count and a Frame
+// Time of 1/50 s for the S5 file, uploaded or read by the server; a 120 Hz BVH take (the server's decoded
+// track) downloads at 120 Hz with its frame count. The screenshot (web-take.png) is of a take the
 // server made itself (sampled codes decoded as a track), since H3.6M never
 // goes into docs/.
 //
@@ -59,6 +62,19 @@ try {
     const banner = await page.$eval('#error', (e) => (e.hidden ? '' : e.textContent));
     assert.equal(banner, '', `waiting for the take ${name}, the page shows an error`);
   };
+  // The BVH header's frame count and frame time.
+  const bvhTiming = (text) => ({ frames: Number(/^Frames:\s*(\d+)/m.exec(text)?.[1]),
+                                 frameTime: Number(/^Frame Time:\s*(\S+)/m.exec(text)?.[1]) });
+  // Clicks "Download BVH" and returns what the page downloaded.
+  const downloadBvh = async () => {
+    const before = (await page.evaluate(() => window.motionManifoldPage.take.downloaded())).count;
+    await page.click('#take-download-button');
+    await page.waitForFunction((n) => !document.getElementById('error').hidden ||
+                                      window.motionManifoldPage.take.downloaded().count > n, { timeout: 300000 }, before);
+    const banner = await page.$eval('#error', (e) => (e.hidden ? '' : e.textContent));
+    assert.equal(banner, '', 'downloading the take as BVH, the page shows an error');
+    return page.evaluate(() => window.motionManifoldPage.take.downloaded());
+  };
   const reconstructFile = async (file, rate) => {
     await (await page.$('#take-file')).uploadFile(file);
     await page.$eval('#take-rate', (e, v) => (e.value = String(v)), rate);
@@ -70,6 +86,7 @@ try {
   await page.goto(server.pageUrl, { waitUntil: 'load' });
   await page.waitForSelector('body[data-loaded=true]', { timeout: 60000 });
   assert.deepEqual(consoleErrors, [], 'console errors while loading');
+  assert.equal(await page.$eval('#take-download-button', (e) => e.disabled), true, 'no take to download yet');
 
   step('a whole S5 file as a take: every frame plays at 50 Hz beside its reconstruction');
   const s5File = path.join(h36mDatasetDir(), 'S5', 'walking_1.txt');
@@ -101,6 +118,14 @@ try {
   assert.equal(take.cells, reply.windows.length, 'one strip cell per window');
   assert.equal(take.errorFrames, rows.length);
   assert.equal(Number(await page.$eval('#take-error', (e) => e.dataset.frames)), rows.length, 'the error plot has every frame');
+
+  step('Download BVH: the take shown as a BVH file of every frame at 50 Hz');
+  let download = await downloadBvh();
+  assert.equal(download.fileName, 'walking_1-reconstructed.bvh');
+  let timing = bvhTiming(download.bvh);
+  console.log(`   ${download.fileName}: ${download.bvh.length} bytes, ${JSON.stringify(timing)}`);
+  assert.equal(timing.frames, rows.length, 'Frames: of the downloaded BVH');
+  assert.ok(Math.abs(timing.frameTime - 1 / 50) < 1e-6, `Frame Time ${timing.frameTime}, expected 1/50 s`);
 
   step('scrubbing moves both skeletons to the frame: the FK of the file and of the reconstruction');
   const originalReference = referencePositions(s5File);
@@ -141,6 +166,9 @@ try {
   assert.equal(view.figures.length, 1);
   assert.equal(view.figures[0].frames, rows.length);
   assert.equal((await describeTake()).cells, reply.windows.length);
+  download = await downloadBvh();
+  assert.equal(download.fileName, 'walking_1-reconstructed.bvh', 'a data-root file is named without its folders');
+  assert.deepEqual(bvhTiming(download.bvh), { frames: rows.length, frameTime: 0.02 }, 'the data-root file as BVH');
 
   step('a take of the model\'s own for the screenshot: sampled codes decoded as a track, 50 Hz');
   const { codes } = await server.call('POST', 'v1/sample', { count: 6, seed: 11 });
@@ -153,6 +181,27 @@ try {
   await page.click('#play');
   await setRange('#frame', Math.floor(track.frames * 0.4));
   await page.screenshot({ path: path.join(screenshotDir, 'web-take.png') });
+
+  step('a 120 Hz BVH take (the same codes decoded at 120 Hz) downloads as a 120 Hz BVH of every frame');
+  const bvhReply = await fetch(`${server.direct}/v1/tracks:decode`, {
+    method: 'POST', headers: { 'Content-Type': 'application/json', Accept: 'application/x-bvh' },
+    body: JSON.stringify({ windows: codes.map((code, i) => ({ start_seconds: 3 * i, code })), frame_rate: 120 }) });
+  const bvh120 = await bvhReply.text();
+  assert.equal(bvhReply.status, 200, bvh120);
+  const input120 = bvhTiming(bvh120);
+  assert.ok(Math.abs(input120.frameTime - 1 / 120) < 1e-6, `the decoded track's Frame Time ${input120.frameTime}`);
+  const file120 = path.join(scratch, 'sampled_track_120.bvh');
+  fs.writeFileSync(file120, bvh120);
+  await reconstructFile(file120, 50);
+  const take120 = await describeTake();
+  assert.equal(take120.frameRate, 120);
+  assert.equal(take120.frames, input120.frames);
+  download = await downloadBvh();
+  assert.equal(download.fileName, 'sampled_track_120-reconstructed.bvh');
+  timing = bvhTiming(download.bvh);
+  console.log(`   ${download.fileName}: ${input120.frames} frames in, ${JSON.stringify(timing)} out`);
+  assert.equal(timing.frames, input120.frames, 'Frames: of the downloaded BVH');
+  assert.ok(Math.abs(timing.frameTime - 1 / 120) < 1e-6, `Frame Time ${timing.frameTime}, expected 1/120 s`);
   assert.deepEqual(consoleErrors, [], 'console errors');
 } catch (error) {
   console.error(server.log().slice(-4000));

@@ -33,10 +33,12 @@ export function tokenOrPrompt() {
 
 // Calls `method path` (path without a leading slash, relative to the page)
 // and returns the parsed JSON reply, or the text for another content type.
-// `body` is sent as JSON unless `contentType` says otherwise. Throws
+// `body` is sent as JSON unless `contentType` says otherwise; `accept`
+// asks for another reply format (a BVH file, motion text). Throws
 // ApiError for an error status and TypeError when the server is unreachable.
-export async function callApi(method, path, { body, contentType = 'application/json', token, summary } = {}) {
+export async function callApi(method, path, { body, contentType = 'application/json', accept, token, summary } = {}) {
   const headers = {};
+  if (accept) headers.Accept = accept;
   if (body !== undefined) headers['Content-Type'] = contentType;
   if (token) headers.Authorization = `Bearer ${token}`;
   const payload = body === undefined ? undefined : contentType === 'application/json' ? JSON.stringify(body) : body;

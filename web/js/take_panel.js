@@ -4,6 +4,8 @@
 // strip over time (a cell per window, coloured by the codes' first three
 // principal components) and each frame's error plotted below; clicking the
 // strip or the plot, or moving the view's slider, seeks both skeletons.
+// "Download BVH" asks for the take shown once more, as a BVH file
+// (Accept: application/x-bvh), and saves it.
 import { callApi, callWithToken } from './api_client.js';
 import { runAction } from './call_log.js';
 import { motionPositions } from './forward_kinematics.js';
@@ -121,6 +123,12 @@ function drawErrorPlot(canvas, errors, rate, view) {
 // What the take view shows, for the browser test.
 const shown = { frames: 0, frameRate: 0, windows: 0, errorFrames: 0, meanErrorMm: 0 };
 
+// The take shown: its name and the call that reconstructs it, given the
+// reply's options (the same request with another Accept). Null until one is.
+let takeShown = null;
+// The last BVH downloaded (its text kept for the browser test).
+const downloaded = { count: 0, fileName: '', bvh: '' };
+
 // Draws a take's reply: the reconstruction over `original` (a wire motion
 // at the reply's rate, or null when the page has no copy of the take), the
 // strip and the error plot.
@@ -152,6 +160,32 @@ async function showTake(view, name, reply, original) {
   $('result').textContent = `take reconstructed window by window: click the strip or the plot to seek`;
 }
 
+// Takes `takeShown` to a reconstructed take, with the download on.
+function rememberTake(name, reconstruct) {
+  takeShown = { name, reconstruct };
+  $('take-download-button').disabled = false;
+}
+
+// The take shown, reconstructed as BVH by the server, saved as
+// <name>-reconstructed.bvh (the name without its folders and extension).
+async function downloadTakeBvh() {
+  if (!takeShown) throw new Error('reconstruct a take first');
+  const { name, reconstruct } = takeShown;
+  const bvh = await reconstruct({ accept: 'application/x-bvh', summary: `${name} as BVH` });
+  const fileName = `${name.split('/').pop().replace(/\.[^.]*$/, '')}-reconstructed.bvh`;
+  const url = URL.createObjectURL(new Blob([bvh], { type: 'application/x-bvh' }));
+  const link = document.createElement('a');
+  link.href = url;
+  link.download = fileName;
+  document.body.append(link);
+  link.click();
+  link.remove();
+  // The download reads the URL after this click returns.
+  setTimeout(() => URL.revokeObjectURL(url), 60000);
+  Object.assign(downloaded, { count: downloaded.count + 1, fileName, bvh });
+  $('result').textContent = `${fileName}: ${bvh.length} bytes`;
+}
+
 function takeQuery(extra) {
   const query = new URLSearchParams(extra);
   const hop = $('take-hop').value;
@@ -167,10 +201,13 @@ async function reconstructTakeFile(view) {
   const text = await file.text();
   const isBvh = file.name.toLowerCase().endsWith('.bvh');
   const rate = Number($('take-rate').value);
-  const reply = await callApi('POST', `v1/takes:reconstruct?${takeQuery(isBvh ? {} : { frame_rate: rate })}`,
-                              { body: text, contentType: isBvh ? 'application/x-bvh' : 'text/plain', summary: file.name });
+  const route = `v1/takes:reconstruct?${takeQuery(isBvh ? {} : { frame_rate: rate })}`;
+  const reconstruct = (options) => callApi('POST', route, { body: text, contentType: isBvh ? 'application/x-bvh' : 'text/plain',
+                                                            summary: file.name, ...options });
+  const reply = await reconstruct();
   const skeleton = await skeletonOf(reply.answered_by.model, reply.answered_by.version);
   await showTake(view, file.name, reply, isBvh ? bvhToMotion(text, skeleton) : textTake(text, rate));
+  rememberTake(file.name, reconstruct);
 }
 
 // A file of the server's data root (the menu of the first panel), read by
@@ -180,13 +217,17 @@ async function reconstructTakeClip(view) {
   const path = $('clip-path').value;
   if (!path) throw new Error("choose a file of the server's data root first (Refresh lists them)");
   const text = path.toLowerCase().endsWith('.txt') ? { frame_rate: $('take-rate').value } : {};
-  const reply = await callWithToken('POST', `v1/takes:reconstruct?${takeQuery({ path, ...text })}`,
-                                    { summary: path });
+  const route = `v1/takes:reconstruct?${takeQuery({ path, ...text })}`;
+  const reconstruct = (options) => callWithToken('POST', route, { summary: path, ...options });
+  const reply = await reconstruct();
   await showTake(view, path, reply, null);
+  rememberTake(path, reconstruct);
 }
 
 export function setUpTakePanel(view) {
-  window.motionManifoldPage.take = { describe: () => ({ ...shown, cells: $('take-strip').querySelectorAll('.cell').length }) };
+  window.motionManifoldPage.take = { describe: () => ({ ...shown, cells: $('take-strip').querySelectorAll('.cell').length }),
+                                     downloaded: () => ({ ...downloaded }) };
   $('take-button').addEventListener('click', () => runAction(() => reconstructTakeFile(view)));
   $('take-clip-button').addEventListener('click', () => runAction(() => reconstructTakeClip(view)));
+  $('take-download-button').addEventListener('click', () => runAction(downloadTakeBvh));
 }
