@@ -308,7 +308,7 @@ try {
   assert.equal(rig.joints.length, 57);  // 43 joints and 14 End Sites
   const rigFile = path.join(scratch, 'dances-skeleton.json');
   fs.writeFileSync(rigFile, JSON.stringify(rig));
-  await page.goto(rigServer.pageUrl, { waitUntil: 'load' });
+  await page.goto(rigServer.pageUrl, { waitUntil: 'load', timeout: 120000 });
   await page.waitForSelector('body[data-loaded=true]', { timeout: 60000 });
   await page.$eval('#sample-count', (e) => (e.value = '1'));
   await page.$eval('#sample-seed', (e) => (e.value = '7'));
