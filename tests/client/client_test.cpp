@@ -18,6 +18,7 @@
 #include <thread>
 #include <vector>
 
+#include "client_files.h"
 #include "command_run.h"
 #include "rest_call.h"
 #include "server_process.h"
@@ -32,26 +33,10 @@ using nlohmann::json;
 const char* const kToken = "client-token";
 
 using Run = test::CommandRun;
+using test::motion_rows;
 using test::read_text;
-
-// Runs the client with `arguments` (shell words), stdout and stderr apart.
-Run run_client(const std::string& arguments) { return test::run_command(MM_CLIENT_PATH, arguments); }
-
-std::string s5(const std::string& name) { return (test::h36m_dataset_dir() / "S5" / name).string(); }
-
-// Lines of a motion text file, each split into its values.
-std::vector<std::vector<double>> motion_rows(const std::string& path) {
-  std::vector<std::vector<double>> rows;
-  std::ifstream in(path);
-  for (std::string line; std::getline(in, line);) {
-    if (line.empty()) continue;
-    std::vector<double> row;
-    std::stringstream values(line);
-    for (std::string v; std::getline(values, v, ',');) row.push_back(std::stod(v));
-    rows.push_back(row);
-  }
-  return rows;
-}
+using test::run_client;
+using test::s5;
 
 // The small H3.6M text tree of tests/server: S1 to train on, S5 to test.
 // Copies, not links: a link out of the data root is not one of its clips.

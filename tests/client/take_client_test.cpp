@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "client_files.h"
 #include "command_run.h"
 #include "server_process.h"
 #include "test_environment.h"
@@ -21,24 +22,10 @@ namespace mm {
 namespace {
 
 using nlohmann::json;
+using test::motion_rows;
 using test::read_text;
-
-test::CommandRun run_client(const std::string& arguments) { return test::run_command(MM_CLIENT_PATH, arguments); }
-
-std::string s5(const std::string& name) { return (test::h36m_dataset_dir() / "S5" / name).string(); }
-
-std::vector<std::vector<double>> motion_rows(const std::string& path) {
-  std::vector<std::vector<double>> rows;
-  std::ifstream in(path);
-  for (std::string line; std::getline(in, line);) {
-    if (line.empty()) continue;
-    std::vector<double> row;
-    std::stringstream values(line);
-    for (std::string v; std::getline(values, v, ',');) row.push_back(std::stod(v));
-    rows.push_back(row);
-  }
-  return rows;
-}
+using test::run_client;
+using test::s5;
 
 // A BVH file's "Frames:" and "Frame Time:".
 struct BvhTiming {
