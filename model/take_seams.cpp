@@ -116,7 +116,8 @@ TakeSeams measure_take_seams(const MotionManifold& model, const MotionFrames& ta
   out.window_starts = take_window_starts(take.frame_count(), windowing);
   out.windows = static_cast<int>(out.window_starts.size());
   out.hop_seconds = windowing.hop_frames / kTakeModelRate;
-  const std::vector<int64_t> seams = seam_transitions(out.window_starts, windowing.window_frames);
+  out.seam_transitions = seam_transitions(out.window_starts, windowing.window_frames);
+  const std::vector<int64_t>& seams = out.seam_transitions;
   const std::vector<int64_t> inside =
       inside_transitions(out.window_starts, seams, windowing.window_frames, take.frame_count());
   const at::Tensor input_positions = positions_of(model, take);

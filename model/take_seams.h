@@ -54,6 +54,7 @@ struct TakeSeams {
   int windows = 0;
   double hop_seconds = 0;
   std::vector<int64_t> window_starts;  // 25 Hz frames
+  std::vector<int64_t> seam_transitions;  // t of each seam t -> t + 1 (the cut's switch), 25 Hz frames
   BlendSeams crossfade, cut;
   // The take's windows reconstructed alone, as single clips: their mean
   // per-frame error, mm.

@@ -105,11 +105,8 @@ int run_take_seams(const SeamsOptions& o) {
       chart.frame_rate = kTakeModelRate;
       chart.title = std::filesystem::path(o.inputs[i]).stem().string() + " as one take of " +
                     std::to_string(s.windows) + " windows: per-frame error (dashed: where the cut switches windows)";
-      const int window = model.config().frames;
-      for (size_t k = 1; k < s.window_starts.size(); ++k) {
-        const int64_t middle = s.window_starts[k] + (s.window_starts[k - 1] + window - s.window_starts[k]) / 2;
-        chart.marks_seconds.push_back(static_cast<double>(middle) / kTakeModelRate);
-      }
+      // The cut's first frame of the next window, one after each seam's t.
+      for (int64_t t : s.seam_transitions) chart.marks_seconds.push_back(static_cast<double>(t + 1) / kTakeModelRate);
       write_file_atomically(o.svg, render::render_error_over_time_svg(
                                        {{"crossfade", "#1f77b4", s.crossfade.error_mm}, {"cut", "#d62728", s.cut.error_mm}},
                                        chart));
