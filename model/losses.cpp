@@ -15,6 +15,24 @@ at::Tensor mean_norm_over_last(const at::Tensor& difference, int64_t dims_to_fla
   return (flat.pow(2).sum(-1) + kNormEpsilon).sqrt().mean();
 }
 
+// The norm of each group of the last `dims_to_flatten` dimensions, summed
+// over the groups of dimension -2 (the joints), averaged over the rest.
+at::Tensor joint_norm_sum(const at::Tensor& per_joint_difference) {
+  return (per_joint_difference.pow(2).sum(-1) + kNormEpsilon).sqrt().sum(-1).mean();
+}
+
+// (..., D) -> (..., D/3, 3): the pose values as the joints' triplets.
+at::Tensor as_triplets(const at::Tensor& values) {
+  const int64_t count = values.size(-1);
+  if (count % 3 != 0) {
+    throw InputError("q: expected a multiple of 3 values per frame (triplets), found " + std::to_string(count));
+  }
+  auto sizes = values.sizes().vec();
+  sizes.back() = count / 3;
+  sizes.push_back(3);
+  return values.reshape(sizes);
+}
+
 at::Tensor imq_kernel(const at::Tensor& x, const at::Tensor& y, double c) {
   auto squared_distance = (x.unsqueeze(1) - y.unsqueeze(0)).pow(2).sum(-1);
   return c / (c + squared_distance);
@@ -25,21 +43,28 @@ at::Tensor imq_kernel(const at::Tensor& x, const at::Tensor& y, double c) {
 at::Tensor angle_loss(const at::Tensor& q_hat, const at::Tensor& q) { return mean_norm_over_last(q_hat - q, 1); }
 
 at::Tensor angle_loss_triplet_mean(const at::Tensor& q_hat, const at::Tensor& q) {
-  const int64_t values = q.size(-1);
-  if (values % 3 != 0) {
-    throw InputError("q: expected a multiple of 3 values per frame (triplets), found " + std::to_string(values));
-  }
-  auto sizes = q.sizes().vec();
-  sizes.back() = values / 3;
-  sizes.push_back(3);
-  return mean_norm_over_last((q_hat - q).reshape(sizes), 1);
+  return mean_norm_over_last(as_triplets(q_hat - q), 1);
+}
+
+at::Tensor angle_loss_joint_sum(const at::Tensor& q_hat, const at::Tensor& q) {
+  return joint_norm_sum(as_triplets(q_hat - q));
 }
 
 at::Tensor angle_loss(const at::Tensor& q_hat, const at::Tensor& q, AngleReduction form) {
-  return form == AngleReduction::kTripletMean ? angle_loss_triplet_mean(q_hat, q) : angle_loss(q_hat, q);
+  switch (form) {
+    case AngleReduction::kTripletMean:
+      return angle_loss_triplet_mean(q_hat, q);
+    case AngleReduction::kJointSum:
+      return angle_loss_joint_sum(q_hat, q);
+    case AngleReduction::kFrameNorm:
+      break;
+  }
+  return angle_loss(q_hat, q);
 }
 
 at::Tensor position_loss(const at::Tensor& p_hat, const at::Tensor& p) { return mean_norm_over_last(p_hat - p, 2); }
+
+at::Tensor position_loss_joint_sum(const at::Tensor& p_hat, const at::Tensor& p) { return joint_norm_sum(p_hat - p); }
 
 at::Tensor position_loss_standardized(const at::Tensor& p_hat, const at::Tensor& p, const at::Tensor& inverse_std,
                                       const at::Tensor& counted_joints) {
@@ -82,15 +107,28 @@ at::Tensor mmd(const at::Tensor& codes, const at::Tensor& prior_samples, double 
 
 at::Tensor lsgan_discriminator_loss(const at::Tensor& real_step_scores, const at::Tensor& fake_step_scores,
                                     AdversarialReduction form, double real_weight) {
-  if (form == AdversarialReduction::kHalfMean) {
-    return 0.5 * fake_step_scores.mean(1).pow(2).mean() +
-           real_weight * 0.5 * (real_step_scores.mean(1) - 1.0).pow(2).mean();
+  switch (form) {
+    case AdversarialReduction::kHalfMean:
+      return 0.5 * fake_step_scores.mean(1).pow(2).mean() +
+             real_weight * 0.5 * (real_step_scores.mean(1) - 1.0).pow(2).mean();
+    case AdversarialReduction::kHalfSum:
+      return 0.5 * fake_step_scores.mean(1).pow(2).sum() +
+             real_weight * 0.5 * (real_step_scores.mean(1) - 1.0).pow(2).sum();
+    case AdversarialReduction::kBatchSum:
+      break;
   }
   return fake_step_scores.pow(2).mean(1).sum() + real_weight * (real_step_scores - 1.0).pow(2).mean(1).sum();
 }
 
 at::Tensor lsgan_generator_loss(const at::Tensor& fake_step_scores, AdversarialReduction form) {
-  if (form == AdversarialReduction::kHalfMean) return lsgan_generator_loss(fake_step_scores.mean(1));
+  switch (form) {
+    case AdversarialReduction::kHalfMean:
+      return lsgan_generator_loss(fake_step_scores.mean(1));
+    case AdversarialReduction::kHalfSum:
+      return 0.5 * (fake_step_scores.mean(1) - 1.0).pow(2).sum();
+    case AdversarialReduction::kBatchSum:
+      break;
+  }
   return (fake_step_scores - 1.0).pow(2).mean(1).sum();
 }
 

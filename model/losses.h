@@ -10,8 +10,9 @@
 
 namespace mm {
 
-// Eq. 9 for one decoder: mean over clips and frames of the Euclidean norm of
-// the pose error. q_hat, q: (B, T, D) normalised poses.
+// The "frame-norm" angle loss for one decoder: mean over clips and frames of
+// the Euclidean norm of a frame's whole pose error. q_hat, q: (B, T, D)
+// normalised poses.
 at::Tensor angle_loss(const at::Tensor& q_hat, const at::Tensor& q);
 
 // The reference implementation's angle loss: the D values of a frame taken
@@ -19,13 +20,25 @@ at::Tensor angle_loss(const at::Tensor& q_hat, const at::Tensor& q);
 // each triplet's Euclidean norm. InputError if D is not a multiple of 3.
 at::Tensor angle_loss_triplet_mean(const at::Tensor& q_hat, const at::Tensor& q);
 
-// Eq. 9 in the form `form` asks for.
+// Eq. 9 as the paper writes it: the D values of a frame taken as D/3 joints
+// (triplets), each joint's Euclidean norm summed over the joints, the mean
+// over clips and frames (the reference's triplet mean times D/3).
+// InputError if D is not a multiple of 3.
+at::Tensor angle_loss_joint_sum(const at::Tensor& q_hat, const at::Tensor& q);
+
+// The angle loss in the form `form` asks for.
 at::Tensor angle_loss(const at::Tensor& q_hat, const at::Tensor& q, AngleReduction form);
 
-// Eq. 10 for one decoder: mean over clips and frames of the Euclidean norm of
-// the joint position error over all joints. p_hat, p: (B, T, J, 3) in the
-// model's position unit (millimetres divided by one scale for all joints).
+// The "frame-norm" position loss for one decoder: mean over clips and frames
+// of the Euclidean norm of the joint position error over all joints.
+// p_hat, p: (B, T, J, 3) in the model's position unit (millimetres divided by
+// one scale for all joints).
 at::Tensor position_loss(const at::Tensor& p_hat, const at::Tensor& p);
+
+// Eq. 10 as the paper writes it: each joint's Euclidean position error summed
+// over the joints, the mean over clips and frames; same shapes and unit. A
+// joint that never moves (the root, with the translation dropped) adds 0.
+at::Tensor position_loss_joint_sum(const at::Tensor& p_hat, const at::Tensor& p);
 
 // The reference implementation's position loss: the error of each
 // coordinate divided by that coordinate's standard deviation over the
@@ -57,16 +70,18 @@ at::Tensor mmd_inverse_multiquadratic_seven_scales(const at::Tensor& codes, cons
 // Eq. 12 in the form `form` asks for.
 at::Tensor mmd(const at::Tensor& codes, const at::Tensor& prior_samples, double prior_variance, MmdForm form);
 
-// Eq. 13 (without lambda_G): least-squares discriminator loss on scores of
-// real (B) and generated (B) motions.
+// The "half-mean" least-squares discriminator loss (Eq. 13 with means for
+// its sums, without lambda_G) on scores of real (B) and generated (B) motions.
 at::Tensor lsgan_discriminator_loss(const at::Tensor& real_scores, const at::Tensor& fake_scores);
 
-// Eq. 14: least-squares generator loss on the scores of generated motions.
+// The "half-mean" generator loss (Eq. 14 with a mean for its sum) on the
+// scores of generated motions.
 at::Tensor lsgan_generator_loss(const at::Tensor& fake_scores);
 
 // Eq. 13 and 14 on the discriminator's per-step scores (B, steps) in the form
-// `form` asks for: kHalfMean as above on each clip's mean score; kBatchSum,
-// the reference's, the sum over clips of the mean over steps of the squared
+// `form` asks for: kHalfMean as above on each clip's mean score; kHalfSum,
+// the paper's, one half of the sum over clips of the same; kBatchSum, the
+// reference's, the sum over clips of the mean over steps of the squared
 // error. `real_weight` multiplies the real clips' term (the reference takes
 // one discriminator loss per decoder, each with the real clips).
 at::Tensor lsgan_discriminator_loss(const at::Tensor& real_step_scores, const at::Tensor& fake_step_scores,

@@ -170,7 +170,11 @@ LossValues Trainer::step() {
       }
     } else {
       const auto positions = model_->positions_scaled(at::cat(clips, 0)).split(config_.batch, 0);
-      for (size_t i = 1; i < positions.size(); ++i) l_pos = l_pos + position_loss(positions[i], positions[0]);
+      const bool joint_sum = config_.losses.position == PositionReduction::kJointSum;
+      for (size_t i = 1; i < positions.size(); ++i) {
+        l_pos = l_pos + (joint_sum ? position_loss_joint_sum(positions[i], positions[0])
+                                   : position_loss(positions[i], positions[0]));
+      }
     }
   }
   // Both decoders' outputs go through the encoder and the discriminator as
@@ -184,10 +188,11 @@ LossValues Trainer::step() {
   if (w.adversarial > 0) {
     const auto scores = model_->discriminator()->step_scores(at::cat(decoded, 0));
     // Half-mean is a mean over the concatenated clips: times the decoder
-    // count it is each decoder's term summed, as Eq. 15 sums them.
-    l_g = config_.losses.adversarial == AdversarialReduction::kBatchSum
-              ? lsgan_generator_loss(scores, config_.losses.adversarial)
-              : decoder_count * lsgan_generator_loss(scores, config_.losses.adversarial);
+    // count it is each decoder's term summed, as Eq. 15 sums them. The sums
+    // over the concatenated clips already are.
+    l_g = config_.losses.adversarial == AdversarialReduction::kHalfMean
+              ? decoder_count * lsgan_generator_loss(scores, config_.losses.adversarial)
+              : lsgan_generator_loss(scores, config_.losses.adversarial);
   }
   if (w.wasserstein > 0) {
     auto prior = at::randn({config_.batch, config_.model.latent}, prior_generator_).to(device_) *

@@ -50,10 +50,10 @@ Enum parse_named(const std::string& name, const std::string& field, const char* 
   throw InputError(field + ": unknown value \"" + name + "\", expected one of " + accepted);
 }
 
-constexpr const char* kAngleNames[] = {"frame-norm", "triplet-mean"};
-constexpr const char* kPositionNames[] = {"frame-norm", "standardized-triplet-mean"};
+constexpr const char* kAngleNames[] = {"frame-norm", "triplet-mean", "joint-sum"};
+constexpr const char* kPositionNames[] = {"frame-norm", "standardized-triplet-mean", "joint-sum"};
 constexpr const char* kMmdNames[] = {"single-scale", "seven-scales"};
-constexpr const char* kAdversarialNames[] = {"half-mean", "batch-sum"};
+constexpr const char* kAdversarialNames[] = {"half-mean", "batch-sum", "half-sum"};
 
 // Reads the fields of one JSON object into a struct, rejecting unknown keys
 // and wrong types with the full field path in the message.
@@ -150,17 +150,22 @@ AdversarialReduction parse_adversarial_reduction(const std::string& name, const 
 }
 
 LossForms loss_preset(const std::string& name, const std::string& field) {
-  if (name == "paper") return LossForms{};
+  if (name == "frame-norm") return LossForms{};
+  if (name == "paper") {
+    return LossForms{AngleReduction::kJointSum, PositionReduction::kJointSum, MmdForm::kSingleScale,
+                     AdversarialReduction::kHalfSum};
+  }
   if (name == "reference") {
     return LossForms{AngleReduction::kTripletMean, PositionReduction::kStandardizedTripletMean, MmdForm::kSevenScales,
                      AdversarialReduction::kBatchSum};
   }
-  throw InputError(field + ": unknown value \"" + name + "\", expected one of \"paper\", \"reference\"");
+  throw InputError(field + ": unknown value \"" + name + "\", expected one of \"frame-norm\", \"paper\", \"reference\"");
 }
 
 std::string loss_preset_name(const LossForms& forms) {
-  if (forms == loss_preset("paper", "")) return "paper";
-  if (forms == loss_preset("reference", "")) return "reference";
+  for (const char* name : {"frame-norm", "paper", "reference"}) {
+    if (forms == loss_preset(name, "")) return name;
+  }
   return "custom";
 }
 
@@ -188,9 +193,11 @@ TrainConfig variant_config(const std::string& variant) {
   } else if (variant == "DKGMZ") {
     m.feed_code = true;
   } else if (variant == "Seq2seq") {
-    // [MBR17] with a 64-d bottleneck: one residual decoder, angle loss only.
+    // [MBR17] with a 64-d bottleneck: one residual decoder. Its loss is "the
+    // same as our motion reconstruction loss" (supplementary A.1): Eq. 8,
+    // angles and FK positions; no prior, manifold or adversarial term.
     m.rotation_decoder = false;
-    w.position = w.adversarial = w.manifold = w.wasserstein = 0;
+    w.adversarial = w.manifold = w.wasserstein = 0;
   } else {
     std::string names;
     for (const auto& n : variant_names()) names += (names.empty() ? "" : ", ") + n;

@@ -32,16 +32,21 @@ struct LossWeights {
 };
 
 // How each loss term is reduced. The paper's text and its public reference
-// implementation (DK-Jang/human_motion_manifold) differ here; each choice is
-// separate so that its effect can be measured alone.
+// implementation (DK-Jang/human_motion_manifold) differ here, and the shipped
+// models were trained with a third set; each choice is separate so that its
+// effect can be measured alone. Every form averages over clips and frames
+// unless it says otherwise.
 enum class AngleReduction {
-  kFrameNorm,    // "frame-norm": Eq. 9, one norm over all D values of a frame
+  kFrameNorm,    // "frame-norm": one norm over all D values of a frame
   kTripletMean,  // "triplet-mean": the reference, the mean of the norms of D/3 consecutive triplets
+  kJointSum,     // "joint-sum": Eq. 9 as written, the sum over the D/3 joints (triplets) of each joint's norm
 };
 enum class PositionReduction {
-  kFrameNorm,                // "frame-norm": Eq. 10, one norm over all joints, mm / position_scale_mm
+  kFrameNorm,                // "frame-norm": one norm over all joints, mm / position_scale_mm
   kStandardizedTripletMean,  // "standardized-triplet-mean": the reference, coordinates standardised by the
                              // training frames' per-coordinate std, the mean of the joints' norms
+  kJointSum,                 // "joint-sum": Eq. 10 as written, the sum over the joints of each joint's norm,
+                             // mm / position_scale_mm
 };
 enum class MmdForm {
   kSingleScale,  // "single-scale": Eq. 12, C = 2 * latent * sigma_z^2, diagonal left out
@@ -49,11 +54,15 @@ enum class MmdForm {
                  // the within-set diagonal kept (still divided by n(n-1))
 };
 enum class AdversarialReduction {
-  kHalfMean,  // "half-mean": Eq. 13/14, 1/2 x the mean over clips of the squared error of a clip's mean score
+  kHalfMean,  // "half-mean": 1/2 x the mean over clips of the squared error of a clip's mean score
   kBatchSum,  // "batch-sum": the reference, the sum over clips of the mean over the discriminator's time steps
               // of the squared error, one discriminator loss per decoder, each with the real clips
+  kHalfSum,   // "half-sum": Eq. 13/14 as written, 1/2 x the sum over clips of the squared error of a clip's
+              // mean score
 };
 
+// The defaults are the "frame-norm" preset, the forms every shipped model was
+// trained with (see docs/RESULTS.md, "Loss forms").
 struct LossForms {
   AngleReduction angle = AngleReduction::kFrameNorm;
   PositionReduction position = PositionReduction::kFrameNorm;
@@ -62,7 +71,9 @@ struct LossForms {
   bool operator==(const LossForms& other) const;
 };
 
-// The names above, and the two presets: "paper" (the defaults above) and
+// The names above, and three presets: "frame-norm" (the defaults above:
+// frame-norm, frame-norm, single-scale, half-mean), "paper" (the paper's
+// equations as written: joint-sum, joint-sum, single-scale, half-sum) and
 // "reference" (all four of the reference's forms). Parsers throw InputError
 // naming `field`, the value and the accepted names.
 const char* loss_form_name(AngleReduction value);
@@ -74,7 +85,7 @@ PositionReduction parse_position_reduction(const std::string& name, const std::s
 MmdForm parse_mmd_form(const std::string& name, const std::string& field);
 AdversarialReduction parse_adversarial_reduction(const std::string& name, const std::string& field);
 LossForms loss_preset(const std::string& name, const std::string& field);
-// "paper" or "reference" when the forms are one of the presets, else "custom".
+// The preset's name when the forms are one of the presets, else "custom".
 std::string loss_preset_name(const LossForms& forms);
 
 struct TrainConfig {

@@ -283,14 +283,16 @@ void add_train_commands(CLI::App& app, Action& action, const std::string& comman
   auto* hidden = train->add_option("--hidden", o->hidden, "GRU hidden size (overrides)")->check(at_least(1));
   o->seed_option = train->add_option("--seed", o->seed, "random seed (overrides)");
   auto* losses = train->add_option("--losses", o->losses,
-                                   "loss forms: paper (the paper's text, default) or reference (the public reference "
-                                   "implementation's four forms); overrides the configuration");
-  auto* loss_angle = train->add_option("--loss-angle", o->loss_angle, "angle loss: frame-norm or triplet-mean");
+                                   "loss forms: frame-norm (the shipped models' forms, default), paper (Eq. 9, 10, "
+                                   "13 and 14 as written) or reference (the public reference implementation's four "
+                                   "forms); overrides the configuration");
+  auto* loss_angle =
+      train->add_option("--loss-angle", o->loss_angle, "angle loss: frame-norm, triplet-mean or joint-sum");
   auto* loss_position = train->add_option("--loss-position", o->loss_position,
-                                          "position loss: frame-norm or standardized-triplet-mean");
+                                          "position loss: frame-norm, standardized-triplet-mean or joint-sum");
   auto* loss_mmd = train->add_option("--loss-mmd", o->loss_mmd, "MMD: single-scale or seven-scales");
-  auto* loss_adversarial =
-      train->add_option("--loss-adversarial", o->loss_adversarial, "LSGAN reduction: half-mean or batch-sum");
+  auto* loss_adversarial = train->add_option("--loss-adversarial", o->loss_adversarial,
+                                             "LSGAN reduction: half-mean, batch-sum or half-sum");
   train->add_option("--device", o->device, "cpu, cuda or auto (CUDA when available)")->capture_default_str();
   auto* resume = train->add_option("--resume", o->resume,
                                    "continue the run saved in this checkpoint (needs --dataset; the output folder "

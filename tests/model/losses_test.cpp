@@ -71,7 +71,7 @@ TEST(ReferenceLosses, AngleTripletMeanAveragesTheTripletNorms) {
   // Mean over 2 frames x 2 triplets: 5 / 4.
   EXPECT_NEAR(angle_loss_triplet_mean(q_hat, q).item<float>(), 1.25f, 1e-5);
   EXPECT_NEAR(angle_loss(q_hat, q, AngleReduction::kTripletMean).item<float>(), 1.25f, 1e-5);
-  // The paper's form on the same error: one norm per frame, mean over 2 frames.
+  // The frame-norm form on the same error: one norm per frame, mean over 2 frames.
   EXPECT_NEAR(angle_loss(q_hat, q, AngleReduction::kFrameNorm).item<float>(), 2.5f, 1e-5);
   EXPECT_THROW(angle_loss_triplet_mean(at::zeros({1, 1, 4}), at::zeros({1, 1, 4})), InputError);
 }
@@ -117,8 +117,56 @@ TEST(ReferenceLosses, BatchSumLsganSumsClipsOfPerStepSquares) {
   auto real = at::tensor({1.0f, 1.0f, 1.0f, 3.0f}).reshape({2, 2});
   // Discriminator: fake 2 + 1, real 0 + mean(0, 4) = 2 counted twice: 7.
   EXPECT_NEAR(lsgan_discriminator_loss(real, fake, AdversarialReduction::kBatchSum, 2.0).item<float>(), 7.0f, 1e-6);
-  // Paper: 0.5 mean(1, 1) + 0.5 mean((1-1)^2, (2-1)^2) = 0.75.
+  // Half-mean: 0.5 mean(1, 1) + 0.5 mean((1-1)^2, (2-1)^2) = 0.75.
   EXPECT_NEAR(lsgan_discriminator_loss(real, fake, AdversarialReduction::kHalfMean, 1.0).item<float>(), 0.75f, 1e-6);
+}
+
+// The paper's equations as written (the "paper" preset).
+
+TEST(PaperLosses, AngleJointSumAddsTheJointNormsOfAFrame) {
+  auto q = at::zeros({2, 2, 6});
+  auto q_hat = q.clone();
+  // Clip 0, frame 0: joint 0 off by (3, 4, 0) (norm 5), joint 1 by (0, 0, 2)
+  // (norm 2): 7. Clip 1, frame 1: joint 1 off by (1, 2, 2) (norm 3). The
+  // other two frames are exact. Sum over joints, mean over 4 frames: 10 / 4.
+  q_hat[0][0][0] = 3.0;
+  q_hat[0][0][1] = 4.0;
+  q_hat[0][0][5] = 2.0;
+  q_hat[1][1][3] = 1.0;
+  q_hat[1][1][4] = 2.0;
+  q_hat[1][1][5] = 2.0;
+  EXPECT_NEAR(angle_loss_joint_sum(q_hat, q).item<float>(), 2.5f, 1e-5);
+  EXPECT_NEAR(angle_loss(q_hat, q, AngleReduction::kJointSum).item<float>(), 2.5f, 1e-5);
+  // It is the triplet mean times the joints per frame (2).
+  EXPECT_NEAR(angle_loss_triplet_mean(q_hat, q).item<float>() * 2.0f, 2.5f, 1e-5);
+  // One norm per frame instead: (sqrt(29) + 3) / 4.
+  EXPECT_NEAR(angle_loss(q_hat, q, AngleReduction::kFrameNorm).item<float>(), (std::sqrt(29.0f) + 3.0f) / 4.0f, 1e-5);
+  EXPECT_THROW(angle_loss_joint_sum(at::zeros({1, 1, 4}), at::zeros({1, 1, 4})), InputError);
+}
+
+TEST(PaperLosses, PositionJointSumAddsEachJointsDistance) {
+  auto p = at::zeros({1, 2, 3, 3});
+  auto p_hat = p.clone();
+  p_hat[0][0][0][0] = 6.0;
+  p_hat[0][0][0][1] = 8.0;  // frame 0, joint 0: (6, 8, 0), 10
+  p_hat[0][0][2][2] = 1.0;  // frame 0, joint 2: (0, 0, 1), 1
+  p_hat[0][1][1][1] = 4.0;  // frame 1, joint 1: (0, 4, 0), 4
+  // Frame sums 11 and 4, mean over the 2 frames: 7.5.
+  EXPECT_NEAR(position_loss_joint_sum(p_hat, p).item<float>(), 7.5f, 1e-5);
+  // The frame-norm form: (sqrt(101) + 4) / 2.
+  EXPECT_NEAR(position_loss(p_hat, p).item<float>(), (std::sqrt(101.0f) + 4.0f) / 2.0f, 1e-5);
+}
+
+TEST(PaperLosses, HalfSumLsganIsHalfTheSumOverClipsOfTheClipMeansSquaredError) {
+  // Three clips of two discriminator steps; clip mean scores 0.5, 1 and 0.
+  auto fake = at::tensor({0.0f, 1.0f, 1.0f, 1.0f, 0.0f, 0.0f}).reshape({3, 2});
+  // Generator (target 1): 0.5 x ((0.5-1)^2 + 0 + 1) = 0.625; the half-mean is a third of it.
+  EXPECT_NEAR(lsgan_generator_loss(fake, AdversarialReduction::kHalfSum).item<float>(), 0.625f, 1e-6);
+  EXPECT_NEAR(lsgan_generator_loss(fake, AdversarialReduction::kHalfMean).item<float>(), 0.625f / 3.0f, 1e-6);
+  // Discriminator: fake targets 0: 0.5 x (0.25 + 1 + 0) = 0.625; real clip
+  // means 1 and 2 against 1: 0.5 x (0 + 1) = 0.5; total 1.125.
+  auto real = at::tensor({1.0f, 1.0f, 1.0f, 3.0f}).reshape({2, 2});
+  EXPECT_NEAR(lsgan_discriminator_loss(real, fake, AdversarialReduction::kHalfSum, 1.0).item<float>(), 1.125f, 1e-6);
 }
 
 }  // namespace

@@ -206,9 +206,9 @@ TEST(Trainer, ReferenceLossFormsReachTheStep) {
   // Same seed: the first step decodes the same clips with the same untrained
   // networks, and the discriminator is scored before its update, so the
   // forms' values stand in known relations (Cauchy-Schwarz and Jensen).
-  TrainConfig paper = tiny_config("DKGM"), reference = tiny_config("DKGM");
+  TrainConfig frame_norm = tiny_config("DKGM"), reference = tiny_config("DKGM");
   reference.losses = loss_preset("reference", "losses");
-  Trainer a(paper, small_h36m(), at::kCPU), b(reference, small_h36m(), at::kCPU);
+  Trainer a(frame_norm, small_h36m(), at::kCPU), b(reference, small_h36m(), at::kCPU);
   const LossValues p = a.step(), r = b.step();
   for (const auto& [term, value] : r) EXPECT_TRUE(std::isfinite(value)) << term;
   // Two decoders; each triplet mean is at most its frame norm / sqrt(17).
@@ -219,6 +219,26 @@ TEST(Trainer, ReferenceLossFormsReachTheStep) {
   EXPECT_GE(r.at("L_D"), 4.0 * reference.batch * p.at("L_D") * (1 - 1e-5));
   EXPECT_GT(r.at("L_pos"), 0.0);
   EXPECT_NE(r.at("L_pos"), p.at("L_pos"));
+}
+
+TEST(Trainer, PaperLossFormsReachTheStep) {
+  MM_REQUIRE_H36M();
+  // Same seed and first step as above: the same decoded clips and scores.
+  TrainConfig frame_norm = tiny_config("DKGM"), paper = tiny_config("DKGM");
+  paper.losses = loss_preset("paper", "losses");
+  Trainer a(frame_norm, small_h36m(), at::kCPU), b(paper, small_h36m(), at::kCPU);
+  const LossValues f = a.step(), p = b.step();
+  for (const auto& [term, value] : p) EXPECT_TRUE(std::isfinite(value)) << term;
+  // A sum of the joints' norms is at least the norm of all of them and at
+  // most sqrt(joints) times it (17 modelled joints; 32 joint positions).
+  EXPECT_GE(p.at("L_ang"), f.at("L_ang") * (1 - 1e-5));
+  EXPECT_LE(p.at("L_ang"), f.at("L_ang") * std::sqrt(17.0) * (1 + 1e-5));
+  EXPECT_GE(p.at("L_pos"), f.at("L_pos") * (1 - 1e-5));
+  EXPECT_LE(p.at("L_pos"), f.at("L_pos") * std::sqrt(32.0) * (1 + 1e-5));
+  // Sums instead of means over the clips: the generated clips (two decoders'
+  // worth) are 2 x batch, the real ones batch.
+  EXPECT_GE(p.at("L_D"), paper.batch * f.at("L_D") * (1 - 1e-5));
+  EXPECT_LE(p.at("L_D"), 2.0 * paper.batch * f.at("L_D") * (1 + 1e-5));
 }
 
 TEST(PositionScale, IsAFewHundredMillimetresForH36m) {

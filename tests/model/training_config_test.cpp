@@ -67,13 +67,49 @@ TEST(TrainingConfig, ErrorsNameTheFieldAndValue) {
   EXPECT_NE(error_of("{not json").find("config.json: not valid JSON"), std::string::npos);
 }
 
-TEST(TrainingConfig, LossFormsDefaultToThePaperAndTheReferencePresetSetsAllFour) {
-  EXPECT_EQ(loss_preset_name(variant_config("DKGM").losses), "paper");
+TEST(TrainingConfig, LossFormsDefaultToTheFrameNormPresetAndEachPresetSetsAllFour) {
+  EXPECT_EQ(loss_preset_name(variant_config("DKGM").losses), "frame-norm");
+  const LossForms frame_norm = variant_config("DKGM").losses;
+  EXPECT_EQ(frame_norm.angle, AngleReduction::kFrameNorm);
+  EXPECT_EQ(frame_norm.position, PositionReduction::kFrameNorm);
+  EXPECT_EQ(frame_norm.mmd, MmdForm::kSingleScale);
+  EXPECT_EQ(frame_norm.adversarial, AdversarialReduction::kHalfMean);
+  const LossForms paper = loss_preset("paper", "losses");
+  EXPECT_EQ(paper.angle, AngleReduction::kJointSum);
+  EXPECT_EQ(paper.position, PositionReduction::kJointSum);
+  EXPECT_EQ(paper.mmd, MmdForm::kSingleScale);
+  EXPECT_EQ(paper.adversarial, AdversarialReduction::kHalfSum);
+  EXPECT_EQ(loss_preset_name(paper), "paper");
   const LossForms reference = loss_preset("reference", "losses");
   EXPECT_EQ(reference.angle, AngleReduction::kTripletMean);
   EXPECT_EQ(reference.position, PositionReduction::kStandardizedTripletMean);
   EXPECT_EQ(reference.mmd, MmdForm::kSevenScales);
   EXPECT_EQ(reference.adversarial, AdversarialReduction::kBatchSum);
+  EXPECT_EQ(loss_preset_name(reference), "reference");
+}
+
+TEST(TrainingConfig, EveryLossFormNameReadsBack) {
+  for (const char* name : {"frame-norm", "triplet-mean", "joint-sum"}) {
+    EXPECT_STREQ(loss_form_name(parse_angle_reduction(name, "a")), name);
+  }
+  for (const char* name : {"frame-norm", "standardized-triplet-mean", "joint-sum"}) {
+    EXPECT_STREQ(loss_form_name(parse_position_reduction(name, "p")), name);
+  }
+  for (const char* name : {"half-mean", "batch-sum", "half-sum"}) {
+    EXPECT_STREQ(loss_form_name(parse_adversarial_reduction(name, "g")), name);
+  }
+}
+
+TEST(TrainingConfig, Seq2seqTrainsOnTheReconstructionLossOfEq8) {
+  // Supplementary A.1: "The loss function is the same as our motion
+  // reconstruction loss": angles and FK positions, nothing else.
+  const TrainConfig c = variant_config("Seq2seq");
+  EXPECT_FALSE(c.model.rotation_decoder);
+  EXPECT_TRUE(c.model.velocity_decoder);
+  EXPECT_EQ(c.weights.position, variant_config("DKGM").weights.position);
+  EXPECT_EQ(c.weights.adversarial, 0.0);
+  EXPECT_EQ(c.weights.manifold, 0.0);
+  EXPECT_EQ(c.weights.wasserstein, 0.0);
 }
 
 TEST(TrainingConfig, LossFormsReadFromJsonPresetFirstThenEachForm) {
