@@ -1,5 +1,6 @@
 #include "evaluation.h"
 
+#include <algorithm>
 #include <c10/core/InferenceMode.h>
 
 #include <nlohmann/json.hpp>
@@ -268,6 +269,24 @@ nlohmann::json mean_and_std(const std::vector<nlohmann::json>& documents) {
   return {{"mean", mean[0]}, {"std", spread[0]}};
 }
 
+// The per-interval numbers in the order the decoders generate frames: they
+// run in reverse time (Sec. 3.2.3), so the first interval
+// generated is the clip's last. Every array of `intervals` numbers is
+// reversed; everything else is kept.
+nlohmann::json in_generation_order(const nlohmann::json& document, size_t intervals) {
+  if (document.is_object()) {
+    nlohmann::json result = nlohmann::json::object();
+    for (const auto& [key, value] : document.items()) result[key] = in_generation_order(value, intervals);
+    return result;
+  }
+  if (document.is_array() && document.size() == intervals && !document.empty() && document.front().is_number()) {
+    auto reversed = document.get<std::vector<double>>();
+    std::reverse(reversed.begin(), reversed.end());
+    return reversed;
+  }
+  return document;
+}
+
 }  // namespace
 
 std::string evaluate_reconstruction(const MotionManifold& model, const std::vector<const PreparedSequence*>& test,
@@ -321,6 +340,9 @@ std::string evaluate_reconstruction(const MotionManifold& model, const std::vect
       {"frames", config.frames},
       {"frame_rate", 25},
       {"interval_seconds", interval_seconds},
+      {"interval_order",
+       "clip time: the first number is the clip's first interval; generation_order holds the same numbers from "
+       "the clip's end, the order in which the decoders generate the frames"},
       {"position_unit_mm", model.normalization().position_scale_mm},
       {"paper_units", paper_units},
       {"decoders", decoders},
@@ -338,6 +360,12 @@ std::string evaluate_reconstruction(const MotionManifold& model, const std::vect
                              {"clips_per_seed", options.clips},
                              {"statistics", "mean and sample standard deviation over the seeds' clip sets"},
                              {"decoders", mean_and_std(tables)}};
+  }
+  const auto intervals = static_cast<size_t>(options.intervals);
+  result["generation_order"] = {{"decoders", in_generation_order(decoders, intervals)}};
+  if (result.contains("seed_spread")) {
+    result["generation_order"]["seed_spread_decoders"] =
+        in_generation_order(result["seed_spread"]["decoders"], intervals);
   }
   if (options.clips > 1) result["prior_match"] = prior_match(model.encode(motion), options.seed, 20);
   if (options.corruption_probability > 0) {

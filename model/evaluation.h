@@ -42,6 +42,10 @@ struct EvaluationOptions {
 // position statistics of the training frames (`positions`; without them
 // paper_units has no E_p), and E_r a multiple of 3 pose values (without
 // one it has no E_r).
+// Intervals are in clip time (the first is the clip's first 1.2 s);
+// "generation_order" repeats every per-interval array (and those of
+// "seed_spread") reversed, in the order the decoders generate the frames (they
+// run in reverse time, so the first interval generated is the clip's end).
 // With more than one clip, "prior_match": the mean and sample covariance of
 // the clips' codes (mean_norm, mean_abs_max, variance_mean/min/max,
 // covariance_off_diagonal_abs_mean; N(0, I) has 0, 0, 1, 1, 1, 0) and Eq.

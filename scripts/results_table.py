@@ -2,11 +2,15 @@
 """Prints the tables of docs/RESULTS.md (markdown) from evaluation JSON files
 written by `motion-manifold evaluate`, beside the paper's rows for the same
 variants.
-Usage: scripts/results_table.py [--table paper|project|physical|denoising] NAME=evaluation.json ...
+Usage: scripts/results_table.py [--table paper|generation|project|physical|denoising|prior] NAME=evaluation.json ...
 NAME starts with the Table 1 variant (DKGM, DKGM hidden 256, ...); each
 paper row is printed once, above the first of our rows of its variant.
   paper      Table 1 in the reference implementation's units (the default),
-             with mean +- std over the evaluation's seeds where it has them
+             with mean +- std over the evaluation's seeds where it has them;
+             intervals in clip time (1.2s: the clip's first 1.2 s)
+  generation the same with our intervals in generation order (1.2s: the
+             first 1.2 s the decoders generate, the clip's end), the order
+             the paper's intervals are read in (docs/RESULTS.md)
   project    Table 1 in the evaluation's own units (one norm per frame)
   physical   mean per-joint position error (mm) and joint-rotation error (rad)
   denoising  the denoising experiment, every corruption and method (mm)
@@ -34,6 +38,14 @@ HEADER = ("| model | dec | E_r 1.2s | E_p 1.2s | E_r 2.4s | E_p 2.4s | E_r 3.6s 
           "| E_r 6.0s | E_p 6.0s | E_z |\n|---|---|" + "---:|" * 11)
 
 
+def in_generation_order(errors):
+    """The per-interval lists reversed (as evaluation.json's generation_order):
+    the decoders generate the clip from its end."""
+    return {key: (list(reversed(value)) if isinstance(value, list) else
+                  in_generation_order(value) if isinstance(value, dict) else value)
+            for key, value in errors.items()}
+
+
 def cell(value, spread=None):
     return f"{value:.3f}" if spread is None else f"{value:.3f} ± {spread:.3f}"
 
@@ -52,7 +64,8 @@ def load(args):
             yield name, json.load(f)
 
 
-def table1(models, paper_units):
+def table1(models, paper_units, generation_order=False):
+    order = in_generation_order if generation_order else (lambda errors: errors)
     print(HEADER)
     printed = set()
     for name, result in models:
@@ -64,11 +77,11 @@ def table1(models, paper_units):
             if paper and (variant, decoder) not in printed:
                 print(row(f"{variant} (paper)", decoder, *paper))
                 printed.add((variant, decoder))
-            ours = errors["paper_units"] if paper_units else errors
+            ours = order(errors["paper_units"] if paper_units else errors)
             print(row(f"**{name} (ours, seed {result['seed']})**", decoder, ours["E_r"], ours["E_p"], ours["E_z"]))
             spread = result.get("seed_spread", {}).get("decoders", {}).get(decoder)
             if spread:
-                s = spread["paper_units"] if paper_units else spread
+                s = order(spread["paper_units"] if paper_units else spread)
                 seeds = len(result["seed_spread"]["seeds"])
                 print(row(f"{name} (ours, {seeds} seeds: mean ± std)", decoder, s["E_r"]["mean"], s["E_p"]["mean"],
                           s["E_z"]["mean"], (s["E_r"]["std"], s["E_p"]["std"], s["E_z"]["std"])))
@@ -126,6 +139,8 @@ def main(args):
     models = list(load(args))
     if table == "paper":
         table1(models, paper_units=True)
+    elif table == "generation":
+        table1(models, paper_units=True, generation_order=True)
     elif table == "project":
         table1(models, paper_units=False)
     elif table == "physical":
@@ -135,7 +150,7 @@ def main(args):
     elif table == "prior":
         prior(models)
     else:
-        sys.exit(f"results_table.py: --table: expected paper, project, physical, denoising or prior, found {table}")
+        sys.exit(f"results_table.py: --table: expected paper, generation, project, physical, denoising or prior, found {table}")
 
 
 if __name__ == "__main__":

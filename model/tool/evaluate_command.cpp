@@ -54,24 +54,30 @@ void print_table(const nlohmann::json& result) {
     std::fprintf(stderr, "  E_z       %8.3f\n", errors.at("E_z").get<double>());
     if (result.contains("seed_spread")) {
       const auto& spread = result.at("seed_spread").at("decoders").at(decoder).at("paper_units");
+      const auto& generated =
+          result.at("generation_order").at("seed_spread_decoders").at(decoder).at("paper_units");
       std::fprintf(stderr, "  over %zu seeds (mean +- std):\n", result.at("seed_spread").at("seeds").size());
-      for (const char* name : {"E_r", "E_p"}) {
-        if (!spread.contains(name)) continue;
-        std::fprintf(stderr, "  %s paper", name);
-        const auto& mean = spread.at(name).at("mean");
-        const auto& std = spread.at(name).at("std");
-        for (size_t i = 0; i < mean.size(); ++i) {
-          std::fprintf(stderr, " %.3f+-%.3f", mean[i].get<double>(), std[i].get<double>());
+      for (const auto& [order, table] : {std::pair<const char*, const nlohmann::json&>{"", spread},
+                                         std::pair<const char*, const nlohmann::json&>{", generation order", generated}}) {
+        for (const char* name : {"E_r", "E_p"}) {
+          if (!table.contains(name)) continue;
+          std::fprintf(stderr, "  %s paper%s", name, order);
+          const auto& mean = table.at(name).at("mean");
+          const auto& std = table.at(name).at("std");
+          for (size_t i = 0; i < mean.size(); ++i) {
+            std::fprintf(stderr, " %.3f+-%.3f", mean[i].get<double>(), std[i].get<double>());
+          }
+          std::fprintf(stderr, "\n");
         }
-        std::fprintf(stderr, "\n");
       }
       std::fprintf(stderr, "  E_z       %.3f+-%.3f\n", spread.at("E_z").at("mean").get<double>(),
                    spread.at("E_z").at("std").get<double>());
     }
   }
   std::fprintf(stderr,
-               "(paper: the reference implementation's units, per-triplet norms; E_r: normalised angles, one norm per "
-               "frame; E_p: positions in units of %.1f mm; mpjpe in mm; angle in rad)\n",
+               "(columns in clip time, the clip's start first; generation order: from the clip's end, as the "
+               "decoders generate. paper: the reference implementation's units, per-triplet norms; E_r: normalised "
+               "angles, one norm per frame; E_p: positions in units of %.1f mm; mpjpe in mm; angle in rad)\n",
                result.at("position_unit_mm").get<double>());
   if (result.contains("denoising")) {
     const auto& d = result.at("denoising");

@@ -5,6 +5,7 @@
 // here in double precision with plain loops and the reference kinematics.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -231,6 +232,18 @@ TEST(EvaluationNumbers, EveryTable1NumberMatchesTheHandComputedValueOfEachDecode
     expect_close(numbers["angle_error_rad"].get<std::vector<double>>(), e.angle_rad, name + " angle_error_rad");
     EXPECT_NEAR(numbers["E_z"].get<double>(), e.e_z, 1e-4 * e.e_z) << name << " E_z";
     EXPECT_GT(e.e_z, 0.01) << name;  // not trivially zero
+
+    // The same numbers in generation order: the decoders run in reverse
+    // time, so the clip's last interval comes first.
+    const auto& generated = result["generation_order"]["decoders"][name];
+    auto reversed = [](std::vector<double> v) {
+      std::reverse(v.begin(), v.end());
+      return v;
+    };
+    expect_close(generated["E_r"].get<std::vector<double>>(), reversed(e.e_r), name + " E_r, generation order");
+    expect_close(generated["E_p"].get<std::vector<double>>(), reversed(e.e_p), name + " E_p, generation order");
+    expect_close(generated["mpjpe_mm"].get<std::vector<double>>(), reversed(e.mpjpe_mm), name + " mpjpe, generation order");
+    EXPECT_NEAR(generated["E_z"].get<double>(), e.e_z, 1e-4 * e.e_z) << name << " E_z, generation order";
   }
 }
 
