@@ -2,6 +2,7 @@
 // trained tiny model and real S5 clips.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <nlohmann/json.hpp>
 
 #include "evaluation.h"
@@ -146,6 +147,19 @@ TEST(LatentOperations, InterpolationRunsFromTheFirstCodeToTheSecond) {
   EXPECT_TRUE(at::allclose(interpolate_codes(a, b, 3, false)[1], (a + b) / 2));
   EXPECT_THROW(interpolate_codes(a, b, 1, false), InputError);
   EXPECT_THROW(interpolate_codes(a, at::randn({7}), 3, false), InputError);
+}
+
+TEST(LatentOperations, SphericalInterpolationFollowsTheArcBetweenTheCodes) {
+  // a = (2, 0) and b = (0, 4), a quarter turn apart. At t the direction is
+  // (sin((1 - t) pi/2), sin(t pi/2)) (sin(pi/2) = 1) and the norm 2 (1 - t) + 4 t.
+  const auto a = at::tensor({2.0f, 0.0f}), b = at::tensor({0.0f, 4.0f});
+  const auto path = interpolate_codes(a, b, 5, true);
+  const float r = 1.0f / std::sqrt(2.0f);
+  // t = 1/4: (sin(3 pi/8), sin(pi/8)) x 2.5; t = 1/2: (r, r) x 3.
+  EXPECT_TRUE(at::allclose(path[1], at::tensor({0.9238795f * 2.5f, 0.3826834f * 2.5f}), 1e-5, 1e-5)) << path[1];
+  EXPECT_TRUE(at::allclose(path[2], at::tensor({3.0f * r, 3.0f * r}), 1e-5, 1e-5)) << path[2];
+  // The line's midpoint, (1, 2), is 1.13 away from the arc's.
+  EXPECT_FALSE(at::allclose(path[2], interpolate_codes(a, b, 5, false)[2], 1e-2, 1e-2));
 }
 
 TEST(LatentOperations, SphericalInterpolationFromTheZeroCodeIsTheLine) {
