@@ -5,9 +5,10 @@
 # the physical errors, the codes' match to the prior, the discriminator's
 # accuracy over training, the training curves and samples side by side.
 #   scripts/compare-loss-forms.sh [ITERATIONS]          (default 2000)
-#   MM_FORMS="paper reference" scripts/compare-loss-forms.sh
-# A form set is `paper`, `reference`, or one reference form alone on the
-# paper's losses: `angle`, `position`, `mmd`, `adversarial`. Runs land in
+#   MM_FORMS="frame-norm reference" scripts/compare-loss-forms.sh
+# A form set is a preset, `frame-norm` (the default's), `paper` (the paper's
+# equations as written) or `reference`, or one reference form alone on the
+# frame-norm losses: `angle`, `position`, `mmd`, `adversarial`. Runs land in
 # runs/losses/<set> (a run whose model exists is not trained again); the
 # evaluations are copied to docs/results/losses/<set>.json, and the tables
 # of Table 1, physical errors and prior match list every set evaluated there
@@ -22,18 +23,19 @@ tool=${MM_TOOL:-build/model/tool/motion-manifold}  # MM_TOOL: a copy, to rebuild
 out=docs/results/losses
 mkdir -p runs/losses "$out"
 [ -f runs/h36m.mmd ] || "$tool" prepare --data data --out runs/h36m.mmd
-forms=(${MM_FORMS:-paper reference})
+forms=(${MM_FORMS:-frame-norm reference})
 
 # The form sets, in the tables' order, and what each is: its training
 # options (`options`) and its name in pictures and tables (`label`).
-known_sets=(paper reference angle position mmd adversarial)
+known_sets=(frame-norm paper reference angle position mmd adversarial)
 describe() {
   case $1 in
+    frame-norm) options="--losses frame-norm" label="DKGM frame-norm losses" ;;
     paper | reference) options="--losses $1" label="DKGM $1's losses" ;;
-    angle) options="--loss-angle triplet-mean" label="DKGM paper's + reference's angle" ;;
-    position) options="--loss-position standardized-triplet-mean" label="DKGM paper's + reference's position" ;;
-    mmd) options="--loss-mmd seven-scales" label="DKGM paper's + reference's MMD" ;;
-    adversarial) options="--loss-adversarial batch-sum" label="DKGM paper's + reference's adversarial" ;;
+    angle) options="--loss-angle triplet-mean" label="DKGM frame-norm + reference's angle" ;;
+    position) options="--loss-position standardized-triplet-mean" label="DKGM frame-norm + reference's position" ;;
+    mmd) options="--loss-mmd seven-scales" label="DKGM frame-norm + reference's MMD" ;;
+    adversarial) options="--loss-adversarial batch-sum" label="DKGM frame-norm + reference's adversarial" ;;
     *) echo "compare-loss-forms.sh: unknown form set $1" >&2; exit 2 ;;
   esac
 }
