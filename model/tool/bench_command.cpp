@@ -1,7 +1,8 @@
 // `bench`: the paper's model size (hidden 1024, 150 frames) on this machine:
 // one full training iteration (Trainer::step, DKGM; on a GPU with and
 // without CUDA graphs, and also at batch 256) and inference (encode,
-// rotation decode), with random weights on synthetic or real data. The
+// rotation decode; on the CPU with the weights unpacked, packed in fp32 and
+// in bf16), with random weights on synthetic or real data. The
 // numbers behind docs/PERFORMANCE.md.
 #include <ATen/Parallel.h>
 #include <c10/core/InferenceMode.h>
@@ -14,7 +15,9 @@
 #include <fstream>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <thread>
+#include <utility>
 
 #include "cli_validators.h"
 #include "commands.h"
@@ -23,6 +26,7 @@
 #include "file_arguments.h"
 #include "format/atomic_file.h"
 #include "format/input_error.h"
+#include "inference_precision.h"
 #include "operation_count.h"
 #include "synthetic_dataset.h"
 #include "trainer.h"
@@ -33,6 +37,7 @@ namespace {
 struct BenchOptions {
   int hidden = 1024;
   int iterations = 5;
+  bool inference_only = false;
   std::string dataset, out, device = "all";
 };
 
@@ -90,6 +95,7 @@ void bench_device(const BenchOptions& o, const PreparedDataset& data, c10::Devic
     graph_settings = {false, true};
     batches.push_back(256);
   }
+  if (o.inference_only) graph_settings.clear();
   for (bool graphs : graph_settings) {
     set_cuda_graphs_enabled(graphs);
     const std::string operation = !device.is_cuda() ? "training iteration (DKGM)"
@@ -106,15 +112,30 @@ void bench_device(const BenchOptions& o, const PreparedDataset& data, c10::Devic
   MotionManifold model(config.model, data.normalization, Skeleton::h36m());
   model.to(device);
   model.train(false);
+  // Inference on the CPU: the weights as they are (LibTorch's products),
+  // packed in fp32 (what a loaded model uses), and packed in bf16 where the
+  // CPU has bf16 dot products; one run, one machine, for before and after.
+  std::vector<std::pair<std::string, std::optional<Precision>>> settings{{"", std::nullopt}};
+  if (device.is_cpu()) {
+    settings = {{" (unpacked fp32)", std::nullopt}, {" (packed fp32)", Precision::kFp32}};
+    if (precision_available(Precision::kBf16)) settings.emplace_back(" (packed bf16)", Precision::kBf16);
+  }
   // Inference is cheap: more repeats for a steadier median.
   const int repeats = std::max(o.iterations, 10);
-  for (int batch : {1, 30}) {
-    c10::InferenceMode inference;
-    const auto clips = at::randn({batch, config.model.frames, config.model.pose_dims}).to(device);
-    const auto codes = at::randn({batch, config.model.latent}).to(device);
-    out.push_back(measure("encode", batch, device, repeats, [&] { model.encode(clips); }));
-    out.push_back(measure("decode (rotation)", batch, device, repeats,
-                          [&] { model.decode(codes, DecoderKind::kRotation); }));
+  for (const auto& [label, precision] : settings) {
+    if (precision) {
+      model.pack_for_inference(*precision);
+    } else {
+      model.discard_inference_packs();
+    }
+    for (int batch : {1, 30}) {
+      c10::InferenceMode inference;
+      const auto clips = at::randn({batch, config.model.frames, config.model.pose_dims}).to(device);
+      const auto codes = at::randn({batch, config.model.latent}).to(device);
+      out.push_back(measure("encode" + label, batch, device, repeats, [&] { model.encode(clips); }));
+      out.push_back(measure("decode (rotation)" + label, batch, device, repeats,
+                            [&] { model.decode(codes, DecoderKind::kRotation); }));
+    }
   }
 }
 
@@ -177,13 +198,14 @@ void add_bench_command(CLI::App& app, Action& action) {
   auto* command = app.add_subcommand(
       "bench",
       "Time a full training iteration (DKGM, batch 4 and 30; on a GPU also 256, with and without CUDA graphs) and "
-      "inference (encode, rotation decode; batch 1 and "
-      "30) at the paper's model size with random weights. Prints a markdown table of median and minimum times and "
+      "inference (encode, rotation decode; batch 1 and 30; on the CPU with the weights unpacked, packed in fp32 and "
+      "packed in bf16 where the CPU has bf16 dot products) at the paper's model size with random weights. Prints a markdown table of median and minimum times and "
       "of the tensor operations one run issues (one kernel launch or a few each on a GPU).");
   command->add_option("--hidden", o->hidden, "GRU hidden size")->check(at_least(1))->capture_default_str();
   command->add_option("--iterations", o->iterations, "timed repeats after two warm-ups (inference: at least 10)")
       ->check(at_least(1))
       ->capture_default_str();
+  command->add_flag("--inference-only", o->inference_only, "time inference only, no training iteration");
   command->add_option("--dataset", o->dataset, "prepared dataset to draw clips from (default: synthetic data)");
   command->add_option("--device", o->device, "cpu, cuda, or all (the CPU, plus CUDA when available)")
       ->capture_default_str();
