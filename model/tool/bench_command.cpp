@@ -13,6 +13,7 @@
 #include <chrono>
 #include <cstdio>
 #include <fstream>
+#include <functional>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -26,8 +27,10 @@
 #include "file_arguments.h"
 #include "format/atomic_file.h"
 #include "format/input_error.h"
+#include "gru_inference.h"
 #include "inference_precision.h"
 #include "operation_count.h"
+#include "packed_linear.h"
 #include "synthetic_dataset.h"
 #include "trainer.h"
 
@@ -37,7 +40,7 @@ namespace {
 struct BenchOptions {
   int hidden = 1024;
   int iterations = 5;
-  bool inference_only = false;
+  bool inference_only = false, profile = false;
   std::string dataset, out, device = "all";
 };
 
@@ -139,6 +142,54 @@ void bench_device(const BenchOptions& o, const PreparedDataset& data, c10::Devic
   }
 }
 
+// Where a decoder step's time goes on the CPU: each of its products (the
+// input gates, 51 -> 3H; the hidden gates, H -> 3H; the pose, H -> 51) and its
+// element-wise update, timed alone over the 150 steps of a clip, unpacked
+// (LibTorch's products, a scalar-free vectorised update) and packed in each
+// precision. Random weights of the model's shapes.
+void profile_decoder_step(const BenchOptions& o, std::vector<Timing>& out) {
+  const int64_t hidden = o.hidden, dims = 51, steps = 150;
+  const auto w_input = at::randn({3 * hidden, dims}) * 0.1, b_input = at::randn({3 * hidden});
+  const auto w_hidden = at::randn({3 * hidden, hidden}) * 0.03, b_hidden = at::randn({3 * hidden});
+  const auto w_pose = at::randn({dims, hidden}) * 0.03, b_pose = at::randn({dims});
+  std::vector<std::pair<std::string, std::optional<Precision>>> settings{{"unpacked fp32", std::nullopt},
+                                                                         {"packed fp32", Precision::kFp32}};
+  if (precision_available(Precision::kBf16)) settings.emplace_back("packed bf16", Precision::kBf16);
+  const int repeats = std::max(o.iterations, 10);
+  for (int64_t batch : {1, 30}) {
+    auto input = at::randn({batch, dims}), state = at::randn({batch, hidden});
+    auto input_gates = at::empty({batch, 3 * hidden}), hidden_gates = at::empty({batch, 3 * hidden});
+    auto pose = at::empty({batch, dims});
+    for (const auto& [label, precision] : settings) {
+      auto product = [&](const at::Tensor& w, const at::Tensor& b) -> std::function<void(const at::Tensor&, at::Tensor&)> {
+        if (!precision) return [&w, &b](const at::Tensor& x, at::Tensor& y) { affine_into(y, b, w, x); };
+        auto packed = std::make_shared<PackedLinear>(w, b, *precision);
+        return [packed](const at::Tensor& x, at::Tensor& y) { packed->apply(x, y); };
+      };
+      const auto input_product = product(w_input, b_input), hidden_product = product(w_hidden, b_hidden),
+                 pose_product = product(w_pose, b_pose);
+      const std::string suffix = " x150, " + label;
+      out.push_back(measure("step: input gates" + suffix, batch, c10::kCPU, repeats, [&] {
+        for (int64_t t = 0; t < steps; ++t) input_product(input, input_gates);
+      }));
+      out.push_back(measure("step: hidden gates" + suffix, batch, c10::kCPU, repeats, [&] {
+        for (int64_t t = 0; t < steps; ++t) hidden_product(state, hidden_gates);
+      }));
+      out.push_back(measure("step: pose" + suffix, batch, c10::kCPU, repeats, [&] {
+        for (int64_t t = 0; t < steps; ++t) pose_product(state, pose);
+      }));
+    }
+    // The update is the same code on every path; its inputs are refreshed
+    // each step so that the values stay finite.
+    out.push_back(measure("step: element-wise update x150", batch, c10::kCPU, repeats, [&] {
+      for (int64_t t = 0; t < steps; ++t) {
+        hidden_gates.fill_(0.1f);
+        gru_combine(state, input_gates, hidden_gates);
+      }
+    }));
+  }
+}
+
 std::string cpu_name() {
   std::ifstream in("/proc/cpuinfo");
   for (std::string line; std::getline(in, line);) {
@@ -167,6 +218,7 @@ int run_bench(const BenchOptions& o) {
 
   std::vector<Timing> timings;
   for (const auto& device : devices) bench_device(o, data, device, timings);
+  if (o.profile) profile_decoder_step(o, timings);
 
   std::printf("| operation | batch | device | median (ms) | min (ms) | repeats | operations |\n");
   std::printf("|---|---:|---|---:|---:|---:|---:|\n");
@@ -206,6 +258,9 @@ void add_bench_command(CLI::App& app, Action& action) {
       ->check(at_least(1))
       ->capture_default_str();
   command->add_flag("--inference-only", o->inference_only, "time inference only, no training iteration");
+  command->add_flag("--profile", o->profile,
+                    "also time each part of a decoder step alone on the CPU (its three products, unpacked and "
+                    "packed, and its element-wise update), 150 steps at batch 1 and 30");
   command->add_option("--dataset", o->dataset, "prepared dataset to draw clips from (default: synthetic data)");
   command->add_option("--device", o->device, "cpu, cuda, or all (the CPU, plus CUDA when available)")
       ->capture_default_str();
