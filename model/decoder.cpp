@@ -5,8 +5,21 @@
 #include "format/input_error.h"
 #include "gru_inference.h"
 #include "gru_recurrence.h"
+#include "packed_linear.h"
 
 namespace mm {
+
+struct DecoderImpl::Packed {
+  PackedLinear from_code, input, hidden, to_pose;
+  bool current() const { return from_code.current() && input.current() && hidden.current() && to_pose.current(); }
+};
+
+void DecoderImpl::pack_for_inference(Precision precision) {
+  packed_.reset(new Packed{PackedLinear(from_code_->weight, from_code_->bias, precision),
+                           PackedLinear(cell_->weight_ih, cell_->bias_ih, precision),
+                           PackedLinear(cell_->weight_hh, cell_->bias_hh, precision),
+                           PackedLinear(to_pose_->weight, to_pose_->bias, precision)});
+}
 
 DecoderImpl::DecoderImpl(const DecoderShape& shape)
     : shape_(shape),
@@ -77,9 +90,13 @@ at::Tensor DecoderImpl::generate(const at::Tensor& z) const {
   const int64_t batch = z.size(0), hidden_size = shape_.hidden, dims = shape_.pose_dims;
   const auto& cell = *cell_;
   auto code = z.contiguous();
+  const auto packed = packed_ && packed_->current() ? packed_ : nullptr;
   auto hidden = at::empty({batch, hidden_size});
-  auto from_code = at::Tensor(from_code_->weight);
-  affine_into(hidden, from_code_->bias, from_code, code);
+  if (packed) {
+    packed->from_code.apply(code, hidden);
+  } else {
+    affine_into(hidden, from_code_->bias, from_code_->weight, code);
+  }
 
   const int64_t input_size = dims + (shape_.feed_code ? shape_.latent : 0);
   auto input = at::zeros({batch, input_size});
@@ -90,9 +107,16 @@ at::Tensor DecoderImpl::generate(const at::Tensor& z) const {
   auto generated = at::empty({shape_.frames, batch, dims});
 
   for (int step = 0; step < shape_.frames; ++step) {
-    affine_into(input_gates, cell.bias_ih, cell.weight_ih, input);
-    gru_update(hidden, input_gates, hidden_gates, cell.weight_hh, cell.bias_hh);
-    affine_into(pose, to_pose_->bias, to_pose_->weight, hidden);
+    if (packed) {
+      packed->input.apply(input, input_gates);
+      packed->hidden.apply(hidden, hidden_gates);
+      gru_combine(hidden, input_gates, hidden_gates);
+      packed->to_pose.apply(hidden, pose);
+    } else {
+      affine_into(input_gates, cell.bias_ih, cell.weight_ih, input);
+      gru_update(hidden, input_gates, hidden_gates, cell.weight_hh, cell.bias_hh);
+      affine_into(pose, to_pose_->bias, to_pose_->weight, hidden);
+    }
     auto previous = input.narrow(1, 0, dims);
     if (shape_.residual) pose.add_(previous);
     previous.copy_(pose);

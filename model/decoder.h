@@ -14,7 +14,10 @@
 #include <torch/nn/modules/rnn.h>
 #include <torch/nn/pimpl.h>
 
+#include <memory>
 #include <vector>
+
+#include "inference_precision.h"
 
 namespace mm {
 
@@ -47,7 +50,13 @@ class DecoderImpl : public torch::nn::Module {
 
   const DecoderShape& shape() const { return shape_; }
 
+  // As EncoderImpl::pack_for_inference, for generate().
+  void pack_for_inference(Precision precision);
+  void discard_inference_pack() { packed_.reset(); }
+
  private:
+  struct Packed;
+  std::shared_ptr<const Packed> packed_;
   friend std::vector<at::Tensor> forward_together(const std::vector<DecoderImpl*>& decoders, const at::Tensor& z);
 
   DecoderShape shape_;

@@ -3,8 +3,21 @@
 #include <c10/core/InferenceMode.h>
 
 #include "gru_inference.h"
+#include "packed_linear.h"
 
 namespace mm {
+
+struct EncoderImpl::Packed {
+  PackedLinear input, hidden, to_code;
+  bool current() const { return input.current() && hidden.current() && to_code.current(); }
+};
+
+void EncoderImpl::pack_for_inference(Precision precision) {
+  const auto w = weights();
+  packed_.reset(new Packed{PackedLinear(w.weight_ih, w.bias_ih, precision),
+                           PackedLinear(w.weight_hh, w.bias_hh, precision),
+                           PackedLinear(to_code_->weight, to_code_->bias, precision)});
+}
 
 EncoderImpl::EncoderImpl(int pose_dims, int hidden, int latent)
     : gru_(register_module("gru", torch::nn::GRU(torch::nn::GRUOptions(pose_dims, hidden).batch_first(true)))),
@@ -33,6 +46,22 @@ at::Tensor EncoderImpl::encode(const at::Tensor& motion) const {
   }
   const auto [weight_ih, bias_ih, weight_hh, bias_hh] = weights();
   const int64_t batch = motion.size(0), frames = motion.size(1), hidden_size = weight_hh.size(1);
+  if (const auto packed = packed_; packed && packed->current()) {
+    // Every frame's input gates in one product, then one per step.
+    const auto flat = motion.transpose(0, 1).reshape({frames * batch, -1}).contiguous();
+    auto input_gates = at::empty({frames * batch, 3 * hidden_size});
+    packed->input.apply(flat, input_gates);
+    input_gates = input_gates.view({frames, batch, 3 * hidden_size});
+    auto hidden = at::zeros({batch, hidden_size});
+    auto hidden_gates = at::empty({batch, 3 * hidden_size});
+    for (int64_t t = 0; t < frames; ++t) {
+      packed->hidden.apply(hidden, hidden_gates);
+      gru_combine(hidden, input_gates.select(0, t), hidden_gates);
+    }
+    auto code = at::empty({batch, to_code_->weight.size(0)});
+    packed->to_code.apply(hidden, code);
+    return code;
+  }
   // Every frame's input gates in one matrix product: (T, B, 3H).
   auto input_gates = at::addmm(bias_ih, motion.transpose(0, 1).reshape({frames * batch, -1}), weight_ih.t())
                          .view({frames, batch, 3 * hidden_size});

@@ -10,7 +10,10 @@
 #include <torch/nn/modules/rnn.h>
 #include <torch/nn/pimpl.h>
 
+#include <memory>
+
 #include "gru_recurrence.h"
+#include "inference_precision.h"
 
 namespace mm {
 
@@ -31,8 +34,17 @@ class EncoderImpl : public torch::nn::Module {
   // CPU, a fused GRU loop (see gru_inference.h). Safe to call concurrently.
   at::Tensor encode(const at::Tensor& motion) const;
 
+  // Packs the weights encode() multiplies with, once, in `precision`
+  // (packed_linear.h); encode() uses them on the CPU from then on, until
+  // the weights change (training), when it goes back to them as they are.
+  // Not concurrently with encode().
+  void pack_for_inference(Precision precision);
+  void discard_inference_pack() { packed_.reset(); }
+
  private:
+  struct Packed;
   GruWeights weights() const;
+  std::shared_ptr<const Packed> packed_;
 
   torch::nn::GRU gru_{nullptr};
   torch::nn::Linear to_code_{nullptr};

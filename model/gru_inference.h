@@ -19,4 +19,9 @@ void affine_into(at::Tensor& out, const at::Tensor& bias, const at::Tensor& weig
 void gru_update(at::Tensor& hidden, const at::Tensor& input_gates, at::Tensor& hidden_gates, const at::Tensor& weight_hh,
                 const at::Tensor& bias_hh);
 
+// The same step's element-wise part, given both gate pre-activations
+// (hidden_gates = b_hh + hidden . W_hh^T, overwritten): for callers that
+// compute the products themselves (packed_linear.h).
+void gru_combine(at::Tensor& hidden, const at::Tensor& input_gates, at::Tensor& hidden_gates);
+
 }  // namespace mm

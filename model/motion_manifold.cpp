@@ -121,6 +121,7 @@ std::vector<at::Tensor> MotionManifold::generator_parameters() const {
 }
 
 void MotionManifold::to(at::Device device) {
+  discard_inference_packs();
   device_ = device;
   encoder_->to(device);
   if (!rotation_decoder_.is_empty()) rotation_decoder_->to(device);
@@ -131,10 +132,27 @@ void MotionManifold::to(at::Device device) {
 }
 
 void MotionManifold::train(bool on) {
+  if (on) discard_inference_packs();
   encoder_->train(on);
   if (!rotation_decoder_.is_empty()) rotation_decoder_->train(on);
   if (!velocity_decoder_.is_empty()) velocity_decoder_->train(on);
   discriminator_->train(on);
+}
+
+void MotionManifold::pack_for_inference(Precision precision) {
+  encoder_->pack_for_inference(precision);
+  for (auto* decoder : {&rotation_decoder_, &velocity_decoder_}) {
+    if (!decoder->is_empty()) (*decoder)->pack_for_inference(precision);
+  }
+  inference_precision_ = precision;
+}
+
+void MotionManifold::discard_inference_packs() {
+  encoder_->discard_inference_pack();
+  for (auto* decoder : {&rotation_decoder_, &velocity_decoder_}) {
+    if (!decoder->is_empty()) (*decoder)->discard_inference_pack();
+  }
+  inference_precision_.reset();
 }
 
 at::Tensor MotionManifold::to_raw(const at::Tensor& normalized) const {
@@ -202,6 +220,7 @@ MotionManifold MotionManifold::load(const std::string& dir, at::Device device) {
   if (manifest.contains("provenance")) model.provenance_json_ = manifest["provenance"].dump();
   model.to(device);
   model.train(false);
+  if (device.is_cpu()) model.pack_for_inference(Precision::kFp32);
   return model;
 }
 

@@ -57,6 +57,18 @@ class MotionManifold {
   void to(at::Device device);
   void train(bool on);
 
+  // Packs the encoder's and decoders' inference weights in `precision`
+  // (packed_linear.h) for encode() and decode() on the CPU; load() packs
+  // fp32. to() and train(true) discard the packs, since the weights they
+  // were packed from are then moved or about to change. Not concurrently
+  // with inference. InputError if the precision is not available here.
+  void pack_for_inference(Precision precision);
+  // Drops the packs: encode() and decode() multiply with the weights as they are.
+  void discard_inference_packs();
+  // The precision the packs hold, or nothing when the weights are used as
+  // they are.
+  std::optional<Precision> inference_precision() const { return inference_precision_; }
+
   // Normalised poses (..., D) to raw frames (..., input columns): dropped
   // root translation is zero, other unmodelled columns take their training
   // mean. Differentiable.
@@ -94,6 +106,7 @@ class MotionManifold {
   Skeleton skeleton_;
   ForwardKinematics fk_;
   at::Device device_ = at::kCPU;
+  std::optional<Precision> inference_precision_;
   Encoder encoder_{nullptr};
   Decoder rotation_decoder_{nullptr}, velocity_decoder_{nullptr};
   Discriminator discriminator_{nullptr};

@@ -10,7 +10,7 @@
 set -euo pipefail
 packages=(
   build-essential cmake pkg-config git xz-utils
-  libtorch-dev libopenblas0-openmp
+  libtorch-dev libopenblas0-openmp libdnnl-dev
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler
   libcpp-httplib-dev nlohmann-json3-dev libcli11-dev zlib1g-dev
   libsqlite3-dev libpqxx-dev libspdlog-dev prometheus-cpp-dev

@@ -5,7 +5,9 @@
 #include <fstream>
 #include <iostream>
 #include <thread>
+#include <vector>
 
+#include "format/input_error.h"
 #include "jobs/job_spec_check.h"
 
 namespace mm::service {
@@ -167,6 +169,12 @@ int parse_server_config(int argc, char** argv, ServerConfig& config) {
                  "how long a dead replica's running job waits before another replica takes it over (PostgreSQL)")
       ->envname("MM_JOB_LEASE_SECONDS")->capture_default_str()->check(CLI::Range(1.0, 3600.0));
 
+  std::vector<std::string> precisions;
+  app.add_option("--precision", precisions,
+                 "inference weights: fp32 (as trained) or bf16 (faster where the CPU has bf16 dot products; "
+                 "docs/PERFORMANCE.md gives its accuracy cost), for every model, or NAME=PRECISION for one "
+                 "(repeatable)")
+      ->envname("MM_PRECISION");
   app.add_option("--ready-file", config.ready_file,
                  "written once serving: JSON with the bound ports and the pid (for scripts and tests)")
       ->envname("MM_READY_FILE");
@@ -180,6 +188,12 @@ int parse_server_config(int argc, char** argv, ServerConfig& config) {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
+  }
+  try {
+    config.core.precisions = ModelPrecisions::parse(precisions);
+  } catch (const InputError& e) {
+    std::cerr << e.what() << "\n";
+    return 2;
   }
   if (config.grpc.tls_cert_file.empty() != config.grpc.tls_key_file.empty()) {
     std::cerr << "--tls-cert and --tls-key go together\n";

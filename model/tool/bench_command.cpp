@@ -1,7 +1,8 @@
 // `bench`: the paper's model size (hidden 1024, 150 frames) on this machine:
 // one full training iteration (Trainer::step, DKGM; on a GPU with and
 // without CUDA graphs, and also at batch 256) and inference (encode,
-// rotation decode), with random weights on synthetic or real data. The
+// rotation decode; on the CPU with the weights unpacked, packed in fp32 and
+// in bf16), with random weights on synthetic or real data. The
 // numbers behind docs/PERFORMANCE.md.
 #include <ATen/Parallel.h>
 #include <c10/core/InferenceMode.h>
@@ -12,9 +13,12 @@
 #include <chrono>
 #include <cstdio>
 #include <fstream>
+#include <functional>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <thread>
+#include <utility>
 
 #include "cli_validators.h"
 #include "commands.h"
@@ -23,7 +27,10 @@
 #include "file_arguments.h"
 #include "format/atomic_file.h"
 #include "format/input_error.h"
+#include "gru_inference.h"
+#include "inference_precision.h"
 #include "operation_count.h"
+#include "packed_linear.h"
 #include "synthetic_dataset.h"
 #include "trainer.h"
 
@@ -33,6 +40,7 @@ namespace {
 struct BenchOptions {
   int hidden = 1024;
   int iterations = 5;
+  bool inference_only = false, profile = false;
   std::string dataset, out, device = "all";
 };
 
@@ -90,6 +98,7 @@ void bench_device(const BenchOptions& o, const PreparedDataset& data, c10::Devic
     graph_settings = {false, true};
     batches.push_back(256);
   }
+  if (o.inference_only) graph_settings.clear();
   for (bool graphs : graph_settings) {
     set_cuda_graphs_enabled(graphs);
     const std::string operation = !device.is_cuda() ? "training iteration (DKGM)"
@@ -106,15 +115,78 @@ void bench_device(const BenchOptions& o, const PreparedDataset& data, c10::Devic
   MotionManifold model(config.model, data.normalization, Skeleton::h36m());
   model.to(device);
   model.train(false);
+  // Inference on the CPU: the weights as they are (LibTorch's products),
+  // packed in fp32 (what a loaded model uses), and packed in bf16 where the
+  // CPU has bf16 dot products; one run, one machine, for before and after.
+  std::vector<std::pair<std::string, std::optional<Precision>>> settings{{"", std::nullopt}};
+  if (device.is_cpu()) {
+    settings = {{" (unpacked fp32)", std::nullopt}, {" (packed fp32)", Precision::kFp32}};
+    if (precision_available(Precision::kBf16)) settings.emplace_back(" (packed bf16)", Precision::kBf16);
+  }
   // Inference is cheap: more repeats for a steadier median.
   const int repeats = std::max(o.iterations, 10);
-  for (int batch : {1, 30}) {
-    c10::InferenceMode inference;
-    const auto clips = at::randn({batch, config.model.frames, config.model.pose_dims}).to(device);
-    const auto codes = at::randn({batch, config.model.latent}).to(device);
-    out.push_back(measure("encode", batch, device, repeats, [&] { model.encode(clips); }));
-    out.push_back(measure("decode (rotation)", batch, device, repeats,
-                          [&] { model.decode(codes, DecoderKind::kRotation); }));
+  for (const auto& [label, precision] : settings) {
+    if (precision) {
+      model.pack_for_inference(*precision);
+    } else {
+      model.discard_inference_packs();
+    }
+    for (int batch : {1, 30}) {
+      c10::InferenceMode inference;
+      const auto clips = at::randn({batch, config.model.frames, config.model.pose_dims}).to(device);
+      const auto codes = at::randn({batch, config.model.latent}).to(device);
+      out.push_back(measure("encode" + label, batch, device, repeats, [&] { model.encode(clips); }));
+      out.push_back(measure("decode (rotation)" + label, batch, device, repeats,
+                            [&] { model.decode(codes, DecoderKind::kRotation); }));
+    }
+  }
+}
+
+// Where a decoder step's time goes on the CPU: each of its products (the
+// input gates, 51 -> 3H; the hidden gates, H -> 3H; the pose, H -> 51) and its
+// element-wise update, timed alone over the 150 steps of a clip, unpacked
+// (LibTorch's products, a scalar-free vectorised update) and packed in each
+// precision. Random weights of the model's shapes.
+void profile_decoder_step(const BenchOptions& o, std::vector<Timing>& out) {
+  const int64_t hidden = o.hidden, dims = 51, steps = 150;
+  const auto w_input = at::randn({3 * hidden, dims}) * 0.1, b_input = at::randn({3 * hidden});
+  const auto w_hidden = at::randn({3 * hidden, hidden}) * 0.03, b_hidden = at::randn({3 * hidden});
+  const auto w_pose = at::randn({dims, hidden}) * 0.03, b_pose = at::randn({dims});
+  std::vector<std::pair<std::string, std::optional<Precision>>> settings{{"unpacked fp32", std::nullopt},
+                                                                         {"packed fp32", Precision::kFp32}};
+  if (precision_available(Precision::kBf16)) settings.emplace_back("packed bf16", Precision::kBf16);
+  const int repeats = std::max(o.iterations, 10);
+  for (int64_t batch : {1, 30}) {
+    auto input = at::randn({batch, dims}), state = at::randn({batch, hidden});
+    auto input_gates = at::empty({batch, 3 * hidden}), hidden_gates = at::empty({batch, 3 * hidden});
+    auto pose = at::empty({batch, dims});
+    for (const auto& [label, precision] : settings) {
+      auto product = [&](const at::Tensor& w, const at::Tensor& b) -> std::function<void(const at::Tensor&, at::Tensor&)> {
+        if (!precision) return [&w, &b](const at::Tensor& x, at::Tensor& y) { affine_into(y, b, w, x); };
+        auto packed = std::make_shared<PackedLinear>(w, b, *precision);
+        return [packed](const at::Tensor& x, at::Tensor& y) { packed->apply(x, y); };
+      };
+      const auto input_product = product(w_input, b_input), hidden_product = product(w_hidden, b_hidden),
+                 pose_product = product(w_pose, b_pose);
+      const std::string suffix = " x150, " + label;
+      out.push_back(measure("step: input gates" + suffix, batch, c10::kCPU, repeats, [&] {
+        for (int64_t t = 0; t < steps; ++t) input_product(input, input_gates);
+      }));
+      out.push_back(measure("step: hidden gates" + suffix, batch, c10::kCPU, repeats, [&] {
+        for (int64_t t = 0; t < steps; ++t) hidden_product(state, hidden_gates);
+      }));
+      out.push_back(measure("step: pose" + suffix, batch, c10::kCPU, repeats, [&] {
+        for (int64_t t = 0; t < steps; ++t) pose_product(state, pose);
+      }));
+    }
+    // The update is the same code on every path; its inputs are refreshed
+    // each step so that the values stay finite.
+    out.push_back(measure("step: element-wise update x150", batch, c10::kCPU, repeats, [&] {
+      for (int64_t t = 0; t < steps; ++t) {
+        hidden_gates.fill_(0.1f);
+        gru_combine(state, input_gates, hidden_gates);
+      }
+    }));
   }
 }
 
@@ -146,6 +218,7 @@ int run_bench(const BenchOptions& o) {
 
   std::vector<Timing> timings;
   for (const auto& device : devices) bench_device(o, data, device, timings);
+  if (o.profile) profile_decoder_step(o, timings);
 
   std::printf("| operation | batch | device | median (ms) | min (ms) | repeats | operations |\n");
   std::printf("|---|---:|---|---:|---:|---:|---:|\n");
@@ -177,13 +250,17 @@ void add_bench_command(CLI::App& app, Action& action) {
   auto* command = app.add_subcommand(
       "bench",
       "Time a full training iteration (DKGM, batch 4 and 30; on a GPU also 256, with and without CUDA graphs) and "
-      "inference (encode, rotation decode; batch 1 and "
-      "30) at the paper's model size with random weights. Prints a markdown table of median and minimum times and "
+      "inference (encode, rotation decode; batch 1 and 30; on the CPU with the weights unpacked, packed in fp32 and "
+      "packed in bf16 where the CPU has bf16 dot products) at the paper's model size with random weights. Prints a markdown table of median and minimum times and "
       "of the tensor operations one run issues (one kernel launch or a few each on a GPU).");
   command->add_option("--hidden", o->hidden, "GRU hidden size")->check(at_least(1))->capture_default_str();
   command->add_option("--iterations", o->iterations, "timed repeats after two warm-ups (inference: at least 10)")
       ->check(at_least(1))
       ->capture_default_str();
+  command->add_flag("--inference-only", o->inference_only, "time inference only, no training iteration");
+  command->add_flag("--profile", o->profile,
+                    "also time each part of a decoder step alone on the CPU (its three products, unpacked and "
+                    "packed, and its element-wise update), 150 steps at batch 1 and 30");
   command->add_option("--dataset", o->dataset, "prepared dataset to draw clips from (default: synthetic data)");
   command->add_option("--device", o->device, "cpu, cuda, or all (the CPU, plus CUDA when available)")
       ->capture_default_str();

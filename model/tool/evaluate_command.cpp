@@ -13,12 +13,13 @@
 #include "file_arguments.h"
 #include "format/atomic_file.h"
 #include "format/input_error.h"
+#include "precision_option.h"
 
 namespace mm::tool {
 namespace {
 
 struct EvaluateOptions {
-  std::string model_dir, dataset, out, device = "cpu";
+  std::string model_dir, dataset, out, device = "cpu", precision = "fp32";
   EvaluationOptions evaluation = [] {
     EvaluationOptions defaults;
     defaults.spread_seeds = 5;  // a reader sees how much of a difference is sampling noise
@@ -102,7 +103,10 @@ void print_table(const nlohmann::json& result) {
 int run_evaluate(const EvaluateOptions& o) {
   check_input_file(o.dataset, "--dataset");
   if (!o.out.empty()) check_output_file(o.out, "--out", "the JSON goes there already");
-  const MotionManifold model = MotionManifold::load(o.model_dir, parse_device(o.device));
+  const auto device = parse_device(o.device);
+  if (o.precision != "fp32" && !device.is_cpu()) throw InputError("--precision: " + o.precision + " is for the CPU only");
+  const MotionManifold model =
+      device.is_cpu() ? load_model_at_precision(o.model_dir, o.precision) : MotionManifold::load(o.model_dir, device);
   PreparedDataset data = load_prepared_dataset(o.dataset);
   if (data.test_subjects.empty()) throw InputError(o.dataset + ": the dataset has no test subjects");
   if (!same_normalization(data.normalization, model.normalization())) {
@@ -155,6 +159,7 @@ void add_evaluate_command(CLI::App& app, Action& action) {
       ->capture_default_str();
   command->add_option("--out", o->out, "also write the JSON to this file");
   command->add_option("--device", o->device, "cpu, cuda or auto")->capture_default_str();
+  add_precision_option(command, o->precision);
   command->callback([o, &action] { action = [o] { return run_evaluate(*o); }; });
 }
 

@@ -18,6 +18,7 @@
 #include "file_arguments.h"
 #include "latent_operations.h"
 #include "motion_files.h"
+#include "precision_option.h"
 
 namespace mm::tool {
 namespace {
@@ -26,11 +27,13 @@ namespace {
 struct ModelOptions {
   std::string model_dir;
   std::string decoder;  // empty: the model's default (rotation if present)
+  std::string precision = "fp32";
 
   void add_to(CLI::App* command, bool decodes) {
     model_dir = default_model_dir();
     command->add_option("--model", model_dir, "model folder (default: $MM_MODEL_DIR or the shipped model)")
         ->capture_default_str();
+    add_precision_option(command, precision);
     if (decodes) {
       command->add_option("--decoder", decoder, "rotation or velocity (default: rotation if the model has it)")
           ->check(CLI::IsMember({"rotation", "velocity"}));
@@ -41,7 +44,7 @@ struct ModelOptions {
   }
 };
 
-MotionManifold load_model(const ModelOptions& o) { return MotionManifold::load(o.model_dir); }
+MotionManifold load_model(const ModelOptions& o) { return load_model_at_precision(o.model_dir, o.precision); }
 
 // A motion named on the command line and the 25 Hz window of it to use.
 struct MotionArgument {

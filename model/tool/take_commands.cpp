@@ -15,6 +15,7 @@
 #include "format/motion_resampling.h"
 #include "format/skeleton_bvh.h"
 #include "motion_files.h"
+#include "precision_option.h"
 #include "take_processor.h"
 
 namespace mm::tool {
@@ -31,10 +32,12 @@ struct TakeArguments {
   std::string model_dir = default_model_dir();
   std::string decoder;  // empty: the model's default
   std::string blend = "crossfade";
+  std::string precision = "fp32";
 
   void add_to(CLI::App* command, bool decodes) {
     command->add_option("--model", model_dir, "model folder (default: $MM_MODEL_DIR or the shipped model)")
         ->capture_default_str();
+    add_precision_option(command, precision);
     if (!decodes) return;
     command->add_option("--decoder", decoder, "rotation or velocity (default: rotation if the model has it)")
         ->check(CLI::IsMember({"rotation", "velocity"}));
@@ -209,7 +212,7 @@ void add_take_operation(CLI::App* take, Action& action, TakeOperation operation)
         }
       }
       check_take_rate(o->rate, "--rate");
-      const MotionManifold model = MotionManifold::load(o->model.model_dir);
+      const MotionManifold model = load_model_at_precision(o->model.model_dir, o->model.precision);
       try {
         take_windowing(model.config().frames, o->hop);
       } catch (const InputError& e) {
@@ -277,7 +280,7 @@ void add_take_decode(CLI::App* take, Action& action) {
         throw InputError("--frames: expected a number of frames (at least 1), found " + std::to_string(o->frames));
       }
       const auto track = parse_track(text, input_name(o->track));
-      const MotionManifold model = MotionManifold::load(o->model.model_dir);
+      const MotionManifold model = load_model_at_precision(o->model.model_dir, o->model.precision);
       CodeTrackDecoding options;
       options.frame_rate = o->rate;
       options.frames = o->frames;
@@ -330,7 +333,7 @@ void add_take_resample(CLI::App* take, Action& action) {
       check_take_rate(o->rate, "--rate");
       check_take_rate(o->to, "--to");
       check_output_file(o->out, "--out");
-      const MotionManifold model = MotionManifold::load(o->model.model_dir);
+      const MotionManifold model = load_model_at_precision(o->model.model_dir, o->model.precision);
       const TakeInput in = read_take(o->input, o->rate, false, model.skeleton());
       const MotionFrames out = resample_motion(in.frames, in.rate, o->to);
       write_take(out, o->to, o->out, model.skeleton());

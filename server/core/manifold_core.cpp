@@ -66,7 +66,7 @@ std::vector<Code> to_codes(const at::Tensor& tensor) {
 
 struct ManifoldCore::State {
   State(CoreConfig c, ServiceMetrics& m, TrainingJobs* j)
-      : config(std::move(c)), metrics(m), jobs(j), store(config.model_store, m, config.max_loaded_models), executor(config.batching, m),
+      : config(std::move(c)), metrics(m), jobs(j), store(config.model_store, m, config.max_loaded_models, config.precisions), executor(config.batching, m),
         watch_streams(config.watch_streams) {}
 
   CoreConfig config;

@@ -16,6 +16,7 @@
 
 #include "core/api_types.h"
 #include "core/data_root_clips.h"
+#include "core/model_precisions.h"
 #include "core/motion_conversion.h"
 #include "core/take_session.h"
 #include "core/watch_streams.h"
@@ -63,6 +64,7 @@ struct CoreConfig {
   int max_listed_clips = 10000;  // ListClips lists the first ones by path and says it truncated
   DataRootQuota data_root_quota;  // what uploads may add to the data root
   int max_loaded_models = 4;  // models kept in memory, the active one included
+  ModelPrecisions precisions;  // the number format of each model's inference weights
   Limits limits;
   BatchingConfig batching;
   WatchStreamLimits watch_streams;  // open job watch streams, both protocols together

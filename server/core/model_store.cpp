@@ -99,8 +99,8 @@ std::string ModelStore::version_of(const std::string& dir) const {
   return version;
 }
 
-ModelStore::ModelStore(std::string root, ServiceMetrics& metrics, int max_loaded)
-    : root_(std::move(root)), metrics_(metrics), max_loaded_(std::max(1, max_loaded)) {}
+ModelStore::ModelStore(std::string root, ServiceMetrics& metrics, int max_loaded, ModelPrecisions precisions)
+    : root_(std::move(root)), metrics_(metrics), max_loaded_(std::max(1, max_loaded)), precisions_(std::move(precisions)) {}
 
 std::string ModelStore::folder(const std::string& name) const {
   if (!is_plain_name(name)) {
@@ -169,6 +169,9 @@ std::shared_ptr<const LoadedModel> ModelStore::load(const std::string& name, boo
     const auto started = std::chrono::steady_clock::now();
     try {
       auto manifold = MotionManifold::load(dir);
+      if (const Precision precision = precisions_.of(name); precision != Precision::kFp32) {
+        manifold.pack_for_inference(precision);
+      }
       const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
       ModelShape shape;
       shape.frames = manifold.config().frames;

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "core/api_types.h"
+#include "core/model_precisions.h"
 #include "core/motion_conversion.h"
 #include "motion_manifold.h"
 
@@ -37,7 +38,8 @@ struct LoadedModel {
 
 class ModelStore {
  public:
-  ModelStore(std::string root, ServiceMetrics& metrics, int max_loaded = 4);
+  // Each model is loaded with its inference weights in precisions.of(name).
+  ModelStore(std::string root, ServiceMetrics& metrics, int max_loaded = 4, ModelPrecisions precisions = {});
 
   // The folder of model `name` in the store. ApiError NOT_FOUND (field
   // "model") for a name that is not a model folder there, INVALID_ARGUMENT
@@ -89,6 +91,7 @@ class ModelStore {
   const std::string root_;
   ServiceMetrics& metrics_;
   const int max_loaded_;
+  const ModelPrecisions precisions_;
   mutable std::mutex mutex_;
   std::shared_ptr<const LoadedModel> active_;
   std::vector<std::shared_ptr<const LoadedModel>> loaded_;  // most recently used last

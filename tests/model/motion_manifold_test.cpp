@@ -26,6 +26,10 @@ TEST(MotionManifold, SavedAndLoadedModelGivesIdenticalOutputs) {
   model.train(false);
   model.save(dir.file("model"), R"({"note": "test"})");
   MotionManifold loaded = MotionManifold::load(dir.file("model"));
+  // A loaded model multiplies with fp32 packs; the same packs here give the
+  // same products, bit for bit.
+  EXPECT_EQ(loaded.inference_precision(), Precision::kFp32);
+  model.pack_for_inference(Precision::kFp32);
   auto motion = at::randn({2, 30, 51});
   auto code = model.encode(motion);
   EXPECT_TRUE(at::equal(code, loaded.encode(motion)));

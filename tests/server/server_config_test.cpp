@@ -4,10 +4,15 @@
 // environment).
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
 
 #include "command_run.h"
 #include "rest_call.h"
@@ -55,6 +60,64 @@ TEST(ServerConfig, AnUnknownKeyOrABadValueStopsTheServerNamingIt) {
     EXPECT_NE(std::string(e.what()).find("max-sample-count"), std::string::npos) << e.what();
   }
   std::filesystem::remove(file);
+}
+
+bool cpu_has_bf16_dot_products() {
+  std::ifstream cpuinfo("/proc/cpuinfo");
+  const std::string text((std::istreambuf_iterator<char>(cpuinfo)), std::istreambuf_iterator<char>());
+  return text.find("avx512_bf16") != std::string::npos || text.find("amx_bf16") != std::string::npos;
+}
+
+// The poses of one seeded sample of the default model.
+std::vector<double> sampled_poses(const ServerProcess& server) {
+  const Reply reply = post(server.rest_port(), "/v1/sample", nlohmann::json{{"count", 1}, {"seed", 3}});
+  EXPECT_EQ(reply.status, 200) << reply.body;
+  const auto body = nlohmann::json::parse(reply.body);
+  std::vector<double> values;
+  for (const auto& v : body["motions"][0]["values"]) values.push_back(v.get<double>());
+  return values;
+}
+
+// --precision bf16 packs the default model's weights in bf16 where the CPU
+// has bf16 dot products: the same sample then comes out close to fp32's but
+// not equal; where it has none, the server refuses to start, naming why.
+TEST(ServerConfig, Bf16PrecisionDecodesCloseToFp32OrIsRefusedNamingTheCpu) {
+  if (!cpu_has_bf16_dot_products()) {
+    try {
+      ServerProcess server({"--precision", "bf16"}, std::chrono::seconds(30));
+      ADD_FAILURE() << "the server started in bf16 on a CPU without bf16 dot products";
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find("bf16 dot products"), std::string::npos) << e.what();
+    }
+    return;
+  }
+  std::vector<double> fp32, bf16;
+  {
+    ServerProcess server;
+    fp32 = sampled_poses(server);
+  }
+  {
+    ServerProcess server({"--precision", "h36m-dkgm-h100=bf16"});
+    bf16 = sampled_poses(server);
+  }
+  ASSERT_EQ(fp32.size(), bf16.size());
+  ASSERT_FALSE(fp32.empty());
+  double largest = 0, mean = 0;
+  for (size_t i = 0; i < fp32.size(); ++i) {
+    largest = std::max(largest, std::abs(fp32[i] - bf16[i]));
+    mean += std::abs(fp32[i] - bf16[i]) / static_cast<double>(fp32.size());
+  }
+  EXPECT_GT(largest, 0.0);  // it is not the fp32 path
+  EXPECT_LT(mean, 0.01);    // radians (exponential-map values)
+}
+
+TEST(ServerConfig, AnUnknownPrecisionStopsTheServerNamingIt) {
+  try {
+    ServerProcess server({"--precision", "fp16"}, std::chrono::seconds(30));
+    ADD_FAILURE() << "the server started with --precision fp16";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("--precision \"fp16\": unknown value \"fp16\""), std::string::npos) << e.what();
+  }
 }
 
 // A second server given a port the first one serves on stops with an error

@@ -1,0 +1,21 @@
+#include "precision_option.h"
+
+namespace mm::tool {
+
+void add_precision_option(CLI::App* command, std::string& value) {
+  command
+      ->add_option("--precision", value,
+                   "inference weights: fp32 (as trained) or bf16 (about twice as fast where the CPU has bf16 dot "
+                   "products; docs/PERFORMANCE.md gives its accuracy cost)")
+      ->check(CLI::IsMember({"fp32", "bf16"}))
+      ->capture_default_str();
+}
+
+MotionManifold load_model_at_precision(const std::string& dir, const std::string& precision) {
+  const Precision wanted = parse_precision(precision, "--precision");
+  MotionManifold model = MotionManifold::load(dir);
+  if (wanted != Precision::kFp32) model.pack_for_inference(wanted);
+  return model;
+}
+
+}  // namespace mm::tool
