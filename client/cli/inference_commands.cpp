@@ -95,7 +95,9 @@ void add_encode(CLI::App& app, const ClientSettings& settings, Action& action) {
   o->model.add_to(command, false);
   command->add_option("--input", o->input.path, "motion file (.txt or .bvh; - for standard input)")->required();
   add_rate(command, {&o->input});
-  command->add_option("--start", o->input.start, "first 25 Hz frame of the clip");
+  command->add_option("--start", o->input.start,
+                      "first frame of the clip, in 25 Hz frames (row 2 x start of a 50 Hz file), not the file's "
+                      "rows as clips read's --start");
   command->callback([o, &settings, &action] {
     action = [o, &settings] {
       const auto server = connect(settings.connection);
@@ -274,7 +276,9 @@ void add_denoise(CLI::App& app, const ClientSettings& settings, Action& action) 
   o->model.add_to(command, true);
   command->add_option("--input", o->input.path, "motion file (.txt or .bvh; - for standard input)")->required();
   add_rate(command, {&o->input});
-  command->add_option("--start", o->input.start, "first 25 Hz frame of the clip");
+  command->add_option("--start", o->input.start,
+                      "first frame of the clip, in 25 Hz frames (row 2 x start of a 50 Hz file), not the file's "
+                      "rows as clips read's --start");
   command->add_flag("--zeros-are-missing", o->zeros_are_missing, "a joint-angle value of exactly 0 is missing");
   command->add_flag("--means-are-missing", o->means_are_missing, "a value equal to its training mean is missing");
   command->add_option("--iterations", o->iterations, "with missing values: rounds of projecting (0: four)");
