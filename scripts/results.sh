@@ -4,6 +4,9 @@
 # applications of Sec. 5 and the training curves. Needs the built tool
 # (cmake --build build --target motion-manifold) and the extracted H3.6M.
 #   scripts/results.sh [MODEL_DIR] [TRAIN_LOG]
+# The evaluation is written to MODEL_DIR/evaluation.json, the file that the
+# model card describes, DescribeModel serves and the table loop of
+# docs/RESULTS.md reads (scripts/results_table.py NAME=MODEL_DIR/evaluation.json).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 model=${1:-models/h36m-dkgm-h100}
@@ -16,7 +19,7 @@ mkdir -p "$out" "$work"
 [ -f runs/h36m.mmd ] || "$tool" prepare --data data --out runs/h36m.mmd
 
 # Table 1 and denoising over the 30 fixed S5 clips.
-"$tool" evaluate --model "$model" --dataset runs/h36m.mmd --out "$work/evaluation.json" > /dev/null
+"$tool" evaluate --model "$model" --dataset runs/h36m.mmd --out "$model/evaluation.json" > /dev/null
 
 # Sec. 5.2: random samples from the prior.
 "$tool" sample --model "$model" --count 3 --seed 7 --out-dir "$work/samples"
@@ -53,4 +56,4 @@ mkdir -p "$out" "$work"
 
 # Training curves.
 "$tool" plot-log --log "$log" --columns L_ang,L_pos,L_M,L_W,L_G,L_D --smooth 10 --out "$out/training_curves.svg"
-echo "results: evaluation in $work/evaluation.json, pictures in $out"
+echo "results: evaluation in $model/evaluation.json (scripts/results_table.py prints its tables), pictures in $out"

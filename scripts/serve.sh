@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
-# The main job on a fresh machine: installs what it needs, builds the server
-# and the tool, and serves the shipped default model (models/h36m-dkgm-h100)
-# over gRPC (port 50051) and REST (port 8080) until Ctrl-C / SIGTERM.
+# The main job on a fresh machine: installs what it needs, builds the server,
+# the tool (build/model/tool/motion-manifold, which training jobs run) and the
+# command-line client (build/client/motion-manifold-client), and serves the
+# shipped default model (models/h36m-dkgm-h100) over gRPC (port 50051) and
+# REST (port 8080) until Ctrl-C / SIGTERM.
 # The model store is runs/models (the shipped models linked in, and the
 # models training jobs publish). Training jobs are on: their records and runs
 # live in runs/state, and their datasets must lie under data/ (the H3.6M copy from ../shared is extracted
@@ -21,5 +23,5 @@ for model in models/*/; do
   [ -e "runs/models/$name" ] || ln -s "../../models/$name" "runs/models/$name"
 done
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release
-cmake --build build -j "$(nproc)" --target motion-manifold-server motion-manifold
+cmake --build build -j "$(nproc)" --target motion-manifold-server motion-manifold motion-manifold-client
 exec build/server/motion-manifold-server --model-store runs/models --state-dir runs/state --data-root data "$@"

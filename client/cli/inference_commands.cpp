@@ -48,14 +48,14 @@ v1::MotionOrCode motion_or_code(const MotionSource& source, ModelRigs& rigs, con
 }
 
 // Where the motions of a reply go, one file each: --out-dir and the files'
-// type.
+// format (--format).
 struct OutputDir {
   std::string dir, type = "txt";
 
   void add_to(CLI::App* command, const std::string& what) {
     command->add_option("--out-dir", dir, what);
-    command->add_option("--out-type", type, "type of the --out-dir files: txt (exponential-map text) or bvh (BVH of the "
-                                            "model's skeleton)")
+    command->add_option("--format", type, "file format of the --out-dir files: txt (exponential-map text) or bvh (BVH "
+                                          "of the model's skeleton)")
         ->check(CLI::IsMember({"txt", "bvh"}))
         ->capture_default_str();
   }
@@ -95,7 +95,9 @@ void add_encode(CLI::App& app, const ClientSettings& settings, Action& action) {
   o->model.add_to(command, false);
   command->add_option("--input", o->input.path, "motion file (.txt or .bvh; - for standard input)")->required();
   add_rate(command, {&o->input});
-  command->add_option("--start", o->input.start, "first 25 Hz frame of the clip");
+  command->add_option("--start", o->input.start,
+                      "first frame of the clip, in 25 Hz frames (row 2 x start of a 50 Hz file), not the file's "
+                      "rows as clips read's --start");
   command->callback([o, &settings, &action] {
     action = [o, &settings] {
       const auto server = connect(settings.connection);
@@ -162,7 +164,7 @@ void add_sample(CLI::App& app, const ClientSettings& settings, Action& action) {
   auto o = std::make_shared<Options>();
   auto* command = app.add_subcommand(
       "sample", "Draw codes from the prior N(0, I) and write their motions (25 Hz) as <out-dir>/sample_000.txt, "
-                "... (or .bvh with --out-type bvh); the same seed, count and model give the same motions.");
+                "... (or .bvh with --format bvh); the same seed, count and model give the same motions.");
   o->model.add_to(command, true);
   command->add_option("--count", o->count, "number of motions")->check(CLI::PositiveNumber)->capture_default_str();
   command->add_option("--seed", o->seed, "seed of the codes")->capture_default_str();
@@ -194,7 +196,7 @@ void add_interpolate(CLI::App& app, const ClientSettings& settings, Action& acti
   auto o = std::make_shared<Options>();
   auto* command = app.add_subcommand(
       "interpolate", std::string("Interpolate between two motions or codes (Sec. 5.3) and write the --steps motions "
-                                 "(ends included) as <out-dir>/interpolate_000.txt, .... ") + kMotionInputNote);
+                                 "(ends included) as <out-dir>/interpolation_000.txt, .... ") + kMotionInputNote);
   o->model.add_to(command, true);
   command->add_option("--from", o->from.path, "first motion (.txt, .bvh) or code (.json)")->required();
   command->add_option("--to", o->to.path, "last motion (.txt, .bvh) or code (.json)")->required();
@@ -218,7 +220,7 @@ void add_interpolate(CLI::App& app, const ClientSettings& settings, Action& acti
       request.set_steps(o->steps);
       request.set_method(o->method);
       const auto reply = server->interpolate(request);
-      return finish_motions(settings, reply, rigs, "", o->out_dir, "interpolate");
+      return finish_motions(settings, reply, rigs, "", o->out_dir, "interpolation");
     };
   });
 }
@@ -274,7 +276,9 @@ void add_denoise(CLI::App& app, const ClientSettings& settings, Action& action) 
   o->model.add_to(command, true);
   command->add_option("--input", o->input.path, "motion file (.txt or .bvh; - for standard input)")->required();
   add_rate(command, {&o->input});
-  command->add_option("--start", o->input.start, "first 25 Hz frame of the clip");
+  command->add_option("--start", o->input.start,
+                      "first frame of the clip, in 25 Hz frames (row 2 x start of a 50 Hz file), not the file's "
+                      "rows as clips read's --start");
   command->add_flag("--zeros-are-missing", o->zeros_are_missing, "a joint-angle value of exactly 0 is missing");
   command->add_flag("--means-are-missing", o->means_are_missing, "a value equal to its training mean is missing");
   command->add_option("--iterations", o->iterations, "with missing values: rounds of projecting (0: four)");

@@ -330,7 +330,7 @@ void add_denoise(CLI::App& app, Action& action) {
   auto& input = o->inputs.motions[0];
   command->add_option("--input", input.path, "motion file (- for standard input)")->required();
   o->inputs.add_rate_to(command, "--input");
-  command->add_option("--start", input.start, "first 25 Hz frame of the window");
+  command->add_option("--start", input.start, "first frame of the window, in 25 Hz frames (row 2 x start of a 50 Hz file)");
   command->add_option("--out", o->out, "denoised motion file to write (25 Hz; - for standard output)")->required();
   command->add_option("--corrupt-probability", o->probability, "drop each joint-angle value with this probability first")
       ->check(CLI::Range(0.0, 1.0));
@@ -413,7 +413,7 @@ void add_encode(CLI::App& app, Action& action) {
   auto& input = o->inputs.motions[0];
   command->add_option("--input", input.path, "motion file (- for standard input)")->required();
   o->inputs.add_rate_to(command, "--input");
-  command->add_option("--start", input.start, "first 25 Hz frame of the window");
+  command->add_option("--start", input.start, "first frame of the window, in 25 Hz frames (row 2 x start of a 50 Hz file)");
   command->callback([o, &action] {
     action = [o] {
       o->inputs.read();

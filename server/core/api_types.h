@@ -140,7 +140,7 @@ struct DenoiseRequest {
 
 struct ModelInfo {
   std::string name;     // the folder's name in the store
-  std::string version;  // content hash of its manifest, 16 hex digits
+  std::string version;  // content hash of its manifest and .pt files, 16 hex digits
   bool active = false;
   bool loaded = false;
   std::string variant;  // "DKGM", ...

@@ -244,9 +244,9 @@ TEST_F(ClientTest, InterpolateWritesOneFilePerStep) {
                               " --steps 5 --spherical --out-dir " + out);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   for (int i = 0; i < 5; ++i) {
-    EXPECT_EQ(motion_rows(out + "/interpolate_00" + std::to_string(i) + ".txt").size(), 150u) << i;
+    EXPECT_EQ(motion_rows(out + "/interpolation_00" + std::to_string(i) + ".txt").size(), 150u) << i;
   }
-  EXPECT_FALSE(fs::exists(out + "/interpolate_005.txt"));
+  EXPECT_FALSE(fs::exists(out + "/interpolation_005.txt"));
   // A code file is an end too; --json prints the codes.
   const auto encoded = run_client(grpc() + " encode --input " + s5("walking_1.txt"));
   const auto code_file = dir_.write("walk.json", encoded.out);
@@ -258,6 +258,16 @@ TEST_F(ClientTest, InterpolateWritesOneFilePerStep) {
   const auto first = reply["codes"][0].get<std::vector<double>>();
   const auto code = code_of(encoded.out);
   for (size_t i = 0; i < code.size(); ++i) EXPECT_NEAR(first[i], code[i], 1e-5);
+}
+
+// The tool's names: --format and interpolation_000.<format>.
+TEST_F(ClientTest, InterpolateWritesBvhFilesWithFormatBvh) {
+  const auto out = dir_.file("interp-bvh");
+  const auto run = run_client(rest() + " interpolate --from " + s5("walking_1.txt") + " --to " + s5("eating_1.txt") +
+                              " --steps 2 --format bvh --out-dir " + out);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_EQ(run.out, out + "/interpolation_000.bvh\n" + out + "/interpolation_001.bvh\n");
+  EXPECT_EQ(read_text(out + "/interpolation_001.bvh").rfind("HIERARCHY", 0), 0u);
 }
 
 TEST_F(ClientTest, InterpolateRefusesAnUnknownMethod) {

@@ -319,7 +319,7 @@ TEST(SkeletonService, TheClientReadsAndWritesBvhAndTextOfTheModelsRigOverEitherP
     fs::remove_all(dir);
     const auto sample = [&](int count) {
       return client(protocol + " sample --count " + std::to_string(count) + " --seed 7 --out-dir " + dir.string() +
-                    " --out-type bvh");
+                    " --format bvh");
     };
     const CommandRun one = sample(1);
     ASSERT_EQ(one.exit_code, 0) << one.err;
