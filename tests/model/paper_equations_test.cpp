@@ -1,7 +1,10 @@
 // The equations the model implements, each against a value computed another
 // way: Rodrigues' formula and forward kinematics against the plain-loop
-// reference of reference_kinematics.h, the loss terms of Sec. 3.3 (Eq. 9-14)
-// against numbers worked out by hand on small tensors. Tolerances are set
+// reference of reference_kinematics.h, the loss terms of Sec. 3.3 (Eq. 9-14,
+// the angle, position and LSGAN terms in the frame-norm forms the shipped
+// models were trained with; the forms as the paper writes them are pinned in
+// losses_test.cpp, PaperLosses) against numbers worked out by hand on small
+// tensors. Tolerances are set
 // from the arithmetic's precision; each comment says how far off the
 // nearest wrong equation would land.
 #include <gtest/gtest.h>
@@ -233,7 +236,7 @@ at::Tensor tensor_of(const std::vector<float>& values, std::vector<int64_t> shap
 }
 
 TEST(PaperEquations, AngleLossIsTheMeanOverClipsAndFramesOfThePoseErrorNorm) {
-  // Eq. 9, 2 clips x 2 frames x 3 values; the frame errors (3,4,0),
+  // Eq. 9 (frame-norm form), 2 clips x 2 frames x 3 values; the frame errors (3,4,0),
   // (1,2,-2), (0,0,0), (2,-3,6) have norms 5, 3, 0, 7: mean 3.75. The mean
   // absolute value gives 1.5, the squared norm 24.5, the sum 15.
   auto q = tensor_of({0.5f, -1, 2, 0, 0, 0, 1, 1, 1, -2, 0.25f, 3}, {2, 2, 3});
@@ -243,7 +246,7 @@ TEST(PaperEquations, AngleLossIsTheMeanOverClipsAndFramesOfThePoseErrorNorm) {
 }
 
 TEST(PaperEquations, PositionLossIsTheMeanOfTheNormOverAllJointsOfAFrame) {
-  // Eq. 10, 1 clip x 2 frames x 2 joints. Frame 1: joints off by (3,0,0)
+  // Eq. 10 (frame-norm form), 1 clip x 2 frames x 2 joints. Frame 1: joints off by (3,0,0)
   // and (0,4,0): norm over all joints 5 (a sum of joint norms gives 7,
   // their mean 3.5). Frame 2: (1,2,2) and (0,0,0): 3. Mean 4.
   auto p = at::zeros({1, 2, 2, 3});
@@ -303,7 +306,7 @@ TEST(PaperEquations, MmdMatchesThePlainSumsOfTheUnbiasedEstimator) {
 }
 
 TEST(PaperEquations, LsganDiscriminatorLossHalvesTheMeanSquaredDistancesToItsTargets) {
-  // Eq. 13: real scores 0.2, 1.5, 0.9 (target 1): squares 0.64, 0.25, 0.01,
+  // Eq. 13 (half-mean form): real scores 0.2, 1.5, 0.9 (target 1): squares 0.64, 0.25, 0.01,
   // mean 0.3; generated 0.3, -0.4 (target 0): squares 0.09, 0.16, mean 0.125.
   // Loss 0.5 * 0.125 + 0.5 * 0.3 = 0.2125 (swapped targets give 0.8125).
   auto real = at::tensor({0.2f, 1.5f, 0.9f});
@@ -312,7 +315,7 @@ TEST(PaperEquations, LsganDiscriminatorLossHalvesTheMeanSquaredDistancesToItsTar
 }
 
 TEST(PaperEquations, LsganGeneratorLossHalvesTheMeanSquaredDistanceToOne) {
-  // Eq. 14: scores 0.3, -0.4, 2: squares to 1 of 0.49, 1.96, 1: mean 1.15, half 0.575.
+  // Eq. 14 (half-mean form): scores 0.3, -0.4, 2: squares to 1 of 0.49, 1.96, 1: mean 1.15, half 0.575.
   EXPECT_NEAR(lsgan_generator_loss(at::tensor({0.3f, -0.4f, 2.0f})).item<float>(), 0.575f, 1e-6);
 }
 
