@@ -1,5 +1,7 @@
 #include "precision_option.h"
 
+#include "format/input_error.h"
+
 namespace mm::tool {
 
 void add_precision_option(CLI::App* command, std::string& value) {
@@ -13,6 +15,10 @@ void add_precision_option(CLI::App* command, std::string& value) {
 
 MotionManifold load_model_at_precision(const std::string& dir, const std::string& precision) {
   const Precision wanted = parse_precision(precision, "--precision");
+  if (!precision_available(wanted)) {
+    throw InputError("--precision: " + precision + " needs a CPU with bf16 dot products (avx512_bf16 or AMX) and a "
+                     "build with oneDNN; this one has not");
+  }
   MotionManifold model = MotionManifold::load(dir);
   if (wanted != Precision::kFp32) model.pack_for_inference(wanted);
   return model;
