@@ -117,10 +117,21 @@ at::Tensor DecoderImpl::generate(const at::Tensor& z) const {
       gru_update(hidden, input_gates, hidden_gates, cell.weight_hh, cell.bias_hh);
       affine_into(pose, to_pose_->bias, to_pose_->weight, hidden);
     }
-    auto previous = input.narrow(1, 0, dims);
-    if (shape_.residual) pose.add_(previous);
-    previous.copy_(pose);
-    generated.select(0, step).copy_(pose);
+    // The pose becomes the next step's input (after the residual) and the
+    // clip's frame: plain loops, a few hundred values each, where LibTorch
+    // calls cost more than the copies at batch 1.
+    float* pose_rows = pose.data_ptr<float>();
+    float* input_rows = input.data_ptr<float>();
+    float* frame_rows = generated.data_ptr<float>() + step * batch * dims;
+    for (int64_t b = 0; b < batch; ++b) {
+      float* p = pose_rows + b * dims;
+      float* previous = input_rows + b * input_size;
+      for (int64_t d = 0; d < dims; ++d) {
+        if (shape_.residual) p[d] += previous[d];
+        previous[d] = p[d];
+        frame_rows[b * dims + d] = p[d];
+      }
+    }
   }
   return generated.flip(0).transpose(0, 1).contiguous();
 }

@@ -2,6 +2,7 @@
 
 #include <ATen/Parallel.h>
 
+#include <cstdint>
 #include <cstring>
 #include <map>
 #include <mutex>
@@ -9,6 +10,7 @@
 
 #include "format/input_error.h"
 #include "gru_inference.h"
+#include "vector_clones.h"
 
 #ifdef MM_HAVE_ONEDNN
 #include <omp.h>
@@ -17,6 +19,15 @@
 #endif
 
 namespace mm {
+
+namespace {
+
+// A tensor's in-place change count. Tensors made inside c10::InferenceMode
+// (a model loaded there) keep none: they cannot be trained, so their packs
+// stay current (-1 for them, which never changes).
+int64_t version_of(const at::Tensor& t) { return t.is_inference() ? -1 : t._version(); }
+
+}  // namespace
 
 #ifdef MM_HAVE_ONEDNN
 
@@ -45,14 +56,25 @@ std::vector<uint8_t>& scratch(int which, size_t bytes) {
   return buffer;
 }
 
+// fp32 to bf16, rounded to nearest even (a NaN stays a quiet NaN), in a loop
+// that vectorises: at batch 1 a oneDNN reorder per product cost more than
+// this conversion.
+MM_VECTOR_CLONES void to_bf16(const float* __restrict from, uint16_t* __restrict to, int64_t count) {
+  for (int64_t i = 0; i < count; ++i) {
+    uint32_t bits;
+    std::memcpy(&bits, &from[i], sizeof bits);
+    const uint32_t rounded = (bits + 0x7FFFu + ((bits >> 16) & 1u)) >> 16;
+    to[i] = static_cast<uint16_t>((bits & 0x7FFFFFFFu) > 0x7F800000u ? (bits >> 16) | 0x40u : rounded);
+  }
+}
+
 }  // namespace
 
 struct PackedLinear::Impl {
-  // The product for one number of rows, and for bf16 the input's conversion.
+  // The product for one number of rows.
   struct Product {
     dnnl::matmul matmul;
     memory::desc src, dst, scratchpad;
-    dnnl::reorder to_bf16;  // empty for fp32
   };
 
   memory::dim n, k;
@@ -85,10 +107,6 @@ struct PackedLinear::Impl {
       p->src = pd.src_desc();
       p->dst = pd.dst_desc();
       p->scratchpad = pd.scratchpad_desc();
-      if (type == Type::bf16) {
-        p->to_bf16 = dnnl::reorder(memory(memory::desc({rows, k}, Type::f32, Tag::ab), cpu_engine(), nullptr),
-                                   memory(p->src, cpu_engine(), nullptr));
-      }
       slot = std::move(p);
     }
     return slot;
@@ -100,8 +118,8 @@ PackedLinear::PackedLinear(const at::Tensor& weight, const at::Tensor& bias, Pre
       precision_(precision),
       weight_(weight),
       bias_(bias),
-      weight_version_(weight._version()),
-      bias_version_(bias._version()) {
+      weight_version_(version_of(weight)),
+      bias_version_(version_of(bias)) {
   if (!precision_available(precision)) {
     throw InputError(std::string("precision: ") + precision_name(precision) + " is not available on this CPU");
   }
@@ -145,12 +163,13 @@ void PackedLinear::apply(const at::Tensor& input, at::Tensor& out) const {
   const auto product = impl_->product(rows);
   const auto& engine = cpu_engine();
   thread_local dnnl::stream stream(cpu_engine());
-  memory src(memory::desc({rows, impl_->k}, Type::f32, Tag::ab), engine, input.data_ptr<float>());
-  if (product->to_bf16) {
-    memory converted(product->src, engine, scratch(1, product->src.get_size()).data());
-    product->to_bf16.execute(stream, src, converted);
-    src = converted;
+  void* source = input.data_ptr<float>();
+  if (impl_->type == Type::bf16) {
+    auto& converted = scratch(1, product->src.get_size());
+    to_bf16(input.data_ptr<float>(), reinterpret_cast<uint16_t*>(converted.data()), rows * impl_->k);
+    source = converted.data();
   }
+  memory src(product->src, engine, source);
   memory dst(product->dst, engine, out.data_ptr<float>());
   memory scratchpad(product->scratchpad, engine, scratch(0, product->scratchpad.get_size()).data());
   product->matmul.execute(stream, {{DNNL_ARG_SRC, src},
@@ -169,8 +188,8 @@ PackedLinear::PackedLinear(const at::Tensor& weight, const at::Tensor& bias, Pre
     : precision_(precision),
       weight_(weight),
       bias_(bias),
-      weight_version_(weight._version()),
-      bias_version_(bias._version()) {
+      weight_version_(version_of(weight)),
+      bias_version_(version_of(bias)) {
   if (!precision_available(precision)) {
     throw InputError(std::string("precision: ") + precision_name(precision) +
                      " is not available in this build (it needs oneDNN)");
@@ -184,7 +203,7 @@ void PackedLinear::apply(const at::Tensor& input, at::Tensor& out) const { affin
 PackedLinear::~PackedLinear() = default;
 
 bool PackedLinear::current() const {
-  return weight_._version() == weight_version_ && bias_._version() == bias_version_;
+  return version_of(weight_) == weight_version_ && version_of(bias_) == bias_version_;
 }
 
 }  // namespace mm

@@ -31,7 +31,8 @@ class PackedLinear {
   void apply(const at::Tensor& input, at::Tensor& out) const;
 
   // False once the weight or bias it was packed from changed in place
-  // (an optimiser step): the packed copy is then stale.
+  // (an optimiser step): the packed copy is then stale. Weights made inside
+  // c10::InferenceMode carry no change count and count as current.
   bool current() const;
 
   Precision precision() const { return precision_; }

@@ -4,6 +4,8 @@
 // outlives the weights it was made from.
 #include <gtest/gtest.h>
 
+#include <c10/core/InferenceMode.h>
+
 #include <cstdio>
 #include <thread>
 #include <vector>
@@ -123,6 +125,24 @@ TEST(PackedInference, Fp32PacksEncodeAndDecodeAsThePlainPaths) {
   EXPECT_LT(max_relative(model.decode(code, DecoderKind::kVelocity), velocity), 1e-5);
   model.train(true);  // training is about to change the weights: the packs go
   EXPECT_FALSE(model.inference_precision().has_value());
+}
+
+// A model loaded inside c10::InferenceMode (as the tool's commands load
+// theirs) holds inference tensors, which keep no change count: it packs
+// and answers as one loaded outside.
+TEST(PackedInference, AModelLoadedInsideInferenceModePacksAndDecodes) {
+  MM_REQUIRE_H36M();
+  test::ScratchDir dir;
+  small_model().save(dir.path().string());
+  const MotionManifold outside = MotionManifold::load(dir.path().string());
+  c10::InferenceMode inference;
+  const MotionManifold inside = MotionManifold::load(dir.path().string());
+  ASSERT_EQ(inside.inference_precision(), outside.inference_precision());
+  const auto code = at::randn({2, 64});
+  EXPECT_LT(max_relative(inside.decode(code, DecoderKind::kRotation), outside.decode(code, DecoderKind::kRotation)),
+            1e-6);
+  const auto clips = at::randn({2, 30, 51});
+  EXPECT_LT(max_relative(inside.encode(clips), outside.encode(clips)), 1e-6);
 }
 
 TEST(PackedInference, WeightsChangedInPlaceAreUsedAsTheyAreNow) {
