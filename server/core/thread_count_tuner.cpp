@@ -13,7 +13,8 @@ constexpr double kNewestWeight = 0.3;
 ThreadCountTuner::ThreadCountTuner(int most_threads, int explore_every)
     : most_threads_(most_threads < 1 ? 1 : most_threads),
       explore_every_(explore_every < 2 ? 2 : explore_every),
-      latest_(most_threads_) {}
+      latest_(most_threads_),
+      previous_threads_(most_threads_) {}
 
 int ThreadCountTuner::chosen(const Timings& timings) const {
   if (timings.samples[1] == 0) return most_threads_;
@@ -25,8 +26,10 @@ int ThreadCountTuner::threads_for(const std::string& kind) {
   Timings& timings = kinds_[kind];
   int threads = chosen(timings);
   // The first batches of a kind measure the machine's default; then every
-  // explore_every-th tries the other count, so a change of load is noticed.
-  const bool explore = timings.samples[0] > 0 && ++timings.batches % explore_every_ == 0;
+  // explore_every-th pair tries the other count, so a change of load is
+  // noticed (a pair: its first batch pays for the switch and is not timed).
+  const int phase = timings.samples[0] > 0 ? ++timings.batches % explore_every_ : -1;
+  const bool explore = phase == 0 || phase == 1;
   if (explore || (timings.samples[0] > 1 && timings.samples[1] == 0)) threads = threads == 1 ? most_threads_ : 1;
   if (!explore) latest_ = chosen(timings);
   return threads;
@@ -35,6 +38,15 @@ int ThreadCountTuner::threads_for(const std::string& kind) {
 void ThreadCountTuner::record(const std::string& kind, int threads, double seconds) {
   if (most_threads_ < 2) return;
   Timings& timings = kinds_[kind];
+  // Batches that pay for something else are not timed: a kind's first (its
+  // buffers and caches cold) and one right after the count changed (the
+  // OpenMP team woken or grown). Timed, they made two threads look slower
+  // than one after every switch, and one client stayed on one thread.
+  const bool first_of_kind = !timings.warmed;
+  timings.warmed = true;
+  const bool after_switch = threads != previous_threads_;
+  previous_threads_ = threads;
+  if (first_of_kind || after_switch) return;
   const int slot = threads == 1 ? 1 : 0;
   timings.seconds[slot] = timings.samples[slot] == 0
                               ? seconds

@@ -1,8 +1,8 @@
 // The executor's choice of thread count on made-up batch times: all threads
 // kept while they are faster, one thread taken once it is faster (a busy
 // neighbour), the other count tried again now and then so that the choice
-// follows the load back, kinds of batch timed apart, and a fixed count when
-// there is nothing to choose.
+// follows the load back, kinds of batch timed apart, warm-up and switch
+// costs not counted, and a fixed count when there is nothing to choose.
 #include <gtest/gtest.h>
 
 #include "core/thread_count_tuner.h"
@@ -27,7 +27,7 @@ TEST(ThreadCountTuner, KeepsAllThreadsWhileTheyAreFasterTryingOneRarely) {
   ThreadCountTuner tuner(2, 24);
   const int with_one = run(tuner, "decode 32", 240, 0.5, 0.8);
   EXPECT_GE(with_one, 1);   // one was tried
-  EXPECT_LE(with_one, 12);  // rarely: about one batch in 24
+  EXPECT_LE(with_one, 24);  // rarely: a pair of batches in 24
   EXPECT_EQ(tuner.latest_choice(), 2);
 }
 
@@ -57,6 +57,26 @@ TEST(ThreadCountTuner, KindsAreTimedApart) {
     tuner.record("decode 1", threads, threads == 1 ? 0.015 : 0.020);
   }
   EXPECT_GE(ones, 9);
+}
+
+// One client on an idle machine, as measured: two threads decode a clip in
+// 22 ms and one in 38, but a kind's first batch takes 120 ms and a batch
+// right after the count changed 30 ms more. Timing those made two threads
+// look slower after every switch, and the tuner stayed on one.
+TEST(ThreadCountTuner, BatchesThatPayForAWarmUpOrASwitchDoNotDecide) {
+  ThreadCountTuner tuner(2, 24);
+  int previous = 0, with_one = 0;
+  for (int i = 0; i < 240; ++i) {
+    const int threads = tuner.threads_for("decode 1");
+    double seconds = threads == 1 ? 0.038 : 0.022;
+    if (i == 0) seconds = 0.120;
+    if (previous != 0 && threads != previous) seconds += 0.030;
+    with_one += threads == 1;
+    tuner.record("decode 1", threads, seconds);
+    previous = threads;
+  }
+  EXPECT_EQ(tuner.latest_choice(), 2);
+  EXPECT_LE(with_one, 24);  // the first try and the tries of pairs, about one batch in 12
 }
 
 TEST(ThreadCountTuner, OneCpuLeavesNothingToChoose) {
