@@ -59,6 +59,8 @@ def row(label, decoder, e_r, e_p, e_z, spread=None):
 
 def load(args):
     for arg in args:
+        if "=" not in arg:
+            sys.exit(f"results_table.py: expected NAME=evaluation.json, found {arg!r} (--help for the usage)")
         name, path = arg.split("=", 1)
         with open(path) as f:
             yield name, json.load(f)
@@ -134,6 +136,9 @@ def prior(models):
 
 def main(args):
     table = "paper"
+    if not args or args[0] in ("-h", "--help"):
+        print(__doc__)
+        return
     if args and args[0] == "--table":
         table, args = args[1], args[2:]
     models = list(load(args))
