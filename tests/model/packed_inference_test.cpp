@@ -185,7 +185,7 @@ TEST(PackedInference, Bf16ReconstructsRealClipsAsFp32Does) {
   const double apart_mm = (model.positions_mm(bf16) - model.positions_mm(fp32)).norm(2, -1).mean().item<double>();
   std::printf("bf16 against fp32: pose error %.4f against %.4f; joints %.2f mm apart on average\n", pose_error(bf16),
               pose_error(fp32), apart_mm);
-  EXPECT_LT(apart_mm, 2.0);  // measured 0.50 mm
+  EXPECT_LT(apart_mm, 2.0);  // measured 0.58 mm (the default model at 36,103 iterations)
   EXPECT_GT(apart_mm, 0.0);
 }
 
