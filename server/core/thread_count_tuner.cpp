@@ -26,10 +26,11 @@ int ThreadCountTuner::threads_for(const std::string& kind) {
   Timings& timings = kinds_[kind];
   int threads = chosen(timings);
   // The first batches of a kind measure the machine's default; then every
-  // explore_every-th pair tries the other count, so a change of load is
-  // noticed (a pair: its first batch pays for the switch and is not timed).
+  // explore_every-th batch tries the other count, so a change of load is
+  // noticed. Trying more threads takes two batches: the first pays for
+  // growing the team and is not timed.
   const int phase = timings.samples[0] > 0 ? ++timings.batches % explore_every_ : -1;
-  const bool explore = phase == 0 || phase == 1;
+  const bool explore = phase == 0 || (phase == 1 && threads == 1);
   if (explore || (timings.samples[0] > 1 && timings.samples[1] == 0)) threads = threads == 1 ? most_threads_ : 1;
   if (!explore) latest_ = chosen(timings);
   return threads;
@@ -39,14 +40,15 @@ void ThreadCountTuner::record(const std::string& kind, int threads, double secon
   if (most_threads_ < 2) return;
   Timings& timings = kinds_[kind];
   // Batches that pay for something else are not timed: a kind's first (its
-  // buffers and caches cold) and one right after the count changed (the
-  // OpenMP team woken or grown). Timed, they made two threads look slower
-  // than one after every switch, and one client stayed on one thread.
+  // buffers and caches cold) and one right after the count grew (the OpenMP
+  // team woken and grown: measured 48 ms for a 20 ms batch-1 decode; going
+  // down to one thread cost nothing measurable). Timed, they made two
+  // threads look slower than one, and one client stayed on one thread.
   const bool first_of_kind = !timings.warmed;
   timings.warmed = true;
-  const bool after_switch = threads != previous_threads_;
+  const bool after_growth = threads > previous_threads_;
   previous_threads_ = threads;
-  if (first_of_kind || after_switch) return;
+  if (first_of_kind || after_growth) return;
   const int slot = threads == 1 ? 1 : 0;
   timings.seconds[slot] = timings.samples[slot] == 0
                               ? seconds

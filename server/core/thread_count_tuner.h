@@ -6,9 +6,9 @@
 // (docs/PERFORMANCE.md, "Under CPU contention"). Nothing the process can
 // read says which case it is in, so it measures: batches of the same kind
 // (operation, model and clip count) are timed with the count chosen so far,
-// and every explore_every-th pair with the other, and the count whose
-// recent batches were faster is kept. A kind's first batch and a batch that
-// pays for a change of count are not timed.
+// and every explore_every-th one with the other, and the count whose recent
+// batches were faster is kept. A kind's first batch and a batch that pays
+// for growing the thread team are not timed.
 //
 // Torch-free. Thread safety: none; the executor's one thread owns it.
 #pragma once
@@ -42,7 +42,7 @@ class ThreadCountTuner {
   int most_threads_;
   int explore_every_;
   int latest_;
-  int previous_threads_;  // the count of the batch recorded last, of any kind
+  int previous_threads_;  // the count of the last batch recorded, of any kind
   std::map<std::string, Timings> kinds_;
 };
 
