@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "core/api_types.h"
+#include "api/api_types.h"
 #include "core/data_root_clips.h"
 #include "core/model_precisions.h"
 #include "core/motion_conversion.h"

@@ -17,7 +17,7 @@
 
 #include "cmu_dance.h"
 #include "command_run.h"
-#include "core/data_root_path.h"
+#include "api/data_root_path.h"
 #include "core/manifold_core.h"
 #include "core/model_store.h"
 #include "core/service_metrics.h"
