@@ -13,7 +13,7 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
-#include "core/data_root_path.h"
+#include "api/data_root_path.h"
 #include "format/bvh_dataset.h"
 #include "format/bvh_file.h"
 #include "format/atomic_file.h"

@@ -12,7 +12,7 @@
 // its own otherwise (layout "expmap-<columns>").
 //
 // Only what lies under the root is read: `..` and links are resolved before
-// the check (data_root_path.h), links to folders are not followed when
+// the check (api/data_root_path.h), links to folders are not followed when
 // listing, and links that leave the root are neither listed nor read.
 //
 // Torch-free. Thread safety: pure functions (they read the file system).
@@ -22,7 +22,7 @@
 
 #include <string>
 
-#include "core/api_types.h"
+#include "api/api_types.h"
 #include "core/motion_conversion.h"
 
 namespace mm::service {
@@ -94,7 +94,7 @@ ClipFile write_data_root_clip(const std::string& data_root, const UploadClipRequ
                               const DataRootQuota& quota);
 
 // Removes a file that UploadClip wrote under the data root (found by the
-// one containment check, data_root_path.h) and returns it as it was listed.
+// one containment check, api/data_root_path.h) and returns it as it was listed.
 // Only uploaded files may be removed: the rest of the root is the operator's
 // (a dataset such as H3.6M, put there by hand), which a caller holding the
 // token may read and train on but not destroy. FAILED_PRECONDITION without

@@ -62,6 +62,24 @@ std::vector<Code> to_codes(const at::Tensor& tensor) {
   return result;
 }
 
+// The request as `translation.read` fills it in for `model` (in `read`), or
+// the request itself when the translation reads nothing.
+template <typename Request, typename Translation>
+const Request& read_for(const LoadedModel& model, const Request& request, const Translation& translation,
+                        std::optional<Request>& read) {
+  if (!translation.read) return request;
+  read.emplace(request);
+  translation.read(*read, model.shape);
+  return *read;
+}
+
+// `reply`, after `translation.write` has taken it for `model`.
+template <typename Reply, typename Translation>
+Reply written(const LoadedModel& model, Reply reply, const Translation& translation) {
+  if (translation.write) translation.write(reply, model.shape);
+  return reply;
+}
+
 }  // namespace
 
 struct ManifoldCore::State {
@@ -182,14 +200,17 @@ struct ManifoldCore::State {
     return executor.encode(model, {std::move(frames)})[0];
   }
 
+  // The motions of `codes`, and the codes themselves when the reply carries
+  // them (Sample, Interpolate, Analogy: not Decode, whose codes are the
+  // caller's own).
   MotionsReply decode_reply(const std::shared_ptr<const LoadedModel>& model, const at::Tensor& codes,
-                            DecoderKind kind) {
+                            DecoderKind kind, bool with_codes = true) {
     MotionsReply reply;
     reply.answered_by = {model->name, model->version};
     for (const auto& motion : executor.decode(model, codes, kind)) {
       reply.motions.push_back(to_wire_motion(motion, model->shape));
     }
-    reply.codes = to_codes(codes);
+    if (with_codes) reply.codes = to_codes(codes);
     return reply;
   }
 
@@ -295,9 +316,12 @@ void ManifoldCore::start() {
 
 bool ManifoldCore::ready() const { return state_->accepting; }
 
-EncodeReply ManifoldCore::encode(const CallContext& ctx, const EncodeRequest& request) {
+EncodeReply ManifoldCore::encode(const CallContext& ctx, const EncodeRequest& given,
+                                 const ShapedTranslation<EncodeRequest, EncodeReply>& translation) {
   return state_->call("encode", ctx, true, [&] {
-    const auto model = state_->store.get(request.model);
+    const auto model = state_->store.get(given.model);
+    std::optional<EncodeRequest> read;
+    const EncodeRequest& request = read_for(*model, given, translation, read);
     check_count(static_cast<int>(request.motions.size()), 1, state_->config.limits.max_motions, "motions",
                 "max_motions");
     std::vector<MotionFrames> frames;
@@ -307,37 +331,48 @@ EncodeReply ManifoldCore::encode(const CallContext& ctx, const EncodeRequest& re
     EncodeReply reply;
     reply.codes = to_codes(state_->executor.encode(model, std::move(frames)));
     reply.answered_by = {model->name, model->version};
-    return reply;
+    return written(*model, std::move(reply), translation);
   });
 }
 
-MotionsReply ManifoldCore::decode(const CallContext& ctx, const DecodeRequest& request) {
+MotionsReply ManifoldCore::decode(const CallContext& ctx, const DecodeRequest& given,
+                                  const ShapedTranslation<DecodeRequest, MotionsReply>& translation) {
   return state_->call("decode", ctx, true, [&] {
-    const auto model = state_->store.get(request.model);
+    const auto model = state_->store.get(given.model);
+    std::optional<DecodeRequest> read;
+    const DecodeRequest& request = read_for(*model, given, translation, read);
     const DecoderKind kind = state_->decoder_for(*model, request.decoder);
     check_count(static_cast<int>(request.codes.size()), 1, state_->config.limits.max_motions, "codes",
                 "max_motions");
     for (size_t i = 0; i < request.codes.size(); ++i) {
       check_code(request.codes[i], model->shape, "codes[" + std::to_string(i) + "]");
     }
-    auto reply = state_->decode_reply(model, codes_tensor(request.codes, model->shape.latent), kind);
-    reply.codes.clear();  // the caller's own
-    return reply;
+    return written(*model,
+                   state_->decode_reply(model, codes_tensor(request.codes, model->shape.latent), kind,
+                                        /*with_codes=*/false),
+                   translation);
   });
 }
 
-MotionsReply ManifoldCore::sample(const CallContext& ctx, const SampleRequest& request) {
+MotionsReply ManifoldCore::sample(const CallContext& ctx, const SampleRequest& given,
+                                  const ShapedTranslation<SampleRequest, MotionsReply>& translation) {
   return state_->call("sample", ctx, true, [&] {
-    const auto model = state_->store.get(request.model);
+    const auto model = state_->store.get(given.model);
+    std::optional<SampleRequest> read;
+    const SampleRequest& request = read_for(*model, given, translation, read);
     const DecoderKind kind = state_->decoder_for(*model, request.decoder);
     check_count(request.count, 1, state_->config.limits.max_sample_count, "count", "max_sample_count");
-    return state_->decode_reply(model, sample_codes(model->model, request.count, request.seed), kind);
+    return written(*model, state_->decode_reply(model, sample_codes(model->model, request.count, request.seed), kind),
+                   translation);
   });
 }
 
-MotionsReply ManifoldCore::interpolate(const CallContext& ctx, const InterpolateRequest& request) {
+MotionsReply ManifoldCore::interpolate(const CallContext& ctx, const InterpolateRequest& given,
+                                       const ShapedTranslation<InterpolateRequest, MotionsReply>& translation) {
   return state_->call("interpolate", ctx, true, [&] {
-    const auto model = state_->store.get(request.model);
+    const auto model = state_->store.get(given.model);
+    std::optional<InterpolateRequest> read;
+    const InterpolateRequest& request = read_for(*model, given, translation, read);
     const DecoderKind kind = state_->decoder_for(*model, request.decoder);
     check_count(request.steps, 2, state_->config.limits.max_steps, "steps", "max_steps");
     if (request.method != "linear" && request.method != "spherical" && !request.method.empty()) {
@@ -345,25 +380,31 @@ MotionsReply ManifoldCore::interpolate(const CallContext& ctx, const Interpolate
     }
     const auto from = state_->latent_of(model, request.from, "from");
     const auto to = state_->latent_of(model, request.to, "to");
-    return state_->decode_reply(model, interpolate_codes(from, to, request.steps, request.method == "spherical"),
-                                kind);
+    const auto codes = interpolate_codes(from, to, request.steps, request.method == "spherical");
+    return written(*model, state_->decode_reply(model, codes, kind), translation);
   });
 }
 
-MotionsReply ManifoldCore::analogy(const CallContext& ctx, const AnalogyRequest& request) {
+MotionsReply ManifoldCore::analogy(const CallContext& ctx, const AnalogyRequest& given,
+                                   const ShapedTranslation<AnalogyRequest, MotionsReply>& translation) {
   return state_->call("analogy", ctx, true, [&] {
-    const auto model = state_->store.get(request.model);
+    const auto model = state_->store.get(given.model);
+    std::optional<AnalogyRequest> read;
+    const AnalogyRequest& request = read_for(*model, given, translation, read);
     const DecoderKind kind = state_->decoder_for(*model, request.decoder);
     const auto a = state_->latent_of(model, request.a, "a");
     const auto b = state_->latent_of(model, request.b, "b");
     const auto c = state_->latent_of(model, request.c, "c");
-    return state_->decode_reply(model, analogy_code(a, b, c).unsqueeze(0), kind);
+    return written(*model, state_->decode_reply(model, analogy_code(a, b, c).unsqueeze(0), kind), translation);
   });
 }
 
-MotionsReply ManifoldCore::denoise(const CallContext& ctx, const DenoiseRequest& request) {
+MotionsReply ManifoldCore::denoise(const CallContext& ctx, const DenoiseRequest& given,
+                                   const ShapedTranslation<DenoiseRequest, MotionsReply>& translation) {
   return state_->call("denoise", ctx, true, [&] {
-    const auto model = state_->store.get(request.model);
+    const auto model = state_->store.get(given.model);
+    std::optional<DenoiseRequest> read;
+    const DenoiseRequest& request = read_for(*model, given, translation, read);
     const DecoderKind kind = state_->decoder_for(*model, request.decoder);
     check_count(static_cast<int>(request.motions.size()), 1, state_->config.limits.max_motions, "motions",
                 "max_motions");
@@ -390,21 +431,26 @@ MotionsReply ManifoldCore::denoise(const CallContext& ctx, const DenoiseRequest&
     MotionsReply reply;
     reply.answered_by = {model->name, model->version};
     for (const auto& motion : denoised) reply.motions.push_back(to_wire_motion(motion, model->shape));
-    return reply;
+    return written(*model, std::move(reply), translation);
   });
 }
 
-TakeSummaryReply ManifoldCore::run_take(const CallContext& ctx, TakeKind kind, const TakeRequest& request,
-                                        const TakeChunkReader& read, const TakeReplySink& sink) {
+TakeSummaryReply ManifoldCore::run_take(const CallContext& ctx, TakeKind kind, const TakeRequest& given,
+                                        const TakeChunkReader& given_read, const TakeReplySink& sink,
+                                        const TakeTranslation& translation) {
   // Not announced to the executor as inference: a take spends most of its
   // time waiting for its frames, and batches must not wait for it.
   return state_->call(take_kind_name(kind), ctx, [&] {
     const auto slot = state_->admit_take();
-    const auto model = state_->store.get(request.model);
+    const auto model = state_->store.get(given.model);
+    TakeRequest request = given;
+    const TakeChunkReader read = translation.read ? translation.read(request, model->shape) : given_read;
     const DecoderKind decoder = state_->decoder_for(*model, request.decoder);
     if (request.path.empty()) {
-      return run_take_on_model(*model, decoder, kind, request, read, sink, state_->take_runner(),
-                               state_->take_bounds());
+      return written(*model,
+                     run_take_on_model(*model, decoder, kind, request, read, sink, state_->take_runner(),
+                                       state_->take_bounds()),
+                     translation);
     }
     state_->require_clip_reader(ctx);
     auto file = std::make_shared<const TakeFile>(read_take_file(state_->config.data_root, request.path, model->shape,
@@ -412,26 +458,31 @@ TakeSummaryReply ManifoldCore::run_take(const CallContext& ctx, TakeKind kind, c
                                                                 state_->config.max_take_bytes));
     TakeRequest from_file = request;
     from_file.frame_rate = file->frame_rate;
-    return run_take_on_model(*model, decoder, kind, from_file, take_file_reader(file), sink, state_->take_runner(),
-                             state_->take_bounds());
+    return written(*model,
+                   run_take_on_model(*model, decoder, kind, from_file, take_file_reader(file), sink,
+                                     state_->take_runner(), state_->take_bounds()),
+                   translation);
   });
 }
 
-TakeSummaryReply ManifoldCore::decode_track(const CallContext& ctx, const DecodeTrackRequest& request,
-                                            const TakeReplySink& sink) {
+TakeSummaryReply ManifoldCore::decode_track(
+    const CallContext& ctx, const DecodeTrackRequest& given, const TakeReplySink& sink,
+    const ShapedTranslation<DecodeTrackRequest, TakeSummaryReply>& translation) {
   return state_->call("decode_track", ctx, [&] {
     const auto slot = state_->admit_take();
-    const auto model = state_->store.get(request.model);
+    const auto model = state_->store.get(given.model);
+    std::optional<DecodeTrackRequest> read;
+    const DecodeTrackRequest& request = read_for(*model, given, translation, read);
     const DecoderKind decoder = state_->decoder_for(*model, request.decoder);
-    return decode_track_on_model(*model, decoder, request, sink, state_->take_runner(), state_->take_bounds());
+    return written(*model,
+                   decode_track_on_model(*model, decoder, request, sink, state_->take_runner(), state_->take_bounds()),
+                   translation);
   });
 }
 
 std::vector<ModelInfo> ManifoldCore::list_models(const CallContext& ctx) {
   return state_->call("list_models", ctx, [&] { return state_->store.list(); });
 }
-
-ModelShape ManifoldCore::model_shape(const std::string& name) { return state_->store.get(name)->shape; }
 
 ModelInfo ManifoldCore::describe_model(const CallContext& ctx, const std::string& name) {
   return state_->call("describe_model", ctx, [&] {

@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "core/api_types.h"
+#include "api/api_types.h"
 #include "core/data_root_clips.h"
 #include "core/model_precisions.h"
 #include "core/motion_conversion.h"
@@ -72,6 +72,31 @@ struct CoreConfig {
   size_t max_take_bytes = size_t{512} << 20;  // a take read whole: a REST body, a data-root file
 };
 
+// A frontend's translation that depends on the model answering a call: REST
+// reads application/x-bvh bodies and writes BVH replies in that model's
+// skeleton (rest/bvh_translation.h). An operation given one resolves its
+// model once, inside its call, and hands that model's shape to `read` right
+// after (before it checks the request) and to `write` once the reply is
+// complete. So the model a request is read for is the model that answers it,
+// whatever is activated meanwhile, and what they throw is the call's error:
+// refused while draining, counted in the metrics, mapped as the call's
+// (an InputError becomes INVALID_ARGUMENT). Either may be empty. `read` fills
+// in a copy of the request (its motions); the model it names is already
+// chosen, so changing request.model changes nothing.
+template <typename Request, typename Reply>
+struct ShapedTranslation {
+  std::function<void(Request& request, const ModelShape& shape)> read;
+  std::function<void(const Reply& reply, const ModelShape& shape)> write;
+};
+
+// The same for a take: `read` returns the take's frames read for the model's
+// shape (REST: a body of motion text in its columns or BVH of its skeleton)
+// and may set request.frame_rate (a BVH body's own).
+struct TakeTranslation {
+  std::function<TakeChunkReader(TakeRequest& request, const ModelShape& shape)> read;
+  std::function<void(const TakeSummaryReply& reply, const ModelShape& shape)> write;
+};
+
 class ManifoldCore {
  public:
   // `metrics` and `jobs` outlive the core; `jobs` may be null (no training).
@@ -85,12 +110,20 @@ class ManifoldCore {
   void start();
   bool ready() const;  // a model is loaded and the core accepts calls
 
-  EncodeReply encode(const CallContext& ctx, const EncodeRequest& request);
-  MotionsReply decode(const CallContext& ctx, const DecodeRequest& request);
-  MotionsReply sample(const CallContext& ctx, const SampleRequest& request);
-  MotionsReply interpolate(const CallContext& ctx, const InterpolateRequest& request);
-  MotionsReply analogy(const CallContext& ctx, const AnalogyRequest& request);
-  MotionsReply denoise(const CallContext& ctx, const DenoiseRequest& request);
+  // Each may be given a ShapedTranslation (above): the frontend's reading of
+  // the request and writing of the reply for the model that answers.
+  EncodeReply encode(const CallContext& ctx, const EncodeRequest& request,
+                     const ShapedTranslation<EncodeRequest, EncodeReply>& translation = {});
+  MotionsReply decode(const CallContext& ctx, const DecodeRequest& request,
+                      const ShapedTranslation<DecodeRequest, MotionsReply>& translation = {});
+  MotionsReply sample(const CallContext& ctx, const SampleRequest& request,
+                      const ShapedTranslation<SampleRequest, MotionsReply>& translation = {});
+  MotionsReply interpolate(const CallContext& ctx, const InterpolateRequest& request,
+                           const ShapedTranslation<InterpolateRequest, MotionsReply>& translation = {});
+  MotionsReply analogy(const CallContext& ctx, const AnalogyRequest& request,
+                       const ShapedTranslation<AnalogyRequest, MotionsReply>& translation = {});
+  MotionsReply denoise(const CallContext& ctx, const DenoiseRequest& request,
+                       const ShapedTranslation<DenoiseRequest, MotionsReply>& translation = {});
 
   // Takes (core/take_session.h): the take's frames come from `read`, or
   // from the data-root file request.path (which needs the clip-read
@@ -98,17 +131,16 @@ class ManifoldCore {
   // as Encode. At most --max-take-streams run at once, beyond that
   // RESOURCE_EXHAUSTED (429) naming it; a take longer than
   // --max-take-seconds is refused (413) as its frames arrive. The call is in
-  // flight (drain() waits for it) until it returns.
+  // flight (drain() waits for it) until it returns. With
+  // translation.read the take's frames are those it reads for the model
+  // that answers (a REST body), not `read`'s.
   TakeSummaryReply run_take(const CallContext& ctx, TakeKind kind, const TakeRequest& request,
-                            const TakeChunkReader& read, const TakeReplySink& sink);
+                            const TakeChunkReader& read, const TakeReplySink& sink,
+                            const TakeTranslation& translation = {});
   // A code track decoded into one motion, streamed to `sink` as run_take's.
   TakeSummaryReply decode_track(const CallContext& ctx, const DecodeTrackRequest& request,
-                                const TakeReplySink& sink);
-
-  // The shape of the motions model `name` takes ("" for the active one):
-  // columns, layout and skeleton, for the frontends' BVH translation (REST's
-  // application/x-bvh). ApiError as the operations give for the name.
-  ModelShape model_shape(const std::string& name);
+                                const TakeReplySink& sink,
+                                const ShapedTranslation<DecodeTrackRequest, TakeSummaryReply>& translation = {});
 
   std::vector<ModelInfo> list_models(const CallContext& ctx);
   ModelInfo describe_model(const CallContext& ctx, const std::string& name);

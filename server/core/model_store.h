@@ -18,7 +18,7 @@
 #include <string>
 #include <vector>
 
-#include "core/api_types.h"
+#include "api/api_types.h"
 #include "core/model_precisions.h"
 #include "core/motion_conversion.h"
 #include "motion_manifold.h"

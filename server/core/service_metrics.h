@@ -9,7 +9,7 @@
 #include <memory>
 #include <string>
 
-#include "core/api_types.h"
+#include "api/api_types.h"
 
 namespace mm::service {
 

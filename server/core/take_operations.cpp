@@ -5,7 +5,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "core/data_root_path.h"
+#include "api/data_root_path.h"
 #include "format/input_error.h"
 #include "format/motion_resampling.h"
 

@@ -18,7 +18,7 @@
 #include <string>
 #include <vector>
 
-#include "core/api_types.h"
+#include "api/api_types.h"
 #include "format/motion_text.h"
 #include "format/skeleton.h"
 

@@ -3,7 +3,7 @@
 #include <map>
 #include <mutex>
 
-#include "core/api_types.h"
+#include "api/api_types.h"
 #include "core/caller_identity.h"
 
 namespace mm::service {

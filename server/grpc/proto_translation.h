@@ -1,5 +1,5 @@
 // Translation between the wire messages of motionmanifold.v1 and the core
-// API's plain types (core/api_types.h), one function per message. Fields map
+// API's plain types (api/api_types.h), one function per message. Fields map
 // one to one under the same names; nothing is validated here (the core
 // validates, once for both protocols).
 //
@@ -12,7 +12,7 @@
 // Thread safety: pure functions of their arguments.
 #pragma once
 
-#include "core/api_types.h"
+#include "api/api_types.h"
 #include "core/take_session.h"
 #include "motionmanifold/v1/manifold.pb.h"
 

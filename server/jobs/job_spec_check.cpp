@@ -6,7 +6,7 @@
 #include <nlohmann/json.hpp>
 #include <regex>
 
-#include "core/data_root_path.h"
+#include "api/data_root_path.h"
 #include "format/bvh_dataset.h"
 #include "format/input_error.h"
 #include "format/json_text.h"

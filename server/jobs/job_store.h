@@ -24,7 +24,7 @@
 #include <string>
 #include <vector>
 
-#include "core/api_types.h"
+#include "api/api_types.h"
 #include "jobs/job_record_json.h"
 
 namespace mm::service {

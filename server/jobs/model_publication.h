@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "core/api_types.h"
+#include "api/api_types.h"
 
 namespace mm::service {
 

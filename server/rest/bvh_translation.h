@@ -11,7 +11,7 @@
 
 #include <string>
 
-#include "core/api_types.h"
+#include "api/api_types.h"
 #include "core/motion_conversion.h"
 
 namespace mm::service::rest {

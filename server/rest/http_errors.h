@@ -7,7 +7,7 @@
 
 #include <string>
 
-#include "core/api_types.h"
+#include "api/api_types.h"
 
 namespace mm::service::rest {
 

@@ -1,4 +1,4 @@
-// JSON <-> the core's plain types (core/api_types.h) for the REST frontend.
+// JSON <-> the core's plain types (api/api_types.h) for the REST frontend.
 // Field names are the C++ members' (snake_case), the same as the proto's.
 // Where the C++ type holds JSON text (JobSpec::config_json,
 // ModelInfo::provenance_json / evaluation_json), the REST field carries the
@@ -20,7 +20,7 @@
 #include <string>
 #include <vector>
 
-#include "core/api_types.h"
+#include "api/api_types.h"
 #include "core/take_session.h"
 
 namespace mm::service::rest {

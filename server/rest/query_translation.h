@@ -11,7 +11,7 @@
 #include <map>
 #include <string>
 
-#include "core/api_types.h"
+#include "api/api_types.h"
 #include "core/take_session.h"
 
 namespace mm::service::rest {

@@ -55,14 +55,9 @@ void send_json(httplib::Response& response, int status, const std::string& body)
   response.set_content(body, kJsonType);
 }
 
-// A reply of motions as JSON, or as BVH when the client's Accept names
-// application/x-bvh; BVH holds one motion, so a reply of several is 406.
-void send_motions(httplib::Response& response, const httplib::Request& request, const MotionsReply& reply,
-                  ManifoldCore& core) {
-  if (!rest::names_bvh(request.get_header_value("Accept"))) {
-    response.status = 200;
-    return response.set_content(rest::motions_reply_to_json(reply), kJsonType);
-  }
+// A reply of motions as BVH of the skeleton of the model that answered
+// (`shape`); BVH holds one motion, so a reply of several is 406.
+void send_bvh_motion(httplib::Response& response, const MotionsReply& reply, const ModelShape& shape) {
   if (reply.motions.size() != 1) {
     const ApiError error(ErrorCode::kInvalidArgument, "",
                          "Accept: application/x-bvh holds one motion and this reply has " +
@@ -71,13 +66,42 @@ void send_motions(httplib::Response& response, const httplib::Request& request, 
     return response.set_content(rest::error_body(error), kJsonType);
   }
   response.status = 200;
-  // BVH of the skeleton of the model that answered.
-  response.set_content(rest::motions_reply_to_bvh(reply, core.model_shape(reply.answered_by.model)), rest::kBvhType);
+  response.set_content(rest::motions_reply_to_bvh(reply, shape), rest::kBvhType);
+}
+
+// Answers a call whose reply is motions: JSON, or BVH when the client's
+// Accept names application/x-bvh. BVH is of the model that answers, so it is
+// written inside the call (ManifoldCore's ShapedTranslation), for the model
+// the call chose; JSON is written after it. `call` runs the core's operation
+// with `translation`.
+template <typename Request, typename Call>
+void answer_motions(httplib::Response& response, const httplib::Request& request,
+                    ShapedTranslation<Request, MotionsReply> translation, Call&& call) {
+  if (!rest::names_bvh(request.get_header_value("Accept"))) {
+    const MotionsReply reply = call(translation);
+    response.status = 200;
+    return response.set_content(rest::motions_reply_to_json(reply), kJsonType);
+  }
+  translation.write = [&response](const MotionsReply& reply, const ModelShape& shape) {
+    send_bvh_motion(response, reply, shape);
+  };
+  call(translation);
 }
 
 // An encode or denoise body: JSON, or one BVH motion (Content-Type
 // application/x-bvh; denoise then takes its defaults).
 bool is_bvh_body(const httplib::Request& request) { return rest::names_bvh(request.get_header_value("Content-Type")); }
+
+// A BVH body read as the request's one motion, for the model that answers
+// (inside the call: ManifoldCore's ShapedTranslation).
+template <typename Request, typename Reply>
+ShapedTranslation<Request, Reply> bvh_body_translation(const std::string& body) {
+  ShapedTranslation<Request, Reply> translation;
+  translation.read = [&body](Request& request, const ModelShape& shape) {
+    request.motions.push_back(rest::motion_from_bvh_body(body, shape));
+  };
+  return translation;
+}
 
 void send_error(httplib::Response& response, const ApiError& error) {
   response.status = rest::http_status(error);
@@ -237,27 +261,44 @@ void RestFrontend::State::handle(RouteId route, const httplib::Request& request,
         if (is_bvh_body(request)) {
           EncodeRequest encode;
           encode.model = request.get_param_value("model");
-          encode.motions.push_back(rest::motion_from_bvh_body(body, core.model_shape(encode.model)));
-          return send_json(response, 200, rest::encode_reply_to_json(core.encode(context, encode)));
+          return send_json(response, 200,
+                           rest::encode_reply_to_json(core.encode(
+                               context, encode, bvh_body_translation<EncodeRequest, EncodeReply>(body))));
         }
         return send_json(response, 200,
                          rest::encode_reply_to_json(core.encode(context, rest::encode_request_from_json(body))));
-      case RouteId::kDecode:
-        return send_motions(response, request, core.decode(context, rest::decode_request_from_json(body)), core);
-      case RouteId::kSample:
-        return send_motions(response, request, core.sample(context, rest::sample_request_from_json(body)), core);
-      case RouteId::kInterpolate:
-        return send_motions(response, request, core.interpolate(context, rest::interpolate_request_from_json(body)), core);
-      case RouteId::kAnalogy:
-        return send_motions(response, request, core.analogy(context, rest::analogy_request_from_json(body)), core);
-      case RouteId::kDenoise:
+      case RouteId::kDecode: {
+        const DecodeRequest decode = rest::decode_request_from_json(body);
+        return answer_motions(response, request, ShapedTranslation<DecodeRequest, MotionsReply>(),
+                              [&](const auto& translation) { return core.decode(context, decode, translation); });
+      }
+      case RouteId::kSample: {
+        const SampleRequest sample = rest::sample_request_from_json(body);
+        return answer_motions(response, request, ShapedTranslation<SampleRequest, MotionsReply>(),
+                              [&](const auto& translation) { return core.sample(context, sample, translation); });
+      }
+      case RouteId::kInterpolate: {
+        const InterpolateRequest interpolate = rest::interpolate_request_from_json(body);
+        return answer_motions(
+            response, request, ShapedTranslation<InterpolateRequest, MotionsReply>(),
+            [&](const auto& translation) { return core.interpolate(context, interpolate, translation); });
+      }
+      case RouteId::kAnalogy: {
+        const AnalogyRequest analogy = rest::analogy_request_from_json(body);
+        return answer_motions(response, request, ShapedTranslation<AnalogyRequest, MotionsReply>(),
+                              [&](const auto& translation) { return core.analogy(context, analogy, translation); });
+      }
+      case RouteId::kDenoise: {
         if (is_bvh_body(request)) {
           DenoiseRequest denoise;
           denoise.model = request.get_param_value("model");
-          denoise.motions.push_back(rest::motion_from_bvh_body(body, core.model_shape(denoise.model)));
-          return send_motions(response, request, core.denoise(context, denoise), core);
+          return answer_motions(response, request, bvh_body_translation<DenoiseRequest, MotionsReply>(body),
+                                [&](const auto& translation) { return core.denoise(context, denoise, translation); });
         }
-        return send_motions(response, request, core.denoise(context, rest::denoise_request_from_json(body)), core);
+        const DenoiseRequest denoise = rest::denoise_request_from_json(body);
+        return answer_motions(response, request, ShapedTranslation<DenoiseRequest, MotionsReply>(),
+                              [&](const auto& translation) { return core.denoise(context, denoise, translation); });
+      }
       case RouteId::kEncodeTake:
       case RouteId::kReconstructTake:
       case RouteId::kDenoiseTake:

@@ -87,39 +87,50 @@ TakeKind kind_of(RouteId route) {
 
 void answer_take(ManifoldCore& core, RouteId route, const CallContext& context, const httplib::Request& request,
                  const std::string& body, httplib::Response& response) {
+  // The reply (and a body) are translated inside the core's call, for the
+  // model it chose (ManifoldCore's TakeTranslation): a BVH reply is of that
+  // model's skeleton, a body read in its columns or skeleton.
   GatheredTake take;
+  const auto send = [&](const TakeSummaryReply& summary, const ModelShape& shape) {
+    take.summary = summary;
+    send_frames(take, request, shape, response);
+  };
   if (route == RouteId::kDecodeTrack) {
     const DecodeTrackRequest track = decode_track_request_from_json(body);
-    take.summary = core.decode_track(context, track, gathering_sink(take));
-    return send_frames(take, request, core.model_shape(take.start.answered_by.model), response);
+    ShapedTranslation<DecodeTrackRequest, TakeSummaryReply> translation;
+    translation.write = send;
+    core.decode_track(context, track, gathering_sink(take), translation);
+    return;
   }
   const TakeKind kind = kind_of(route);
   const bool bvh_body = names_bvh(request.get_header_value("Content-Type"));
-  TakeRequest take_request = take_request_from_query(request.params, kind == TakeKind::kDenoise, bvh_body);
-  TakeChunkReader read;
+  const TakeRequest take_request = take_request_from_query(request.params, kind == TakeKind::kDenoise, bvh_body);
+  TakeTranslation translation;
   if (take_request.path.empty()) {
     if (body.empty()) {
       throw ApiError(ErrorCode::kInvalidArgument, "body",
                      "the body is empty, expected the take (motion text, or BVH with Content-Type: "
                      "application/x-bvh) or path=<a file under the data root>");
     }
-    const ModelShape shape = core.model_shape(take_request.model);
-    auto file = std::make_shared<const TakeFile>(
-        bvh_body ? take_from_bvh(body, "request body", "body", shape.skeleton)
-                 : take_from_text(body, "request body", "body", shape.columns, take_request.frame_rate,
-                                  kind == TakeKind::kDenoise));
-    take_request.frame_rate = file->frame_rate;
-    read = take_file_reader(std::move(file));
+    translation.read = [&body, bvh_body, kind](TakeRequest& read_request, const ModelShape& shape) {
+      auto file = std::make_shared<const TakeFile>(
+          bvh_body ? take_from_bvh(body, "request body", "body", shape.skeleton)
+                   : take_from_text(body, "request body", "body", shape.columns, read_request.frame_rate,
+                                    kind == TakeKind::kDenoise));
+      read_request.frame_rate = file->frame_rate;
+      return take_file_reader(std::move(file));
+    };
   } else if (!body.empty()) {
     throw ApiError(ErrorCode::kInvalidArgument, "body",
                    "a take named by path= has an empty body, found " + std::to_string(body.size()) + " bytes");
   }
-  take.summary = core.run_take(context, kind, take_request, read, gathering_sink(take));
   if (kind == TakeKind::kEncode) {
+    take.summary = core.run_take(context, kind, take_request, TakeChunkReader(), gathering_sink(take), translation);
     response.status = 200;
     return response.set_content(code_track_to_json(take), kJsonType);
   }
-  send_frames(take, request, core.model_shape(take.start.answered_by.model), response);
+  translation.write = send;
+  core.run_take(context, kind, take_request, TakeChunkReader(), gathering_sink(take), translation);
 }
 
 }  // namespace mm::service::rest

@@ -17,12 +17,13 @@
 
 #include "cmu_dance.h"
 #include "command_run.h"
-#include "core/data_root_path.h"
+#include "api/data_root_path.h"
 #include "core/manifold_core.h"
 #include "core/model_store.h"
 #include "core/service_metrics.h"
 #include "format/bvh_file.h"
 #include "format/h36m_bvh.h"
+#include "format/input_error.h"
 #include "jobs/job_spec_check.h"
 #include "latent_operations.h"
 #include "test_environment.h"
@@ -399,6 +400,58 @@ TEST_F(CoreTest, AfterDrainCallsAreUnavailable) {
   core_->drain();
   EXPECT_FALSE(core_->ready());
   EXPECT_EQ(error_of([&] { core_->sample(kCall, {"", 1, 0, ""}); }).code(), ErrorCode::kUnavailable);
+}
+
+// A call whose request a frontend reads for the model that answers it
+// (REST's BVH bodies: ShapedTranslation) is a call like every other: an
+// unknown model is NOT_FOUND and, after drain(), UNAVAILABLE, both before the
+// body is read and both counted; a body that does not parse is the call's
+// INVALID_ARGUMENT, counted too; read and write get the shape of the model
+// the call names.
+TEST_F(CoreTest, ACallReadForItsModelIsRefusedAndCountedAsEveryCall) {
+  start();
+  int reads = 0;
+  ShapedTranslation<EncodeRequest, EncodeReply> translation;
+  translation.read = [&](EncodeRequest& request, const ModelShape& shape) {
+    ++reads;
+    EXPECT_EQ(shape.columns, 99);
+    Motion motion;
+    motion.frames = shape.frames;
+    motion.columns = shape.columns;
+    motion.frame_rate = 25;
+    motion.layout = shape.layout;
+    motion.values.assign(static_cast<size_t>(shape.frames * shape.columns), 0.1f);
+    request.motions.push_back(motion);
+  };
+  std::string answered_by;
+  translation.write = [&](const EncodeReply& reply, const ModelShape& shape) {
+    EXPECT_EQ(shape.latent, static_cast<int>(reply.codes.at(0).size()));
+    answered_by = reply.answered_by.model;
+  };
+  EncodeRequest request;
+  request.model = "h36m-dkgm-cpu";
+  const EncodeReply reply = core_->encode(kCall, request, translation);
+  EXPECT_EQ(reply.answered_by.model, "h36m-dkgm-cpu");
+  EXPECT_EQ(answered_by, "h36m-dkgm-cpu");
+  EXPECT_EQ(reads, 1);
+
+  ShapedTranslation<EncodeRequest, EncodeReply> unparsable;
+  unparsable.read = [](EncodeRequest&, const ModelShape&) { throw InputError("request body:3: not a BVH"); };
+  const ApiError bad_body = error_of([&] { core_->encode(kCall, EncodeRequest{}, unparsable); });
+  EXPECT_EQ(bad_body.code(), ErrorCode::kInvalidArgument);
+  EXPECT_STREQ(bad_body.what(), "request body:3: not a BVH");
+
+  request.model = "missing";
+  EXPECT_EQ(error_of([&] { core_->encode(kCall, request, translation); }).code(), ErrorCode::kNotFound);
+  core_->drain();
+  request.model = "";
+  EXPECT_EQ(error_of([&] { core_->encode(kCall, request, translation); }).code(), ErrorCode::kUnavailable);
+  EXPECT_EQ(reads, 1);
+  const std::string text = metrics_.text();
+  for (const std::string code : {"OK", "INVALID_ARGUMENT", "NOT_FOUND", "UNAVAILABLE"}) {
+    const std::string labels = "{code=\"" + code + "\",operation=\"encode\",protocol=\"test\"}";
+    EXPECT_EQ(metric(text, "mm_requests_total" + labels), 1) << code;
+  }
 }
 
 TEST_F(CoreTest, ModelsAreListedAndDescribedWithoutLoadingThem) {

@@ -11,13 +11,16 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "cmu_dance.h"
 #include "command_run.h"
@@ -213,6 +216,129 @@ TEST(SkeletonService, AJobOnABvhFolderPublishesAModelThatSpeaksBvhOfThatSkeleton
   ASSERT_EQ(std::system(command.c_str()), 0) << command;
   std::ifstream in(out);
   expect_cmu_rig(std::string(std::istreambuf_iterator<char>(in), {}), rig);
+}
+
+// The sum of the metric lines `name{...}` holding every one of `labels`.
+double metric_sum(const std::string& text, const std::string& name, const std::vector<std::string>& labels) {
+  double sum = 0;
+  std::istringstream lines(text);
+  std::string line;
+  while (std::getline(lines, line)) {
+    if (line.rfind(name + "{", 0) != 0) continue;
+    bool all = true;
+    for (const auto& label : labels) all = all && line.find(label) != std::string::npos;
+    if (all) sum += std::stod(line.substr(line.rfind(' ') + 1));
+  }
+  return sum;
+}
+
+// BVH requests to the active model while it is switched, over and over,
+// between two models of different rigs (H3.6M's and one trained on the CMU
+// dances): each request is read and answered by one model. A BVH body is
+// either taken by the model of its rig, which answers, or refused by the
+// other model's skeleton as not its own; it is never read for one model and
+// handed to the other (whose core would refuse its columns or layout, or
+// answer for the wrong rig). A take's reply names the model whose columns and
+// layout it has; a BVH reply is one rig's, whole. A BVH request naming an
+// unknown model, or with a body that does not parse, gets the call's error
+// and is counted in the metrics as every call is (the drain: core_tests'
+// ACallReadForItsModelIsRefusedAndCountedAsEveryCall).
+TEST(SkeletonService, BvhRequestsRacingActivationsAreReadAndAnsweredByOneModel) {
+  ScratchDir scratch;
+  ServerProcess server(job_server_args(scratch, dance_data_root(scratch)));
+  Rest rest(server);
+  train_dances_model(rest, server);
+  if (HasFatalFailure()) return;
+  const int port = server.rest_port();
+  const std::string h36m_model = "h36m-dkgm-cpu";
+  rest.post_json("/v1/models/" + h36m_model + ":activate", json::object());
+
+  MotionFrames h36m;
+  h36m.values.assign(150 * kH36mColumns, 0.0f);
+  for (size_t i = 0; i < h36m.values.size(); ++i) h36m.values[i] = 0.05f * static_cast<float>(i % 7);
+  const std::string h36m_bvh = h36m_motion_to_bvh_text(h36m, 25);
+  const std::string dance_bvh = six_seconds("martial/03.bvh");
+  const size_t h36m_joints = parse_bvh_text(h36m_bvh, "h36m.bvh").joints.size();
+  const size_t dance_joints = parse_bvh_text(dance_bvh, "dance.bvh").joints.size();
+  ASSERT_NE(h36m_joints, dance_joints);
+
+  // An encode of `body`: answered by `own` model, or refused as not the
+  // other model's skeleton (`refusal`).
+  const auto check_encode = [&](const std::string& body, const std::string& own, const std::string& refusal) {
+    const test::Reply reply = test::post(port, "/v1/encode", body, {}, "application/x-bvh");
+    if (reply.status == 200) {
+      EXPECT_EQ(json::parse(reply.body)["answered_by"]["model"], own) << reply.body;
+    } else {
+      EXPECT_EQ(reply.status, 400) << reply.body;
+      EXPECT_THAT(reply.body, HasSubstr(refusal));
+    }
+  };
+  std::atomic<bool> requesting{true};
+  std::atomic<int> activations{0};
+  std::thread activator([&] {
+    for (int i = 1; requesting; ++i) {
+      const std::string name = i % 2 == 1 ? "dances" : h36m_model;
+      const test::Reply reply = test::post(port, "/v1/models/" + name + ":activate", std::string("{}"));
+      EXPECT_EQ(reply.status, 200) << reply.body;
+      ++activations;
+    }
+  });
+  std::vector<std::thread> requesters;
+  for (int t = 0; t < 2; ++t) {
+    requesters.emplace_back([&] {
+      for (int round = 0; round < 8; ++round) {
+        check_encode(h36m_bvh, h36m_model, "not the skeleton \\\"dances\\\"");
+        check_encode(dance_bvh, "dances", "not the H3.6M skeleton");
+        // A take of the dance, its reply as JSON: the model it names is the
+        // one whose columns and layout the reply has.
+        const test::Reply take = test::post(port, "/v1/takes:reconstruct", dance_bvh,
+                                            {{"Accept", "application/json"}}, "application/x-bvh");
+        if (take.status == 200) {
+          const json reply = json::parse(take.body);
+          EXPECT_EQ(reply["answered_by"]["model"], "dances");
+          EXPECT_EQ(reply["columns"], 174);
+          EXPECT_EQ(reply["layout"], "expmap-174");
+        } else {
+          EXPECT_EQ(take.status, 400) << take.body;
+          EXPECT_THAT(take.body, HasSubstr("not the H3.6M skeleton"));
+        }
+        // A decode as BVH: one rig's hierarchy, 150 frames.
+        const test::Reply decoded = test::post(port, "/v1/decode", json{{"codes", {std::vector<float>(64, 0.1f)}}}.dump(),
+                                               {{"Accept", "application/x-bvh"}}, "application/json");
+        ASSERT_EQ(decoded.status, 200) << decoded.body;
+        const BvhFile file = parse_bvh_text(decoded.body, "reply.bvh");
+        EXPECT_TRUE(file.joints.size() == h36m_joints || file.joints.size() == dance_joints) << file.joints.size();
+        EXPECT_EQ(file.frame_count(), 150);
+      }
+    });
+  }
+  for (auto& requester : requesters) requester.join();
+  requesting = false;
+  activator.join();
+  EXPECT_GE(activations.load(), 4) << "the activations did not race the requests";
+
+  // An unknown model and a malformed body: the call's error, counted.
+  const std::string before = test::get(port, "/metrics").body;
+  const test::Reply unknown = test::post(port, "/v1/encode?model=nobody", dance_bvh, {}, "application/x-bvh");
+  EXPECT_EQ(unknown.status, 404) << unknown.body;
+  EXPECT_THAT(unknown.body, HasSubstr("NOT_FOUND"));
+  const test::Reply unknown_take =
+      test::post(port, "/v1/takes:reconstruct?model=nobody", dance_bvh, {}, "application/x-bvh");
+  EXPECT_EQ(unknown_take.status, 404) << unknown_take.body;
+  std::string broken = dance_bvh;
+  broken.replace(broken.find("CHANNELS 3"), 10, "CHANNELS 9");
+  const test::Reply malformed = test::post(port, "/v1/encode?model=dances", broken, {}, "application/x-bvh");
+  EXPECT_EQ(malformed.status, 400) << malformed.body;
+  EXPECT_THAT(malformed.body, HasSubstr("request body:9: channel count 9, expected 0 to 6"));
+  const std::string after = test::get(port, "/metrics").body;
+  const auto counted = [&](const std::string& operation, const std::string& code) {
+    const std::vector<std::string> labels{"code=\"" + code + "\"", "operation=\"" + operation + "\"",
+                                          "protocol=\"rest\""};
+    return metric_sum(after, "mm_requests_total", labels) - metric_sum(before, "mm_requests_total", labels);
+  };
+  EXPECT_EQ(counted("encode", "NOT_FOUND"), 1) << after;
+  EXPECT_EQ(counted("reconstruct_take", "NOT_FOUND"), 1) << after;
+  EXPECT_EQ(counted("encode", "INVALID_ARGUMENT"), 1) << after;
 }
 
 // The command-line client with a model of the user's rig: the user's BVH

@@ -26,7 +26,7 @@
 #include <thread>
 #include <vector>
 
-#include "core/api_types.h"
+#include "api/api_types.h"
 #include "core/watch_streams.h"
 #include "motionmanifold/v1/manifold.grpc.pb.h"
 #include "probes/health_probe.grpc.pb.h"

@@ -1,4 +1,4 @@
-#include "core/api_types.h"
+#include "api/api_types.h"
 
 namespace mm::service {
 

@@ -1,9 +1,9 @@
-#include "core/data_root_path.h"
+#include "api/data_root_path.h"
 
 #include <algorithm>
 #include <cstdio>
 
-#include "core/api_types.h"
+#include "api/api_types.h"
 
 namespace mm::service {
 
