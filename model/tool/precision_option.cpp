@@ -7,7 +7,7 @@ namespace mm::tool {
 void add_precision_option(CLI::App* command, std::string& value) {
   command
       ->add_option("--precision", value,
-                   "inference weights: fp32 (as trained) or bf16 (1.4 to 1.9 times as fast where the CPU has bf16 dot "
+                   "inference weights: fp32 (as trained) or bf16 (1.6 to 1.9 times as fast where the CPU has bf16 dot "
                    "products; docs/PERFORMANCE.md gives its accuracy cost)")
       ->check(CLI::IsMember({"fp32", "bf16"}))
       ->capture_default_str();
