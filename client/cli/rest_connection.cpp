@@ -6,6 +6,7 @@
 #include "format/input_error.h"
 #include "server_connection.h"
 #include "server_error.h"
+#include "wire/bearer_token.h"
 #include "wire_json.h"
 
 namespace mm::client {
@@ -115,7 +116,9 @@ class RestConnection : public ServerConnection {
 #ifdef CPPHTTPLIB_OPENSSL_SUPPORT
     if (!options.tls_ca.empty()) client_.set_ca_cert_path(options.tls_ca.c_str());
 #endif
-    if (!options.token.empty()) client_.set_bearer_token_auth(options.token.c_str());
+    if (!options.token.empty()) {
+      client_.set_default_headers({{"Authorization", wire::bearer_authorization(options.token)}});
+    }
   }
 
   v1::EncodeReply encode(const v1::EncodeRequest& r) override {
