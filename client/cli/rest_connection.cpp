@@ -7,6 +7,7 @@
 #include "server_connection.h"
 #include "server_error.h"
 #include "wire/bearer_token.h"
+#include "wire/rest_error.h"
 #include "wire_json.h"
 
 namespace mm::client {
@@ -28,10 +29,8 @@ std::string code_of_http_status(int status) {
 }
 
 ServerError error_of_response(int status, const std::string& body) {
-  const auto parsed = json::parse(body, nullptr, false);
-  if (!parsed.is_discarded() && parsed.is_object() && parsed.contains("error") && parsed["error"].is_object()) {
-    const auto& e = parsed["error"];
-    return ServerError(e.value("code", code_of_http_status(status)), e.value("field", ""), e.value("message", ""));
+  if (const auto error = wire::rest_error_from_body(body, code_of_http_status(status))) {
+    return ServerError(error->code, error->field, error->message);
   }
   return ServerError(code_of_http_status(status), "", "HTTP " + std::to_string(status) + ": " + body);
 }
