@@ -13,6 +13,7 @@
 #include "motionmanifold/v1/manifold.grpc.pb.h"
 #include "server_connection.h"
 #include "server_error.h"
+#include "wire/bearer_token.h"
 
 namespace mm::client {
 namespace {
@@ -256,7 +257,7 @@ class GrpcConnection : public ServerConnection {
       context.set_deadline(std::chrono::system_clock::now() +
                            std::chrono::milliseconds(static_cast<long>(options_.timeout_seconds * 1000)));
     }
-    if (!options_.token.empty()) context.AddMetadata("authorization", "Bearer " + options_.token);
+    if (!options_.token.empty()) context.AddMetadata("authorization", wire::bearer_authorization(options_.token));
   }
 
   static ServerError error_of(const grpc::Status& status, const grpc::ClientContext& context) {

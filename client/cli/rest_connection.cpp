@@ -6,6 +6,8 @@
 #include "format/input_error.h"
 #include "server_connection.h"
 #include "server_error.h"
+#include "wire/bearer_token.h"
+#include "wire/rest_error.h"
 #include "wire_json.h"
 
 namespace mm::client {
@@ -27,10 +29,8 @@ std::string code_of_http_status(int status) {
 }
 
 ServerError error_of_response(int status, const std::string& body) {
-  const auto parsed = json::parse(body, nullptr, false);
-  if (!parsed.is_discarded() && parsed.is_object() && parsed.contains("error") && parsed["error"].is_object()) {
-    const auto& e = parsed["error"];
-    return ServerError(e.value("code", code_of_http_status(status)), e.value("field", ""), e.value("message", ""));
+  if (const auto error = wire::rest_error_from_body(body, code_of_http_status(status))) {
+    return ServerError(error->code, error->field, error->message);
   }
   return ServerError(code_of_http_status(status), "", "HTTP " + std::to_string(status) + ": " + body);
 }
@@ -115,7 +115,9 @@ class RestConnection : public ServerConnection {
 #ifdef CPPHTTPLIB_OPENSSL_SUPPORT
     if (!options.tls_ca.empty()) client_.set_ca_cert_path(options.tls_ca.c_str());
 #endif
-    if (!options.token.empty()) client_.set_bearer_token_auth(options.token.c_str());
+    if (!options.token.empty()) {
+      client_.set_default_headers({{"Authorization", wire::bearer_authorization(options.token)}});
+    }
   }
 
   v1::EncodeReply encode(const v1::EncodeRequest& r) override {

@@ -7,6 +7,7 @@
 #include <random>
 
 #include "motionmanifold/v1/manifold.grpc.pb.h"
+#include "wire/rest_error.h"
 
 namespace mm::client {
 namespace {
@@ -117,8 +118,7 @@ class RestDriver : public CallDriver {
     if (!result) return "CONNECTION:" + httplib::to_string(result.error());
     if (result->status == 200) return "OK";
     std::string code = "HTTP " + std::to_string(result->status);
-    const auto error = nlohmann::json::parse(result->body, nullptr, false);
-    if (!error.is_discarded() && error.contains("error")) code += " " + error["error"].value("code", "");
+    if (const auto error = wire::rest_error_from_body(result->body, "")) code += " " + error->code;
     return code;
   }
 

@@ -1,7 +1,8 @@
 // Who is calling, as both frontends read it from their wire: the bearer
-// token of the Authorization header (one parser, so that gRPC and REST
-// accept and refuse exactly the same headers) and the caller's IP address
-// (calls that change state are taken without a token only from loopback).
+// token of the Authorization header (one parser, wire/bearer_token.h, so
+// that gRPC and REST accept and refuse exactly the same headers as the
+// client writes them) and the caller's IP address (calls that change state
+// are taken without a token only from loopback).
 //
 // Torch-free and wire-free. Thread safety: pure functions.
 #pragma once
@@ -9,23 +10,15 @@
 #include <string>
 #include <vector>
 
+#include "wire/bearer_token.h"
+
 namespace mm::service {
 
-// Longer tokens are refused before they are compared: a token is a secret of
-// a few dozen characters, not a payload.
-constexpr size_t kMaxBearerTokenBytes = 4096;
-
-// What the Authorization headers of a call say. `token` is set when exactly
-// one header holds "Bearer <token>" (the scheme in any case, RFC 7235; spaces
-// and tabs around the token ignored, the token itself visible ASCII);
-// `problem` says why a header that is present is not that (another scheme,
-// no token, two headers, a control character, too long). Neither: no header
-// (a blank one counts as none).
-struct BearerCredentials {
-  std::string token;
-  std::string problem;
-};
-BearerCredentials parse_authorization(const std::vector<std::string>& header_values);
+// The bearer token: parsed by the code the client writes it with
+// (wire/bearer_token.h), so that the two sides cannot drift.
+using ::mm::wire::BearerCredentials;
+using ::mm::wire::kMaxBearerTokenBytes;
+using ::mm::wire::parse_authorization;
 
 // Whether `given` is `expected`, in a time that depends on the length of
 // `given` only, never on how much of it matches.

@@ -1,6 +1,6 @@
 #include "rest/http_errors.h"
 
-#include <nlohmann/json.hpp>
+#include "wire/rest_error.h"
 
 namespace mm::service::rest {
 
@@ -18,10 +18,8 @@ int http_status(const ApiError& error) {
 }
 
 std::string error_body(const std::string& code_name, const std::string& field, const std::string& message) {
-  nlohmann::json body = {{"error", {{"code", code_name}, {"field", field}, {"message", message}}}};
-  // Messages may quote bytes of the request that are not UTF-8; replace them
-  // rather than fail to answer.
-  return body.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  // The body's layout is the client's too: one definition in wire/.
+  return ::mm::wire::rest_error_body({code_name, field, message});
 }
 
 std::string error_body(const ApiError& error) {
