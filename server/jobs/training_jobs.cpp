@@ -1,51 +1,29 @@
+// The queue and its API: submit, get, list, cancel, remove, watch, the
+// worker that claims jobs (leases) and the recovery of staged models.
 #include "jobs/training_jobs.h"
 
-#include <signal.h>
-#include <sys/wait.h>
-
-#include <algorithm>
 #include <chrono>
-#include <condition_variable>
-#include <deque>
 #include <filesystem>
-#include <fstream>
 #include <mutex>
-#include <nlohmann/json.hpp>
 #include <random>
-#include <sstream>
-#include <thread>
 
 #include <spdlog/spdlog.h>
 
-#include "jobs/child_process.h"
 #include "jobs/job_spec_check.h"
 #include "jobs/job_store.h"
 #include "jobs/model_publication.h"
+#include "jobs/training_jobs_state.h"
 
 namespace mm::service {
 namespace {
 
-namespace fs = std::filesystem;
-using Clock = std::chrono::steady_clock;
+using namespace jobs_internal;
 
-// How long a stopped child may take to checkpoint and export after SIGTERM
-// before it is killed; a kill loses at most checkpoint_every iterations.
-constexpr auto kStopGrace = std::chrono::seconds(60);
-// Progress reaches the database at most this often (the last one always).
-constexpr auto kProgressWriteInterval = std::chrono::milliseconds(500);
-// How often the worker and watchers look at their stop conditions.
-constexpr int kPollMilliseconds = 200;
 // How long an idle worker waits before it looks for a job again: one queued
 // by another replica wakes nobody here.
 constexpr auto kClaimPollInterval = std::chrono::seconds(1);
 // A deleted job's folder between its rename and its removal.
 const std::string kDeletedPrefix = ".deleted-";
-// Lines of the child's log kept in a failed job's error.
-constexpr size_t kErrorLogLines = 12;
-
-double unix_now() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-}
 
 // 12 hex digits (48 random bits): short, and safe as a folder name.
 std::string new_job_id() {
@@ -60,94 +38,19 @@ std::string new_job_id() {
   return text;
 }
 
-// The last `count` lines of a log file (a failed child's own explanation).
-std::string last_lines(const fs::path& path, size_t count) {
-  std::ifstream in(path, std::ios::binary);
-  std::deque<std::string> lines;
-  for (std::string line; std::getline(in, line);) {
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    // A redrawn progress line holds \r-separated states; its last is enough.
-    const auto cr = line.rfind('\r');
-    if (cr != std::string::npos) line.erase(0, cr + 1);
-    if (line.empty()) continue;
-    lines.push_back(std::move(line));
-    if (lines.size() > count) lines.pop_front();
-  }
-  std::string text;
-  for (const auto& line : lines) text += line + "\n";
-  return text;
-}
-
-// A progress line of `train --progress-json`; false for any other line.
-bool parse_progress(const std::string& line, JobProgress& progress) {
-  const auto j = nlohmann::json::parse(line, nullptr, false);
-  if (!j.is_object() || !j.contains("iteration") || !j["iteration"].is_number()) return false;
-  progress.iteration = j["iteration"].get<int64_t>();
-  progress.total = j.value("total", progress.total);
-  progress.iterations_per_second = j.value("iterations_per_second", 0.0);
-  progress.eta_seconds = j.value("eta_seconds", 0.0);
-  // A report without losses (a resumed run with nothing left to do) keeps
-  // those of the last iteration that had them.
-  if (j.contains("losses") && j["losses"].is_object() && !j["losses"].empty()) {
-    progress.losses.clear();
-    for (const auto& [name, value] : j["losses"].items()) {
-      progress.losses[name] = value.is_number() ? value.get<double>() : std::numeric_limits<double>::quiet_NaN();
-    }
-  }
-  return true;
-}
-
-// How a child run ended, as the job sees it.
-enum class RunEnd { kSucceeded, kFailed, kCancelled, kStopped };
-
-// How often a runner renews its lease (and so sees a cancel written by
-// another replica): three times a lease, and at least every 2 s.
-Clock::duration lease_renew_interval(double lease_seconds) {
-  return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(std::min(lease_seconds / 3, 2.0)));
-}
-
 }  // namespace
 
-struct TrainingJobs::State {
-  JobsConfig config;
-  std::function<void(const std::string&)> on_published;
-
-  mutable std::mutex mutex;
-  // Notified on every change of a record and on shutdown: wakes the worker
-  // (a job was queued) and the watchers.
-  mutable std::condition_variable changed;
-  std::unique_ptr<JobStore> store;  // guarded by mutex
-  uint64_t version = 0;             // bumped with every change of a record
-  bool started = false;
-  bool stopping = false;
-  std::string running_id;       // the job the worker runs, empty when idle
-  bool cancel_running = false;  // cancel() asked the worker to stop it
-  bool lease_lost = false;      // another replica took the running job over
-  bool publishing = false;      // the running job is past training
-  Clock::time_point deadline;   // the running job's end by config.max_seconds (worker thread only)
-  std::thread worker;
-
-  JobStore& require_store() const {
-    if (!store) throw ApiError(ErrorCode::kUnavailable, "", "training jobs are not started");
-    return *store;
-  }
-  void notify_locked() {
-    ++version;
-    changed.notify_all();
-  }
-  fs::path job_dir(const std::string& id) const { return fs::path(config.state_dir) / "jobs" / id; }
-
-  void worker_loop();
-  RunEnd run_job(JobInfo& job);
-  RunEnd run_child(JobInfo& job, const std::vector<std::string>& argv, const std::string& what);
-  bool finish(JobInfo& job, JobState state, const std::string& error, JobState expected = JobState::kRunning);
-  void recover_staged_publications();
-};
+using namespace jobs_internal;
 
 TrainingJobs::TrainingJobs(JobsConfig config, std::function<void(const std::string&)> on_published)
+    : TrainingJobs(std::move(config), std::move(on_published), JobsTestHooks{}) {}
+
+TrainingJobs::TrainingJobs(JobsConfig config, std::function<void(const std::string&)> on_published,
+                           JobsTestHooks hooks)
     : state_(std::make_unique<State>()) {
   state_->config = std::move(config);
   state_->on_published = std::move(on_published);
+  state_->hooks = std::move(hooks);
 }
 
 TrainingJobs::~TrainingJobs() { shutdown(); }
@@ -276,7 +179,7 @@ JobInfo TrainingJobs::cancel(const std::string& id) {
   // a poll interval, and its end can no longer change the record.
   job->state = JobState::kCancelled;
   job->finished_at = unix_now();
-  if (s.config.before_cancel_commit) s.config.before_cancel_commit(id);
+  if (s.hooks.before_cancel_commit) s.hooks.before_cancel_commit(id);
   if (!store.update_state_if(*job, was)) {
     // Changed since it was read: another replica finished the job.
     const auto current = store.find(id);
@@ -444,271 +347,6 @@ bool TrainingJobs::State::finish(JobInfo& job, JobState state, const std::string
   const bool written = store->update_state_if(job, expected);
   notify_locked();
   return written;
-}
-
-RunEnd TrainingJobs::State::run_job(JobInfo& job) {
-  deadline = config.max_seconds > 0
-                 ? Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(config.max_seconds))
-                 : Clock::time_point::max();
-  const fs::path dir = job_dir(job.id);
-  fs::create_directories(dir);
-  spdlog::info("training job {} started in {}", job.id, dir.string());
-
-  // Checked again: the data may have changed since the submission.
-  JobDataset dataset;
-  try {
-    dataset = resolve_job_dataset(config.data_root, job.spec.dataset);
-  } catch (const ApiError& e) {
-    finish(job, JobState::kFailed, e.what());
-    return RunEnd::kFailed;
-  }
-  std::string dataset_file = dataset.path.string();
-  if (!dataset.prepared) {
-    // The prepared file is written atomically by the tool, so one that
-    // exists is whole: a resumed job does not prepare again.
-    dataset_file = (dir / "dataset.mmd").string();
-    if (!fs::exists(dataset_file) && dataset.bvh_folder) {
-      const RunEnd end = run_child(
-          job, {config.tool_path, "prepare", "--bvh", dataset.path.string(), "--out", dataset_file}, "prepare");
-      if (end != RunEnd::kSucceeded) return end;
-    } else if (!fs::exists(dataset_file)) {
-      std::string train, test;
-      for (const auto& subject : dataset.subjects) {
-        std::string& list = subject == "S5" ? test : train;
-        list += (list.empty() ? "" : ",") + subject;
-      }
-      std::vector<std::string> argv{config.tool_path, "prepare", "--data", dataset.path.string(),
-                                    "--out",          dataset_file, "--train", train};
-      // No S5: no test subjects (the tool's default would be S5).
-      argv.insert(argv.end(), {"--test", test});
-      const RunEnd end = run_child(job, argv, "prepare");
-      if (end != RunEnd::kSucceeded) return end;
-    }
-  }
-
-  const fs::path run = dir / "run";
-  const fs::path checkpoint = run / "checkpoint.pt";
-  std::vector<std::string> argv;
-  if (fs::exists(checkpoint)) {
-    // The trainer's checkpoint holds networks, optimisers, random states and
-    // the iteration: the resumed run continues exactly.
-    argv = {config.tool_path, "resume", checkpoint.string(), "--dataset", dataset_file, "--progress-json"};
-    std::lock_guard<std::mutex> lock(mutex);
-    ++job.resumes;
-    store->update_state_if(job, JobState::kRunning);
-    notify_locked();
-  } else {
-    // No checkpoint yet: start afresh, without a partial log of a run that
-    // died before its first checkpoint.
-    fs::remove_all(run);
-    nlohmann::json training = job.spec.config_json.empty() ? nlohmann::json{{"variant", job.spec.variant}}
-                                                            : nlohmann::json::parse(job.spec.config_json);
-    // The server's resume point after a crash, whatever the configuration says.
-    training["checkpoint_every"] = config.checkpoint_every;
-    const fs::path config_file = dir / "config.json";
-    std::ofstream(config_file, std::ios::binary) << training.dump(2) << "\n";
-    argv = {config.tool_path, "train", "--config", config_file.string(), "--dataset", dataset_file,
-            "--out", run.string(), "--seed", std::to_string(job.spec.seed), "--progress-json"};
-    if (job.spec.iterations > 0) argv.insert(argv.end(), {"--iterations", std::to_string(job.spec.iterations)});
-    if (job.spec.hidden > 0) argv.insert(argv.end(), {"--hidden", std::to_string(job.spec.hidden)});
-    if (job.spec.batch > 0) argv.insert(argv.end(), {"--batch", std::to_string(job.spec.batch)});
-  }
-  const RunEnd end = run_child(job, argv, argv[1]);
-  if (end != RunEnd::kSucceeded) return end;
-
-  {
-    std::lock_guard<std::mutex> lock(mutex);
-    if (cancel_running) return RunEnd::kCancelled;
-    // A cancel written by another replica since the last renewal.
-    if (!store->renew_lease(job.id)) return RunEnd::kCancelled;
-    publishing = true;  // from here on a cancel sent to this replica is refused
-  }
-  const std::string name = job.spec.model_name.empty() ? "job-" + job.id : job.spec.model_name;
-  bool staged = false;
-  try {
-    staged = stage_job_model((run / "model").string(), config.model_store, name, job,
-                             job_model_card(job, unix_now() - job.started_at));
-  } catch (const std::exception& e) {
-    finish(job, JobState::kFailed, std::string("publishing the model failed: ") + e.what());
-    return RunEnd::kFailed;
-  }
-  // The model is in place before the record says succeeded, so that whoever
-  // reads "succeeded" (this replica's watchers, or another's) can use it.
-  // A crash between the two leaves the record running: the job resumes and
-  // finds its model published (stage_job_model returns false).
-  if (staged) {
-    try {
-      commit_staged_model(config.model_store, name, job.id);
-    } catch (const std::exception& e) {
-      discard_staged_model(config.model_store, job.id);
-      finish(job, JobState::kFailed, std::string("publishing the model failed: ") + e.what());
-      return RunEnd::kFailed;
-    }
-  }
-  // The record is the commit point: another replica may have written a
-  // cancel since the renewal above, and a cancelled job keeps no model.
-  if (config.before_publication_commit) config.before_publication_commit(job.id);
-  job.published_model = name;
-  if (!finish(job, JobState::kSucceeded, "")) {
-    job.published_model.clear();
-    withdraw_job_model(config.model_store, name, job.id);
-    spdlog::info("training job {} cancelled by another replica before its model was published", job.id);
-    return RunEnd::kCancelled;
-  }
-  spdlog::info("training job {} succeeded: model {} published", job.id, name);
-  return RunEnd::kSucceeded;
-}
-
-RunEnd TrainingJobs::State::run_child(JobInfo& job, const std::vector<std::string>& argv, const std::string& what) {
-  const fs::path log = job_dir(job.id) / "train.log";
-  {
-    // A shutdown or cancel that came while the previous step (prepare) ended
-    // must not start the next one.
-    std::lock_guard<std::mutex> lock(mutex);
-    if (cancel_running) return RunEnd::kCancelled;
-    if (stopping) {
-      job.state = JobState::kQueued;
-      store->update_state_if(job, JobState::kRunning);
-      notify_locked();
-      return RunEnd::kStopped;
-    }
-  }
-  {
-    std::ofstream(log, std::ios::app) << "== " << what << " (" << std::fixed << unix_now() << ")\n";
-  }
-  ChildProcess child({argv, config.training_threads, log.string(), /*stdout_to_pipe=*/true});
-  spdlog::info("training job {}: {} running as pid {}", job.id, what, child.pid());
-
-  bool signalled = false, killed = false, timed_out = false;
-  Clock::time_point signalled_at, last_write = Clock::now() - kProgressWriteInterval;
-  const auto renew_interval = lease_renew_interval(config.lease_seconds);
-  const auto lease = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(config.lease_seconds));
-  Clock::time_point renewed = Clock::now(), renew_tried = Clock::now();
-  // Renews the lease; a record no longer running here was cancelled (by any
-  // replica) or taken over (this replica was presumed dead): either way the
-  // child stops and the record is left alone.
-  auto renew_lease = [&] {
-    renew_tried = Clock::now();
-    std::lock_guard<std::mutex> lock(mutex);
-    try {
-      if (store->renew_lease(job.id)) {
-        renewed = renew_tried;
-        return;
-      }
-      const auto current = store->find(job.id);
-      if (current && current->state == JobState::kRunning) {
-        lease_lost = true;
-      } else if (!cancel_running) {
-        spdlog::info("training job {} cancelled by another replica", job.id);
-      }
-      cancel_running = true;
-    } catch (const std::exception& e) {
-      spdlog::warn("training job {}: cannot renew its lease: {}", job.id, e.what());
-      // Past the lease another replica may take the job over: stop writing
-      // into its folder.
-      if (Clock::now() - renewed > lease) {
-        lease_lost = true;
-        cancel_running = true;
-      }
-    }
-  };
-  bool unwritten = false;
-  auto write_progress = [&] {
-    std::lock_guard<std::mutex> lock(mutex);
-    store->update_progress(job.id, job.progress);
-    notify_locked();
-    last_write = Clock::now();
-    unwritten = false;
-  };
-  std::vector<std::string> lines;
-  bool open = true;
-  while (open) {
-    lines.clear();
-    open = child.read_lines(kPollMilliseconds, lines);
-    for (const auto& line : lines) {
-      if (parse_progress(line, job.progress)) {
-        unwritten = true;
-      } else {
-        std::ofstream(log, std::ios::app) << line << "\n";  // prepare's summary, say
-      }
-    }
-    if (unwritten && Clock::now() - last_write >= kProgressWriteInterval) write_progress();
-    if (Clock::now() - renew_tried >= renew_interval) renew_lease();
-    bool stop, lost;
-    {
-      std::lock_guard<std::mutex> lock(mutex);
-      stop = stopping || cancel_running;
-      lost = lease_lost;
-    }
-    if (!signalled && Clock::now() >= deadline) {
-      spdlog::warn("training job {}: {} passed the wall-time limit of {} s (--max-job-seconds); stopping it", job.id,
-                   what, config.max_seconds);
-      timed_out = true;
-      stop = true;
-    }
-    if (lost && !killed) {
-      // Another replica resumes from the checkpoint now: a SIGTERM's last
-      // checkpoint would be written under it (even one already signalled).
-      spdlog::warn("training job {}: its lease was lost; killing {}", job.id, what);
-      child.signal(SIGKILL);
-      killed = signalled = true;
-      signalled_at = Clock::now();
-    } else if (stop && !signalled) {
-      child.signal(SIGTERM);  // the tool finishes its iteration, checkpoints, exports, exits 130
-      signalled = true;
-      signalled_at = Clock::now();
-    } else if (signalled && Clock::now() - signalled_at > kStopGrace) {
-      spdlog::warn("training job {}: {} did not stop within {} s of SIGTERM; killing it", job.id, what,
-                   std::chrono::duration_cast<std::chrono::seconds>(kStopGrace).count());
-      child.signal(SIGKILL);
-    }
-  }
-  const int status = child.wait();
-  bool cancelled, stopped, lost;
-  {
-    std::lock_guard<std::mutex> lock(mutex);
-    cancelled = cancel_running;
-    stopped = stopping;
-    lost = lease_lost;
-  }
-  if (lost) {
-    spdlog::warn("training job {}: {} stopped: another replica took the job over ({})", job.id, what,
-                 describe_wait_status(status));
-    return RunEnd::kCancelled;
-  }
-  if (unwritten) write_progress();
-  if (cancelled) {
-    spdlog::info("training job {}: {} stopped after a cancel ({})", job.id, what, describe_wait_status(status));
-    return RunEnd::kCancelled;
-  }
-  if (WIFEXITED(status) && WEXITSTATUS(status) == 0) return RunEnd::kSucceeded;
-  if (timed_out) {
-    // Stopped as a cancel stops it: its checkpoint stays in the job's folder.
-    char limit[32];
-    std::snprintf(limit, sizeof limit, "%g", config.max_seconds);
-    const std::string error = "the job ran for longer than " + std::string(limit) +
-                              " s, the server's limit (--max-job-seconds), and was stopped during " + what +
-                              " at iteration " + std::to_string(job.progress.iteration) + "; its checkpoint, if any, "
-                              "is kept in " + job_dir(job.id).string();
-    spdlog::warn("training job {} failed: {}", job.id, error);
-    finish(job, JobState::kFailed, error);
-    return RunEnd::kFailed;
-  }
-  if (stopped) {
-    // Shut down under it: back to the queue, to resume at the next start.
-    std::lock_guard<std::mutex> lock(mutex);
-    job.state = JobState::kQueued;
-    store->update_state_if(job, JobState::kRunning);
-    notify_locked();
-    spdlog::info("training job {}: {} stopped by shutdown ({}); left queued", job.id, what,
-                 describe_wait_status(status));
-    return RunEnd::kStopped;
-  }
-  const std::string error = "motion-manifold " + what + " " + describe_wait_status(status) +
-                            "; the end of its log (" + log.string() + "):\n" + last_lines(log, kErrorLogLines);
-  spdlog::warn("training job {} failed: {}", job.id, error);
-  finish(job, JobState::kFailed, error);
-  return RunEnd::kFailed;
 }
 
 }  // namespace mm::service

@@ -23,6 +23,12 @@
 // The store gets hidden ".job-<id>.tmp" folders while a model is staged;
 // start() finishes or removes those a crash left behind.
 //
+// Code: this file and training_jobs.cpp are the queue and its API (leases,
+// cancel races); job_run.cpp runs one job (prepare, train, publish);
+// child_supervision.cpp watches its child processes (progress, lease
+// renewal, stop and kill, exit status); training_jobs_state.h is the state
+// the three share.
+//
 // Torch-free: it only starts processes and keeps records.
 // Thread safety: every public method may be called from any thread.
 #pragma once
@@ -35,6 +41,7 @@
 #include <vector>
 
 #include "api/api_types.h"
+#include "jobs/jobs_test_hooks.h"
 
 namespace mm::service {
 
@@ -59,14 +66,6 @@ struct JobsConfig {
   // every lease/3 and at most every 2 s, while the replica lives): the time
   // before another replica takes over the job of one that died.
   double lease_seconds = 30;
-  // Called on the worker thread between putting a finished job's model in
-  // place and committing its record; tests use it to write another
-  // replica's cancel there. Empty in the server.
-  std::function<void(const std::string& job_id)> before_publication_commit;
-  // Called in cancel() between reading the job's record and committing the
-  // cancel; tests use it to finish the job there as another replica would.
-  // Empty in the server.
-  std::function<void(const std::string& job_id)> before_cancel_commit;
 };
 
 class TrainingJobs {
@@ -74,6 +73,8 @@ class TrainingJobs {
   // `on_published(name)` runs on the worker thread after a job published
   // model `name` into the store.
   TrainingJobs(JobsConfig config, std::function<void(const std::string&)> on_published);
+  // The same with hooks a test calls at chosen points (jobs_test_hooks.h).
+  TrainingJobs(JobsConfig config, std::function<void(const std::string&)> on_published, JobsTestHooks hooks);
   ~TrainingJobs();  // shutdown()
   TrainingJobs(const TrainingJobs&) = delete;
   TrainingJobs& operator=(const TrainingJobs&) = delete;

@@ -117,10 +117,13 @@ class TrainingJobsTest : public ::testing::Test {
   }
 
   std::unique_ptr<TrainingJobs> make_jobs(const JobsConfig& config) {
-    auto jobs = std::make_unique<TrainingJobs>(config, [this](const std::string& name) {
-      std::lock_guard<std::mutex> lock(published_mutex_);
-      published_.push_back(name);
-    });
+    auto jobs = std::make_unique<TrainingJobs>(
+        config,
+        [this](const std::string& name) {
+          std::lock_guard<std::mutex> lock(published_mutex_);
+          published_.push_back(name);
+        },
+        hooks_);
     jobs->start();
     return jobs;
   }
@@ -184,6 +187,7 @@ class TrainingJobsTest : public ::testing::Test {
   mm::test::ScratchDir scratch_;
   fs::path data_root_;
   JobsConfig config_;
+  JobsTestHooks hooks_;  // given to every TrainingJobs make_jobs() makes
   std::mutex published_mutex_;
   std::vector<std::string> published_;
 };
@@ -437,7 +441,7 @@ TEST_F(TrainingJobsTest, FailedJobRecordsTheToolsError) {
 // once found no model there).
 TEST_F(TrainingJobsTest, TheModelIsInPlaceBeforeTheRecordSaysSucceeded) {
   bool checked = false;
-  config_.before_publication_commit = [&](const std::string& id) {
+  hooks_.before_publication_commit = [&](const std::string& id) {
     SqliteJobStore other((fs::path(config_.state_dir) / "jobs.sqlite").string());
     EXPECT_EQ(job_state_name(other.find(id)->state), std::string("running"));
     EXPECT_TRUE(fs::is_regular_file(fs::path(config_.model_store) / "in-place" / "manifest.json"));
@@ -459,7 +463,7 @@ TEST_F(TrainingJobsTest, TheModelIsInPlaceBeforeTheRecordSaysSucceeded) {
 // a second connection to the same database, as a replica would).
 TEST_F(TrainingJobsTest, ACancelWrittenBeforeThePublicationIsCommittedWinsAndNoModelAppears) {
   bool cancel_written = false;
-  config_.before_publication_commit = [&](const std::string& id) {
+  hooks_.before_publication_commit = [&](const std::string& id) {
     SqliteJobStore other((fs::path(config_.state_dir) / "jobs.sqlite").string());
     JobInfo record = *other.find(id);
     record.state = JobState::kCancelled;
@@ -484,7 +488,7 @@ TEST_F(TrainingJobsTest, ACancelWrittenBeforeThePublicationIsCommittedWinsAndNoM
 // now has, and that state stays (the cancel never overwrites it).
 TEST_F(TrainingJobsTest, ACancelLosingToAnotherReplicasFinishIsRefusedAndLeavesTheRecord) {
   bool finish_written = false;
-  config_.before_cancel_commit = [&](const std::string& id) {
+  hooks_.before_cancel_commit = [&](const std::string& id) {
     SqliteJobStore other((fs::path(config_.state_dir) / "jobs.sqlite").string());
     JobInfo record = *other.find(id);
     const JobState seen = record.state;

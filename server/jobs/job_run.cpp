@@ -1,0 +1,133 @@
+// The run of one job: its dataset prepared (or used in place), the tool's
+// train (or resume from the job's checkpoint), and the publication of the
+// model it made. Each step's child process is supervised by run_child
+// (child_supervision.cpp).
+#include <filesystem>
+#include <fstream>
+#include <mutex>
+#include <nlohmann/json.hpp>
+
+#include <spdlog/spdlog.h>
+
+#include "jobs/job_spec_check.h"
+#include "jobs/model_publication.h"
+#include "jobs/training_jobs_state.h"
+
+namespace mm::service {
+
+using namespace jobs_internal;
+
+RunEnd TrainingJobs::State::run_job(JobInfo& job) {
+  deadline = config.max_seconds > 0
+                 ? Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(config.max_seconds))
+                 : Clock::time_point::max();
+  const fs::path dir = job_dir(job.id);
+  fs::create_directories(dir);
+  spdlog::info("training job {} started in {}", job.id, dir.string());
+
+  // Checked again: the data may have changed since the submission.
+  JobDataset dataset;
+  try {
+    dataset = resolve_job_dataset(config.data_root, job.spec.dataset);
+  } catch (const ApiError& e) {
+    finish(job, JobState::kFailed, e.what());
+    return RunEnd::kFailed;
+  }
+  std::string dataset_file = dataset.path.string();
+  if (!dataset.prepared) {
+    // The prepared file is written atomically by the tool, so one that
+    // exists is whole: a resumed job does not prepare again.
+    dataset_file = (dir / "dataset.mmd").string();
+    if (!fs::exists(dataset_file) && dataset.bvh_folder) {
+      const RunEnd end = run_child(
+          job, {config.tool_path, "prepare", "--bvh", dataset.path.string(), "--out", dataset_file}, "prepare");
+      if (end != RunEnd::kSucceeded) return end;
+    } else if (!fs::exists(dataset_file)) {
+      std::string train, test;
+      for (const auto& subject : dataset.subjects) {
+        std::string& list = subject == "S5" ? test : train;
+        list += (list.empty() ? "" : ",") + subject;
+      }
+      std::vector<std::string> argv{config.tool_path, "prepare", "--data", dataset.path.string(),
+                                    "--out",          dataset_file, "--train", train};
+      // No S5: no test subjects (the tool's default would be S5).
+      argv.insert(argv.end(), {"--test", test});
+      const RunEnd end = run_child(job, argv, "prepare");
+      if (end != RunEnd::kSucceeded) return end;
+    }
+  }
+
+  const fs::path run = dir / "run";
+  const fs::path checkpoint = run / "checkpoint.pt";
+  std::vector<std::string> argv;
+  if (fs::exists(checkpoint)) {
+    // The trainer's checkpoint holds networks, optimisers, random states and
+    // the iteration: the resumed run continues exactly.
+    argv = {config.tool_path, "resume", checkpoint.string(), "--dataset", dataset_file, "--progress-json"};
+    std::lock_guard<std::mutex> lock(mutex);
+    ++job.resumes;
+    store->update_state_if(job, JobState::kRunning);
+    notify_locked();
+  } else {
+    // No checkpoint yet: start afresh, without a partial log of a run that
+    // died before its first checkpoint.
+    fs::remove_all(run);
+    nlohmann::json training = job.spec.config_json.empty() ? nlohmann::json{{"variant", job.spec.variant}}
+                                                            : nlohmann::json::parse(job.spec.config_json);
+    // The server's resume point after a crash, whatever the configuration says.
+    training["checkpoint_every"] = config.checkpoint_every;
+    const fs::path config_file = dir / "config.json";
+    std::ofstream(config_file, std::ios::binary) << training.dump(2) << "\n";
+    argv = {config.tool_path, "train", "--config", config_file.string(), "--dataset", dataset_file,
+            "--out", run.string(), "--seed", std::to_string(job.spec.seed), "--progress-json"};
+    if (job.spec.iterations > 0) argv.insert(argv.end(), {"--iterations", std::to_string(job.spec.iterations)});
+    if (job.spec.hidden > 0) argv.insert(argv.end(), {"--hidden", std::to_string(job.spec.hidden)});
+    if (job.spec.batch > 0) argv.insert(argv.end(), {"--batch", std::to_string(job.spec.batch)});
+  }
+  const RunEnd end = run_child(job, argv, argv[1]);
+  if (end != RunEnd::kSucceeded) return end;
+
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    if (cancel_running) return RunEnd::kCancelled;
+    // A cancel written by another replica since the last renewal.
+    if (!store->renew_lease(job.id)) return RunEnd::kCancelled;
+    publishing = true;  // from here on a cancel sent to this replica is refused
+  }
+  const std::string name = job.spec.model_name.empty() ? "job-" + job.id : job.spec.model_name;
+  bool staged = false;
+  try {
+    staged = stage_job_model((run / "model").string(), config.model_store, name, job,
+                             job_model_card(job, unix_now() - job.started_at));
+  } catch (const std::exception& e) {
+    finish(job, JobState::kFailed, std::string("publishing the model failed: ") + e.what());
+    return RunEnd::kFailed;
+  }
+  // The model is in place before the record says succeeded, so that whoever
+  // reads "succeeded" (this replica's watchers, or another's) can use it.
+  // A crash between the two leaves the record running: the job resumes and
+  // finds its model published (stage_job_model returns false).
+  if (staged) {
+    try {
+      commit_staged_model(config.model_store, name, job.id);
+    } catch (const std::exception& e) {
+      discard_staged_model(config.model_store, job.id);
+      finish(job, JobState::kFailed, std::string("publishing the model failed: ") + e.what());
+      return RunEnd::kFailed;
+    }
+  }
+  // The record is the commit point: another replica may have written a
+  // cancel since the renewal above, and a cancelled job keeps no model.
+  if (hooks.before_publication_commit) hooks.before_publication_commit(job.id);
+  job.published_model = name;
+  if (!finish(job, JobState::kSucceeded, "")) {
+    job.published_model.clear();
+    withdraw_job_model(config.model_store, name, job.id);
+    spdlog::info("training job {} cancelled by another replica before its model was published", job.id);
+    return RunEnd::kCancelled;
+  }
+  spdlog::info("training job {} succeeded: model {} published", job.id, name);
+  return RunEnd::kSucceeded;
+}
+
+}  // namespace mm::service
