@@ -15,10 +15,11 @@ struct DecoderImpl::Packed {
 };
 
 void DecoderImpl::pack_for_inference(Precision precision) {
-  packed_.reset(new Packed{PackedLinear(from_code_->weight, from_code_->bias, precision),
-                           PackedLinear(cell_->weight_ih, cell_->bias_ih, precision),
+  const Precision outside = outside_recurrence(precision);
+  packed_.reset(new Packed{PackedLinear(from_code_->weight, from_code_->bias, outside),
+                           PackedLinear(cell_->weight_ih, cell_->bias_ih, outside),
                            PackedLinear(cell_->weight_hh, cell_->bias_hh, precision),
-                           PackedLinear(to_pose_->weight, to_pose_->bias, precision)});
+                           PackedLinear(to_pose_->weight, to_pose_->bias, outside)});
 }
 
 DecoderImpl::DecoderImpl(const DecoderShape& shape)

@@ -14,9 +14,9 @@ struct EncoderImpl::Packed {
 
 void EncoderImpl::pack_for_inference(Precision precision) {
   const auto w = weights();
-  packed_.reset(new Packed{PackedLinear(w.weight_ih, w.bias_ih, precision),
+  packed_.reset(new Packed{PackedLinear(w.weight_ih, w.bias_ih, outside_recurrence(precision)),
                            PackedLinear(w.weight_hh, w.bias_hh, precision),
-                           PackedLinear(to_code_->weight, to_code_->bias, precision)});
+                           PackedLinear(to_code_->weight, to_code_->bias, outside_recurrence(precision))});
 }
 
 EncoderImpl::EncoderImpl(int pose_dims, int hidden, int latent)

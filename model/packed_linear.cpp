@@ -2,10 +2,13 @@
 
 #include <ATen/Parallel.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <map>
 #include <mutex>
+#include <unordered_map>
 #include <vector>
 
 #include "format/input_error.h"
@@ -68,6 +71,61 @@ MM_VECTOR_CLONES void to_bf16(const float* __restrict from, uint16_t* __restrict
   }
 }
 
+// int8 products (Precision::kInt8). A row of the input is quantised with its
+// own scale, largest |x| / 127, so the hidden state's 8 bits cover its range
+// at every step; the weights have one scale per output row, applied by the
+// product, and the row's scale and the bias by finish_int8_row.
+constexpr float kInt8Largest = 127.0f;
+
+// The largest |x| of a row as float bits: an integer maximum, so the loop
+// vectorises (a float one does not without fast-math). A NaN or an infinity
+// is at or above 0x7F800000.
+MM_VECTOR_CLONES uint32_t largest_magnitude_bits(const float* __restrict row, int64_t count) {
+  uint32_t largest = 0;
+  for (int64_t i = 0; i < count; ++i) {
+    uint32_t bits;
+    std::memcpy(&bits, &row[i], sizeof bits);
+    largest = std::max(largest, bits & 0x7FFFFFFFu);
+  }
+  return largest;
+}
+
+// x / scale rounded to the nearest integer (|x / scale| <= 127 by the choice
+// of scale); adding 1.5 * 2^23 rounds without a call per element.
+MM_VECTOR_CLONES void quantise_row(const float* __restrict row, int8_t* __restrict to, int64_t count,
+                                   float inverse_scale) {
+  constexpr float kRound = 12582912.0f;
+  for (int64_t i = 0; i < count; ++i) {
+    to[i] = static_cast<int8_t>(static_cast<int32_t>((row[i] * inverse_scale + kRound) - kRound));
+  }
+}
+
+MM_VECTOR_CLONES void finish_int8_row(float* __restrict out, const float* __restrict bias, int64_t count,
+                                      float row_scale) {
+  for (int64_t j = 0; j < count; ++j) out[j] = row_scale * out[j] + bias[j];
+}
+
+// Rows (rows, k) to int8 at `to`, each row's scale into `scales`. A row
+// holding a NaN or an infinity is quantised as zeros with a NaN scale, so
+// its output is NaN as fp32's would be.
+void quantise_rows(const float* input, int64_t rows, int64_t k, int8_t* to, float* scales) {
+  for (int64_t r = 0; r < rows; ++r) {
+    const uint32_t bits = largest_magnitude_bits(input + r * k, k);
+    float largest;
+    std::memcpy(&largest, &bits, sizeof largest);
+    if (bits >= 0x7F800000u) {
+      std::memset(to + r * k, 0, k);
+      scales[r] = std::numeric_limits<float>::quiet_NaN();
+    } else if (bits == 0) {  // all zeros (the encoder's first step)
+      std::memset(to + r * k, 0, k);
+      scales[r] = 0.0f;
+    } else {
+      scales[r] = largest / kInt8Largest;
+      quantise_row(input + r * k, to + r * k, k, kInt8Largest / largest);
+    }
+  }
+}
+
 }  // namespace
 
 struct PackedLinear::Impl {
@@ -79,6 +137,8 @@ struct PackedLinear::Impl {
 
   memory::dim n, k;
   Type type;
+  std::vector<float> weight_scales;  // int8: one per output row
+  std::vector<float> bias_values;    // int8: added after the product
   memory::desc bias_desc, packed_desc;
   memory packed_weight, bias;
   std::mutex products_mutex;
@@ -87,13 +147,18 @@ struct PackedLinear::Impl {
   dnnl::primitive_attr attributes() const {
     dnnl::primitive_attr attr;
     attr.set_scratchpad_mode(dnnl::scratchpad_mode::user);  // per-thread scratch: concurrent calls are safe
+    // The weights' scales are fixed at packing: oneDNN 2.6 runs int8 with
+    // its VNNI kernels only for scales known then (runtime ones fell back
+    // to a kernel 3.5 times slower at batch 1). The input's scale, one per
+    // row and call, is applied after the product.
+    if (type == Type::s8) attr.set_output_scales(1 << 1, weight_scales);
     return attr;
   }
 
   dnnl::matmul::primitive_desc describe(memory::dim rows, const memory::desc& weights) const {
+    const memory::desc src({rows, k}, type, Tag::ab), dst({rows, n}, Type::f32, Tag::ab);
     return dnnl::matmul::primitive_desc(
-        dnnl::matmul::desc(memory::desc({rows, k}, type, Tag::ab), weights, bias_desc,
-                           memory::desc({rows, n}, Type::f32, Tag::ab)),
+        type == Type::s8 ? dnnl::matmul::desc(src, weights, dst) : dnnl::matmul::desc(src, weights, bias_desc, dst),
         attributes(), cpu_engine());
   }
 
@@ -126,12 +191,21 @@ PackedLinear::PackedLinear(const at::Tensor& weight, const at::Tensor& bias, Pre
   auto& m = *impl_;
   m.n = weight.size(0);
   m.k = weight.size(1);
-  m.type = precision == Precision::kBf16 ? Type::bf16 : Type::f32;
+  m.type = precision == Precision::kBf16 ? Type::bf16 : precision == Precision::kInt8 ? Type::s8 : Type::f32;
   m.bias_desc = memory::desc({1, m.n}, Type::f32, Tag::ab);
-  m.packed_desc = m.describe(kPackingRows, memory::desc({m.k, m.n}, m.type, Tag::any)).weights_desc();
   // The weight (N, K) row-major is W^T (K, N) in column-major order: "ba".
-  const auto source = weight.detach().to(at::kFloat).contiguous();
-  memory plain(memory::desc({m.k, m.n}, Type::f32, Tag::ba), cpu_engine(), source.data_ptr<float>());
+  auto source = weight.detach().to(at::kFloat).contiguous();
+  if (m.type == Type::s8) {
+    // Symmetric, one scale per output row: its largest |w| becomes 127.
+    auto scales = source.abs().amax(1).div_(kInt8Largest).clamp_min_(std::numeric_limits<float>::min());
+    source = source.div(scales.unsqueeze(1)).round_().to(at::kChar).contiguous();
+    m.weight_scales.assign(scales.data_ptr<float>(), scales.data_ptr<float>() + m.n);
+    const auto bias_values = bias.detach().to(at::kFloat).contiguous();
+    m.bias_values.assign(bias_values.data_ptr<float>(), bias_values.data_ptr<float>() + m.n);
+  }
+  m.packed_desc = m.describe(kPackingRows, memory::desc({m.k, m.n}, m.type, Tag::any)).weights_desc();
+  memory plain(memory::desc({m.k, m.n}, m.type == Type::s8 ? Type::s8 : Type::f32, Tag::ba), cpu_engine(),
+               source.data_ptr());
   m.packed_weight = memory(m.packed_desc, cpu_engine());
   dnnl::stream stream(cpu_engine());
   {
@@ -163,21 +237,33 @@ void PackedLinear::apply(const at::Tensor& input, at::Tensor& out) const {
   const auto product = impl_->product(rows);
   const auto& engine = cpu_engine();
   thread_local dnnl::stream stream(cpu_engine());
+  const auto& m = *impl_;
   void* source = input.data_ptr<float>();
-  if (impl_->type == Type::bf16) {
+  thread_local std::vector<float> row_scales;
+  if (m.type == Type::bf16) {
     auto& converted = scratch(1, product->src.get_size());
-    to_bf16(input.data_ptr<float>(), reinterpret_cast<uint16_t*>(converted.data()), rows * impl_->k);
+    to_bf16(input.data_ptr<float>(), reinterpret_cast<uint16_t*>(converted.data()), rows * m.k);
     source = converted.data();
+  } else if (m.type == Type::s8) {
+    auto& quantised = scratch(1, product->src.get_size());
+    row_scales.resize(rows);
+    quantise_rows(input.data_ptr<float>(), rows, m.k, reinterpret_cast<int8_t*>(quantised.data()), row_scales.data());
+    source = quantised.data();
   }
   memory src(product->src, engine, source);
   memory dst(product->dst, engine, out.data_ptr<float>());
   memory scratchpad(product->scratchpad, engine, scratch(0, product->scratchpad.get_size()).data());
-  product->matmul.execute(stream, {{DNNL_ARG_SRC, src},
-                                   {DNNL_ARG_WEIGHTS, impl_->packed_weight},
-                                   {DNNL_ARG_BIAS, impl_->bias},
-                                   {DNNL_ARG_DST, dst},
-                                   {DNNL_ARG_SCRATCHPAD, scratchpad}});
+  std::unordered_map<int, memory> arguments{{DNNL_ARG_SRC, src},
+                                            {DNNL_ARG_WEIGHTS, m.packed_weight},
+                                            {DNNL_ARG_DST, dst},
+                                            {DNNL_ARG_SCRATCHPAD, scratchpad}};
+  if (m.type != Type::s8) arguments.emplace(DNNL_ARG_BIAS, m.bias);
+  product->matmul.execute(stream, arguments);
   stream.wait();
+  if (m.type == Type::s8) {
+    float* rows_out = out.data_ptr<float>();
+    for (memory::dim r = 0; r < rows; ++r) finish_int8_row(rows_out + r * m.n, m.bias_values.data(), m.n, row_scales[r]);
+  }
 }
 
 #else  // without oneDNN: LibTorch's products on the source tensors

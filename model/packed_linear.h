@@ -2,8 +2,10 @@
 // the layout and number format the CPU's matrix kernels read fastest
 // (oneDNN's matmul), instead of being repacked by every general matrix
 // product: at batch 30 a GRU step's products spend as long repacking the
-// 12 MB weight as multiplying with it. Without oneDNN at build time it
-// falls back to LibTorch's products, fp32 only.
+// 12 MB weight as multiplying with it. In int8 the weights are quantised
+// with one scale per output row and each input row with its own scale at
+// every call (inference_precision.h). Without oneDNN at build time it falls
+// back to LibTorch's products, fp32 only.
 //
 // Thread safety: apply() may be called concurrently; each call uses its
 // own scratch memory.

@@ -171,8 +171,8 @@ int parse_server_config(int argc, char** argv, ServerConfig& config) {
 
   std::vector<std::string> precisions;
   app.add_option("--precision", precisions,
-                 "inference weights: fp32 (as trained) or bf16 (faster where the CPU has bf16 dot products; "
-                 "docs/PERFORMANCE.md gives its accuracy cost), for every model, or NAME=PRECISION for one "
+                 "inference weights: fp32 (as trained), bf16 or int8 (faster where the CPU has bf16 dot products; "
+                 "docs/PERFORMANCE.md gives their accuracy cost), for every model, or NAME=PRECISION for one "
                  "(repeatable)")
       ->envname("MM_PRECISION");
   app.add_option("--ready-file", config.ready_file,

@@ -116,12 +116,15 @@ void bench_device(const BenchOptions& o, const PreparedDataset& data, c10::Devic
   model.to(device);
   model.train(false);
   // Inference on the CPU: the weights as they are (LibTorch's products),
-  // packed in fp32 (what a loaded model uses), and packed in bf16 where the
-  // CPU has bf16 dot products; one run, one machine, for before and after.
+  // packed in fp32 (what a loaded model uses), and packed in bf16 and int8
+  // where the CPU has bf16 dot products; one run, one machine, for before
+  // and after.
   std::vector<std::pair<std::string, std::optional<Precision>>> settings{{"", std::nullopt}};
   if (device.is_cpu()) {
     settings = {{" (unpacked fp32)", std::nullopt}, {" (packed fp32)", Precision::kFp32}};
-    if (precision_available(Precision::kBf16)) settings.emplace_back(" (packed bf16)", Precision::kBf16);
+    for (const Precision lower : {Precision::kBf16, Precision::kInt8}) {
+      if (precision_available(lower)) settings.emplace_back(std::string(" (packed ") + precision_name(lower) + ")", lower);
+    }
   }
   // Inference is cheap: more repeats for a steadier median.
   const int repeats = std::max(o.iterations, 10);
@@ -146,7 +149,8 @@ void bench_device(const BenchOptions& o, const PreparedDataset& data, c10::Devic
 // input gates, 51 -> 3H; the hidden gates, H -> 3H; the pose, H -> 51) and its
 // element-wise update, timed alone over the 150 steps of a clip, unpacked
 // (LibTorch's products, a scalar-free vectorised update) and packed in each
-// precision. Random weights of the model's shapes.
+// precision (int8 as a model packs it: the hidden gates in int8, the input
+// gates and the pose in bf16). Random weights of the model's shapes.
 void profile_decoder_step(const BenchOptions& o, std::vector<Timing>& out) {
   const int64_t hidden = o.hidden, dims = 51, steps = 150;
   const auto w_input = at::randn({3 * hidden, dims}) * 0.1, b_input = at::randn({3 * hidden});
@@ -154,20 +158,23 @@ void profile_decoder_step(const BenchOptions& o, std::vector<Timing>& out) {
   const auto w_pose = at::randn({dims, hidden}) * 0.03, b_pose = at::randn({dims});
   std::vector<std::pair<std::string, std::optional<Precision>>> settings{{"unpacked fp32", std::nullopt},
                                                                          {"packed fp32", Precision::kFp32}};
-  if (precision_available(Precision::kBf16)) settings.emplace_back("packed bf16", Precision::kBf16);
+  for (const Precision lower : {Precision::kBf16, Precision::kInt8}) {
+    if (precision_available(lower)) settings.emplace_back(std::string("packed ") + precision_name(lower), lower);
+  }
   const int repeats = std::max(o.iterations, 10);
   for (int64_t batch : {1, 30}) {
     auto input = at::randn({batch, dims}), state = at::randn({batch, hidden});
     auto input_gates = at::empty({batch, 3 * hidden}), hidden_gates = at::empty({batch, 3 * hidden});
     auto pose = at::empty({batch, dims});
     for (const auto& [label, precision] : settings) {
-      auto product = [&](const at::Tensor& w, const at::Tensor& b) -> std::function<void(const at::Tensor&, at::Tensor&)> {
+      auto product = [&](const at::Tensor& w, const at::Tensor& b,
+                         bool recurrent) -> std::function<void(const at::Tensor&, at::Tensor&)> {
         if (!precision) return [&w, &b](const at::Tensor& x, at::Tensor& y) { affine_into(y, b, w, x); };
-        auto packed = std::make_shared<PackedLinear>(w, b, *precision);
+        auto packed = std::make_shared<PackedLinear>(w, b, recurrent ? *precision : outside_recurrence(*precision));
         return [packed](const at::Tensor& x, at::Tensor& y) { packed->apply(x, y); };
       };
-      const auto input_product = product(w_input, b_input), hidden_product = product(w_hidden, b_hidden),
-                 pose_product = product(w_pose, b_pose);
+      const auto input_product = product(w_input, b_input, false),
+                 hidden_product = product(w_hidden, b_hidden, true), pose_product = product(w_pose, b_pose, false);
       const std::string suffix = " x150, " + label;
       out.push_back(measure("step: input gates" + suffix, batch, c10::kCPU, repeats, [&] {
         for (int64_t t = 0; t < steps; ++t) input_product(input, input_gates);

@@ -7,9 +7,10 @@ namespace mm::tool {
 void add_precision_option(CLI::App* command, std::string& value) {
   command
       ->add_option("--precision", value,
-                   "inference weights: fp32 (as trained) or bf16 (1.6 to 1.9 times as fast where the CPU has bf16 dot "
-                   "products; docs/PERFORMANCE.md gives its accuracy cost)")
-      ->check(CLI::IsMember({"fp32", "bf16"}))
+                   "inference weights: fp32 (as trained), bf16 (1.6 to 1.9 times as fast where the CPU has bf16 dot "
+                   "products) or int8 (the GRUs' hidden-to-gates weights in 8-bit integers, the rest bf16; "
+                   "faster again at batch 1); docs/PERFORMANCE.md gives their accuracy cost")
+      ->check(CLI::IsMember({"fp32", "bf16", "int8"}))
       ->capture_default_str();
 }
 

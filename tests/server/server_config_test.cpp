@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -78,37 +79,41 @@ std::vector<double> sampled_poses(const ServerProcess& server) {
   return values;
 }
 
-// --precision bf16 packs the default model's weights in bf16 where the CPU
-// has bf16 dot products: the same sample then comes out close to fp32's but
-// not equal; where it has none, the server refuses to start, naming why.
-TEST(ServerConfig, Bf16PrecisionDecodesCloseToFp32OrIsRefusedNamingTheCpu) {
-  if (!cpu_has_bf16_dot_products()) {
-    try {
-      ServerProcess server({"--precision", "bf16"}, std::chrono::seconds(30));
-      ADD_FAILURE() << "the server started in bf16 on a CPU without bf16 dot products";
-    } catch (const std::runtime_error& e) {
-      EXPECT_NE(std::string(e.what()).find("bf16 dot products"), std::string::npos) << e.what();
+// --precision bf16 and int8 pack the default model's weights anew where the
+// CPU has bf16 dot products: the same sample then comes out close to fp32's
+// but not equal; where it has none, the server refuses to start, naming why.
+TEST(ServerConfig, LowerPrecisionsDecodeCloseToFp32OrAreRefusedNamingTheCpu) {
+  for (const std::string precision : {"bf16", "int8"}) {
+    SCOPED_TRACE(precision);
+    if (!cpu_has_bf16_dot_products()) {
+      try {
+        ServerProcess server({"--precision", precision}, std::chrono::seconds(30));
+        ADD_FAILURE() << "the server started in " << precision << " on a CPU without bf16 dot products";
+      } catch (const std::runtime_error& e) {
+        EXPECT_NE(std::string(e.what()).find("bf16 dot products"), std::string::npos) << e.what();
+      }
+      continue;
     }
-    return;
+    std::vector<double> fp32, lower;
+    {
+      ServerProcess server;
+      fp32 = sampled_poses(server);
+    }
+    {
+      ServerProcess server({"--precision", "h36m-dkgm-h100=" + precision});
+      lower = sampled_poses(server);
+    }
+    ASSERT_EQ(fp32.size(), lower.size());
+    ASSERT_FALSE(fp32.empty());
+    double largest = 0, mean = 0;
+    for (size_t i = 0; i < fp32.size(); ++i) {
+      largest = std::max(largest, std::abs(fp32[i] - lower[i]));
+      mean += std::abs(fp32[i] - lower[i]) / static_cast<double>(fp32.size());
+    }
+    std::printf("%s against fp32: %.5f rad apart on average, %.4f at most\n", precision.c_str(), mean, largest);
+    EXPECT_GT(largest, 0.0);  // it is not the fp32 path
+    EXPECT_LT(mean, 0.01);    // radians (exponential-map values)
   }
-  std::vector<double> fp32, bf16;
-  {
-    ServerProcess server;
-    fp32 = sampled_poses(server);
-  }
-  {
-    ServerProcess server({"--precision", "h36m-dkgm-h100=bf16"});
-    bf16 = sampled_poses(server);
-  }
-  ASSERT_EQ(fp32.size(), bf16.size());
-  ASSERT_FALSE(fp32.empty());
-  double largest = 0, mean = 0;
-  for (size_t i = 0; i < fp32.size(); ++i) {
-    largest = std::max(largest, std::abs(fp32[i] - bf16[i]));
-    mean += std::abs(fp32[i] - bf16[i]) / static_cast<double>(fp32.size());
-  }
-  EXPECT_GT(largest, 0.0);  // it is not the fp32 path
-  EXPECT_LT(mean, 0.01);    // radians (exponential-map values)
 }
 
 TEST(ServerConfig, AnUnknownPrecisionStopsTheServerNamingIt) {
