@@ -3,7 +3,8 @@
 # idle machine (docs/PERFORMANCE.md, "Inference at the CPU's limit"): for
 # each, the real server on the shipped default model and motion-manifold-load
 # with 1 and then 32 concurrent gRPC Decode clients. Then the new build again
-# with every --precision in PRECISIONS (default: bf16 where available).
+# with every --precision in PRECISIONS (default: bf16 and int8, each where
+# available). OLD_BUILD "-" measures the new build alone.
 # Prints a Markdown table; the load reports stay in runs/throughput/.
 #   scripts/throughput-compare.sh OLD_BUILD NEW_BUILD [SECONDS=30]
 set -euo pipefail
@@ -34,9 +35,9 @@ measure() {  # label build [server options...]
   wait $pid || true
 }
 
-measure old "$old"
+if [ "$old" != - ]; then measure old "$old"; fi
 measure new-fp32 "$new"
-for precision in ${PRECISIONS:-bf16}; do
+for precision in ${PRECISIONS:-bf16 int8}; do
   measure "new-$precision" "$new" --precision "$precision" || echo "$precision: not measured" >&2
 done
 
