@@ -97,23 +97,26 @@ void read_codes(ObjectReader& reader, const std::string& key, google::protobuf::
   for (size_t i = 0; i < v->size(); ++i) read_floats((*v)[i], index_path(path, i), out->Add()->mutable_values());
 }
 
-// {"motion": {...}} or {"code": [...]}; {} (neither) leaves `out` unset, as
-// the writer found it.
-// `out()` gives the field to fill, set only when there is something to set.
+// {"motion": {...}} or {"code": [...]}; {} (neither) leaves the field unset,
+// as the writer found it. `out()` gives the field to fill.
 template <typename Field>
 void read_motion_or_code(ObjectReader& parent, const std::string& key, Field&& out) {
   const Json* v = parent.find(key);
   if (v == nullptr) return;
   ObjectReader reader(*v, parent.path(key), parent.unknown());
-  const Json* motion = reader.find("motion");
-  const Json* code = reader.find("code");
+  v1::Motion motion;
+  v1::Code code;
+  const Json* motion_value = reader.find("motion");
+  if (motion_value != nullptr) read_motion(*motion_value, reader.path("motion"), reader.unknown(), &motion);
+  const Json* code_value = reader.find("code");
+  if (code_value != nullptr) read_floats(*code_value, reader.path("code"), code.mutable_values());
   reader.finish();
-  if (motion != nullptr && code != nullptr) {
+  if (motion_value != nullptr && code_value != nullptr) {
     // The oneof holds one: refused here, in the core's words.
     throw FieldError(parent.path(key), "expected exactly one of motion or code, found both");
   }
-  if (motion != nullptr) read_motion(*motion, reader.path("motion"), reader.unknown(), out()->mutable_motion());
-  if (code != nullptr) read_floats(*code, reader.path("code"), out()->mutable_code()->mutable_values());
+  if (motion_value != nullptr) out()->mutable_motion()->Swap(&motion);
+  if (code_value != nullptr) out()->mutable_code()->Swap(&code);
 }
 
 void read_answered_by(ObjectReader& parent, v1::AnsweredBy* out) {
