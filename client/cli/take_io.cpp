@@ -170,10 +170,15 @@ void read_code_track(const std::string& path, v1::DecodeTrackRequest& request) {
   if (track.windows().empty()) {
     throw InputError(path + ": windows: expected an array of {\"start_seconds\", \"code\"}, as take encode writes");
   }
+  // What the wire code reads as 0 or empty when left out, a track file
+  // must give: each window's start and code.
   for (int i = 0; i < track.windows_size(); ++i) {
-    if (track.windows(i).code().values().empty()) {
-      throw InputError(path + ": windows[" + std::to_string(i) + "].code: expected an array of numbers");
+    const std::string field = path + ": windows[" + std::to_string(i) + "]";
+    const auto& window = parsed["windows"][static_cast<size_t>(i)];
+    if (!window.contains("start_seconds") || window["start_seconds"].is_null()) {
+      throw InputError(field + ".start_seconds: expected a number of seconds");
     }
+    if (track.windows(i).code().values().empty()) throw InputError(field + ".code: expected an array of numbers");
   }
   request.mutable_windows()->Swap(track.mutable_windows());
 }
