@@ -72,8 +72,6 @@ class ObjectReader {
   const nlohmann::json* find(const std::string& key);
   // The member's path in the body.
   std::string path(const std::string& key) const { return member_path(path_, key); }
-  // Whether the member is there and not null (marks it as read).
-  bool has(const std::string& key) { return find(key) != nullptr; }
 
   std::string string(const std::string& key);
   bool boolean(const std::string& key);
