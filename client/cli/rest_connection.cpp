@@ -186,20 +186,24 @@ class RestConnection : public ServerConnection {
     return reply_message<v1::ReadClipReply>(get("/v1/clips/window" + query));
   }
   v1::ClipFile upload_clip(const v1::UploadClipRequest& request) override {
-    return reply_message<v1::ClipFile>(reply_of(client_.Post(("/v1/clips:upload?path=" + segment(request.path())).c_str(),
-                                                     request.content(), "application/octet-stream")));
+    return reply_message<v1::ClipFile>(reply_of(client_.Post(
+        ("/v1/clips:upload?path=" + segment(request.path())).c_str(), request.content(), "application/octet-stream")));
   }
   v1::ClipFile delete_clip(const std::string& path) override {
     return reply_message<v1::ClipFile>(del("/v1/clips?path=" + segment(path)));
   }
 
-  v1::Job submit_job(const v1::JobSpec& spec) override { return reply_message<v1::Job>(post("/v1/jobs", to_json(spec))); }
+  v1::Job submit_job(const v1::JobSpec& spec) override {
+    return reply_message<v1::Job>(post("/v1/jobs", to_json(spec)));
+  }
   v1::Job get_job(const std::string& id) override { return reply_message<v1::Job>(get("/v1/jobs/" + segment(id))); }
   v1::ListJobsReply list_jobs() override { return reply_message<v1::ListJobsReply>(get("/v1/jobs")); }
   v1::Job cancel_job(const std::string& id) override {
     return reply_message<v1::Job>(post("/v1/jobs/" + segment(id) + ":cancel", json::object()));
   }
-  v1::Job delete_job(const std::string& id) override { return reply_message<v1::Job>(del("/v1/jobs/" + segment(id))); }
+  v1::Job delete_job(const std::string& id) override {
+    return reply_message<v1::Job>(del("/v1/jobs/" + segment(id)));
+  }
 
   void watch_job(const std::string& id, const std::function<void(const v1::Job&)>& on_record) override {
     int status = 0;
@@ -266,8 +270,8 @@ class RestConnection : public ServerConnection {
   v1::TakeSummary decode_track(const v1::DecodeTrackRequest& request, TakeReplySink& sink) override {
     const std::string type = sink.whole_file_type();
     if (type.empty()) return pass_on_take_reply(post("/v1/tracks:decode", to_json(request)), sink);
-    const auto result = client_.Post("/v1/tracks:decode", httplib::Headers{{"Accept", type}}, ::mm::wire::body_text(to_json(request)),
-                                     "application/json");
+    const auto result = client_.Post("/v1/tracks:decode", httplib::Headers{{"Accept", type}},
+                                     ::mm::wire::body_text(to_json(request)), "application/json");
     return pass_on_whole_file(checked(result), 0, sink);
   }
 
