@@ -14,9 +14,12 @@
 #include "motion_io.h"
 #include "server_connection.h"
 #include "server_error.h"
-#include "wire_json.h"
+#include "wire/rest_json.h"
 
 namespace mm::client {
+
+// --json prints a reply as REST answers it, written by the same code.
+using ::mm::wire::to_json;
 namespace {
 
 namespace fs = std::filesystem;
@@ -90,7 +93,7 @@ void add_upload(CLI::App* clips, const ClientSettings& settings, Action& action)
                       clip.path().c_str());
         }
       }
-      if (settings.json) print_json({{"clips", sent}});
+      if (settings.json) print_json(nlohmann::json{{"clips", sent}});
       return kExitSuccess;
     };
   });
@@ -115,7 +118,7 @@ void add_delete(CLI::App* clips, const ClientSettings& settings, Action& action)
                       static_cast<int64_t>(clip.size_bytes()), clip.path().c_str());
         }
       }
-      if (settings.json) print_json({{"clips", removed}});
+      if (settings.json) print_json(nlohmann::json{{"clips", removed}});
       return kExitSuccess;
     };
   });

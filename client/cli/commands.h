@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "connection_options.h"
+#include "wire/rest_json.h"
 
 namespace CLI {
 class App;
@@ -33,5 +34,7 @@ void add_take_commands(CLI::App& app, const ClientSettings& settings, Action& ac
 
 // Prints `value` on standard output, indented, with a newline.
 void print_json(const nlohmann::json& value);
+// A document of motions or codes, its floats in their shortest form.
+void print_json(const ::mm::wire::FloatJson& value);
 
 }  // namespace mm::client

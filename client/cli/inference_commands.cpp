@@ -11,9 +11,12 @@
 #include "motion_io.h"
 #include "server_connection.h"
 #include "server_error.h"
-#include "wire_json.h"
+#include "wire/rest_json.h"
 
 namespace mm::client {
+
+// --json prints a reply as REST answers it, written by the same code.
+using ::mm::wire::to_json;
 namespace {
 
 // The options every inference command has.

@@ -13,9 +13,12 @@
 #include "progress_display.h"
 #include "server_connection.h"
 #include "server_error.h"
-#include "wire_json.h"
+#include "wire/rest_json.h"
 
 namespace mm::client {
+
+// --json prints a reply as REST answers it, written by the same code.
+using ::mm::wire::to_json;
 namespace {
 
 void print_job_line(const v1::Job& job) {

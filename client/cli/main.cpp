@@ -14,6 +14,7 @@
 namespace mm::client {
 
 void print_json(const nlohmann::json& value) { std::cout << value.dump(2) << std::endl; }
+void print_json(const ::mm::wire::FloatJson& value) { std::cout << value.dump(2) << std::endl; }
 
 namespace {
 

@@ -6,9 +6,12 @@
 #include "commands.h"
 #include "server_connection.h"
 #include "server_error.h"
-#include "wire_json.h"
+#include "wire/rest_json.h"
 
 namespace mm::client {
+
+// --json prints a reply as REST answers it, written by the same code.
+using ::mm::wire::to_json;
 namespace {
 
 void print_model_line(const v1::ModelInfo& m) {

@@ -8,10 +8,28 @@
 #include "server_error.h"
 #include "wire/bearer_token.h"
 #include "wire/rest_error.h"
-#include "wire_json.h"
+#include "wire/rest_json.h"
 
 namespace mm::client {
 namespace {
+
+using json = nlohmann::json;
+using ::mm::wire::to_json;
+
+// A reply's body read into its message by the code the server wrote it with
+// (fields this client does not know ignored); a field it cannot read is a
+// reply it cannot use.
+template <typename Message>
+Message reply_message(const json& body) {
+  Message message;
+  try {
+    ::mm::wire::from_json(body, message);
+  } catch (const ::mm::wire::FieldError& error) {
+    throw ServerError("INTERNAL", "", "the server's reply cannot be read: " +
+                                          (error.field().empty() ? "" : error.field() + ": ") + error.what());
+  }
+  return message;
+}
 
 // The gRPC code of an HTTP status, for bodies that are not the server's
 // JSON error (a proxy's page, say).
@@ -79,9 +97,10 @@ std::string take_query(const v1::TakeHeader& h, bool bvh) {
 
 // A take's JSON reply passed on as its gRPC stream would be.
 v1::TakeSummary pass_on_take_reply(const json& body, TakeReplySink& sink) {
-  sink.header(take_header_from_json(body));
-  sink.chunk(take_frames_from_json(body));
-  return take_summary_from_json(body);
+  auto reply = reply_message<::mm::wire::TakeReply>(body);
+  sink.header(reply.header);
+  sink.chunk(reply.frames);
+  return std::move(reply.summary);
 }
 
 // A take's reply as the file the sink asked for, its summary from the
@@ -121,25 +140,25 @@ class RestConnection : public ServerConnection {
   }
 
   v1::EncodeReply encode(const v1::EncodeRequest& r) override {
-    return encode_reply_from_json(post("/v1/encode", to_json(r)));
+    return reply_message<v1::EncodeReply>(post("/v1/encode", to_json(r)));
   }
   v1::MotionsReply decode(const v1::DecodeRequest& r) override {
-    return motions_reply_from_json(post("/v1/decode", to_json(r)));
+    return reply_message<v1::MotionsReply>(post("/v1/decode", to_json(r)));
   }
   v1::MotionsReply sample(const v1::SampleRequest& r) override {
-    return motions_reply_from_json(post("/v1/sample", to_json(r)));
+    return reply_message<v1::MotionsReply>(post("/v1/sample", to_json(r)));
   }
   v1::MotionsReply interpolate(const v1::InterpolateRequest& r) override {
-    return motions_reply_from_json(post("/v1/interpolate", to_json(r)));
+    return reply_message<v1::MotionsReply>(post("/v1/interpolate", to_json(r)));
   }
   v1::MotionsReply analogy(const v1::AnalogyRequest& r) override {
-    return motions_reply_from_json(post("/v1/analogy", to_json(r)));
+    return reply_message<v1::MotionsReply>(post("/v1/analogy", to_json(r)));
   }
   v1::MotionsReply denoise(const v1::DenoiseRequest& r) override {
-    return motions_reply_from_json(post("/v1/denoise", to_json(r)));
+    return reply_message<v1::MotionsReply>(post("/v1/denoise", to_json(r)));
   }
 
-  v1::ListModelsReply list_models() override { return models_from_json(get("/v1/models")); }
+  v1::ListModelsReply list_models() override { return reply_message<v1::ListModelsReply>(get("/v1/models")); }
   v1::ModelInfo describe_model(const std::string& name) override {
     // REST names the model in the path; the active one is found in the list.
     if (name.empty()) {
@@ -147,40 +166,44 @@ class RestConnection : public ServerConnection {
       // read it after its destruction.
       const v1::ListModelsReply listed = list_models();
       for (const auto& model : listed.models()) {
-        if (model.active()) return model_from_json(get("/v1/models/" + segment(model.name())));
+        if (model.active()) return reply_message<v1::ModelInfo>(get("/v1/models/" + segment(model.name())));
       }
       throw ServerError("UNAVAILABLE", "model", "the server has no active model");
     }
-    return model_from_json(get("/v1/models/" + segment(name)));
+    return reply_message<v1::ModelInfo>(get("/v1/models/" + segment(name)));
   }
   v1::ModelInfo activate_model(const std::string& name) override {
-    return model_from_json(post("/v1/models/" + segment(name) + ":activate", json::object()));
+    return reply_message<v1::ModelInfo>(post("/v1/models/" + segment(name) + ":activate", json::object()));
   }
   v1::ModelInfo delete_model(const std::string& name) override {
-    return model_from_json(del("/v1/models/" + segment(name)));
+    return reply_message<v1::ModelInfo>(del("/v1/models/" + segment(name)));
   }
 
-  v1::ListClipsReply list_clips() override { return clips_from_json(get("/v1/clips")); }
+  v1::ListClipsReply list_clips() override { return reply_message<v1::ListClipsReply>(get("/v1/clips")); }
   v1::ReadClipReply read_clip(const v1::ReadClipRequest& request) override {
     std::string query = "?path=" + segment(request.path()) + "&start=" + std::to_string(request.start());
     if (!request.model().empty()) query += "&model=" + segment(request.model());
-    return clip_window_from_json(get("/v1/clips/window" + query));
+    return reply_message<v1::ReadClipReply>(get("/v1/clips/window" + query));
   }
   v1::ClipFile upload_clip(const v1::UploadClipRequest& request) override {
-    return clip_file_from_json(reply_of(client_.Post(("/v1/clips:upload?path=" + segment(request.path())).c_str(),
-                                                     request.content(), "application/octet-stream")));
+    return reply_message<v1::ClipFile>(reply_of(client_.Post(
+        ("/v1/clips:upload?path=" + segment(request.path())).c_str(), request.content(), "application/octet-stream")));
   }
   v1::ClipFile delete_clip(const std::string& path) override {
-    return clip_file_from_json(del("/v1/clips?path=" + segment(path)));
+    return reply_message<v1::ClipFile>(del("/v1/clips?path=" + segment(path)));
   }
 
-  v1::Job submit_job(const v1::JobSpec& spec) override { return job_from_json(post("/v1/jobs", to_json(spec))); }
-  v1::Job get_job(const std::string& id) override { return job_from_json(get("/v1/jobs/" + segment(id))); }
-  v1::ListJobsReply list_jobs() override { return jobs_from_json(get("/v1/jobs")); }
-  v1::Job cancel_job(const std::string& id) override {
-    return job_from_json(post("/v1/jobs/" + segment(id) + ":cancel", json::object()));
+  v1::Job submit_job(const v1::JobSpec& spec) override {
+    return reply_message<v1::Job>(post("/v1/jobs", to_json(spec)));
   }
-  v1::Job delete_job(const std::string& id) override { return job_from_json(del("/v1/jobs/" + segment(id))); }
+  v1::Job get_job(const std::string& id) override { return reply_message<v1::Job>(get("/v1/jobs/" + segment(id))); }
+  v1::ListJobsReply list_jobs() override { return reply_message<v1::ListJobsReply>(get("/v1/jobs")); }
+  v1::Job cancel_job(const std::string& id) override {
+    return reply_message<v1::Job>(post("/v1/jobs/" + segment(id) + ":cancel", json::object()));
+  }
+  v1::Job delete_job(const std::string& id) override {
+    return reply_message<v1::Job>(del("/v1/jobs/" + segment(id)));
+  }
 
   void watch_job(const std::string& id, const std::function<void(const v1::Job&)>& on_record) override {
     int status = 0;
@@ -199,7 +222,7 @@ class RestConnection : public ServerConnection {
         start = end + 1;
       }
       if (data.empty()) return;
-      const v1::Job job = job_from_json(json::parse(data));
+      const v1::Job job = reply_message<v1::Job>(json::parse(data));
       on_record(job);
       if (is_final_state(job.state())) final_seen = true;
     };
@@ -235,7 +258,7 @@ class RestConnection : public ServerConnection {
   }
 
   v1::CodeTrack encode_take(const TakeUpload& take) override {
-    return code_track_from_json(post_take("/v1/takes:encode", take));
+    return reply_message<v1::CodeTrack>(post_take("/v1/takes:encode", take));
   }
   v1::TakeSummary transform_take(TakeOperation operation, const TakeUpload& take, TakeReplySink& sink) override {
     const char* route = operation == TakeOperation::kDenoise ? "/v1/takes:denoise" : "/v1/takes:reconstruct";
@@ -247,8 +270,8 @@ class RestConnection : public ServerConnection {
   v1::TakeSummary decode_track(const v1::DecodeTrackRequest& request, TakeReplySink& sink) override {
     const std::string type = sink.whole_file_type();
     if (type.empty()) return pass_on_take_reply(post("/v1/tracks:decode", to_json(request)), sink);
-    const auto result = client_.Post("/v1/tracks:decode", httplib::Headers{{"Accept", type}}, to_json(request).dump(),
-                                     "application/json");
+    const auto result = client_.Post("/v1/tracks:decode", httplib::Headers{{"Accept", type}},
+                                     ::mm::wire::body_text(to_json(request)), "application/json");
     return pass_on_whole_file(checked(result), 0, sink);
   }
 
@@ -274,8 +297,10 @@ class RestConnection : public ServerConnection {
 
   json get(const std::string& path) { return reply_of(client_.Get(path.c_str())); }
   json del(const std::string& path) { return reply_of(client_.Delete(path.c_str())); }
-  json post(const std::string& path, const json& body) {
-    return reply_of(client_.Post(path.c_str(), body.dump(), "application/json"));
+  // `body`: a request as wire/rest_json.h writes it (json or FloatJson).
+  template <typename Document>
+  json post(const std::string& path, const Document& body) {
+    return reply_of(client_.Post(path.c_str(), ::mm::wire::body_text(body), "application/json"));
   }
 
   // The take's file as the body, as the client read it; the reply as JSON.

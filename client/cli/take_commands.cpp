@@ -12,9 +12,12 @@
 #include "server_connection.h"
 #include "server_error.h"
 #include "take_io.h"
-#include "wire_json.h"
+#include "wire/rest_json.h"
 
 namespace mm::client {
+
+// --json prints a reply as REST answers it, written by the same code.
+using ::mm::wire::to_json;
 namespace {
 
 // The options of every take command.
@@ -60,7 +63,7 @@ struct TakeOptions {
 void report(const ClientSettings& settings, const std::string& out, const TakeFileWriter& written,
             const v1::TakeSummary& summary) {
   if (settings.json) {
-    nlohmann::json reply = to_json(summary);
+    auto reply = to_json(summary);
     reply["frame_rate"] = written.frame_rate();
     reply["frames"] = written.frames();
     print_json(reply);

@@ -13,9 +13,13 @@
 #include "format/input_error.h"
 #include "format/skeleton_bvh.h"
 #include "motion_io.h"
-#include "wire_json.h"
+#include "wire/rest_json.h"
 
 namespace mm::client {
+
+// A code track file is POST /v1/takes:encode's reply, written and read by
+// the same code.
+using ::mm::wire::to_json;
 namespace {
 
 std::string lower_extension(const std::string& path) {
@@ -157,28 +161,26 @@ void write_code_track(const v1::CodeTrack& track, const std::string& path) {
 void read_code_track(const std::string& path, v1::DecodeTrackRequest& request) {
   const auto parsed = nlohmann::json::parse(read_whole_file(path), nullptr, false);
   if (parsed.is_discarded() || !parsed.is_object()) throw InputError(path + ": not a JSON object");
-  if (!parsed.contains("windows") || !parsed["windows"].is_array() || parsed["windows"].empty()) {
+  v1::CodeTrack track;
+  try {
+    ::mm::wire::from_json(parsed, track);
+  } catch (const ::mm::wire::FieldError& error) {
+    throw InputError(path + ": " + error.field() + ": " + error.what());
+  }
+  if (track.windows().empty()) {
     throw InputError(path + ": windows: expected an array of {\"start_seconds\", \"code\"}, as take encode writes");
   }
-  const auto& windows = parsed["windows"];
-  for (size_t i = 0; i < windows.size(); ++i) {
+  // What the wire code reads as 0 or empty when left out, a track file
+  // must give: each window's start and code.
+  for (int i = 0; i < track.windows_size(); ++i) {
     const std::string field = path + ": windows[" + std::to_string(i) + "]";
-    const auto& w = windows[i];
-    if (!w.is_object() || !w.contains("start_seconds") || !w["start_seconds"].is_number()) {
+    const auto& window = parsed["windows"][static_cast<size_t>(i)];
+    if (!window.contains("start_seconds") || window["start_seconds"].is_null()) {
       throw InputError(field + ".start_seconds: expected a number of seconds");
     }
-    if (!w.contains("code") || !w["code"].is_array() || w["code"].empty()) {
-      throw InputError(field + ".code: expected an array of numbers");
-    }
-    v1::TakeWindow* window = request.add_windows();
-    window->set_start_seconds(w["start_seconds"].get<double>());
-    for (size_t k = 0; k < w["code"].size(); ++k) {
-      if (!w["code"][k].is_number()) {
-        throw InputError(field + ".code[" + std::to_string(k) + "]: " + w["code"][k].dump() + " is not a number");
-      }
-      window->mutable_code()->add_values(w["code"][k].get<float>());
-    }
+    if (track.windows(i).code().values().empty()) throw InputError(field + ".code: expected an array of numbers");
   }
+  request.mutable_windows()->Swap(track.mutable_windows());
 }
 
 }  // namespace mm::client

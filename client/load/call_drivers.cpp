@@ -3,11 +3,11 @@
 #include <grpcpp/grpcpp.h>
 #include <httplib.h>
 
-#include <nlohmann/json.hpp>
 #include <random>
 
 #include "motionmanifold/v1/manifold.grpc.pb.h"
 #include "wire/rest_error.h"
+#include "wire/rest_json.h"
 
 namespace mm::client {
 namespace {
@@ -35,33 +35,46 @@ const char* status_name(grpc::StatusCode code) {
   }
 }
 
-class GrpcDriver : public CallDriver {
- public:
-  GrpcDriver(const std::string& target, const LoadCall& call, unsigned seed) : operation_(call.operation) {
-    // A channel of its own (no shared subchannel), as separate clients have.
-    grpc::ChannelArguments arguments;
-    arguments.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);
-    arguments.SetMaxReceiveMessageSize(256 << 20);
-    arguments.SetMaxSendMessageSize(256 << 20);
-    stub_ = v1::MotionManifold::NewStub(grpc::CreateCustomChannel(target, grpc::InsecureChannelCredentials(), arguments));
+// The requests a driver sends, the same for both protocols: `call.batch`
+// codes drawn from N(0, I) by `seed` to decode, as many copies of the
+// call's motion to encode, or a sample of `call.batch` motions.
+struct LoadRequests {
+  v1::DecodeRequest decode;
+  v1::EncodeRequest encode;
+  v1::SampleRequest sample;
+
+  LoadRequests(const LoadCall& call, unsigned seed) {
     std::mt19937 engine(seed);
-    decode_.set_model(call.model);
+    decode.set_model(call.model);
     for (int i = 0; i < call.batch; ++i) {
       const auto code = random_code(engine);
-      decode_.add_codes()->mutable_values()->Add(code.begin(), code.end());
+      decode.add_codes()->mutable_values()->Add(code.begin(), code.end());
     }
-    encode_.set_model(call.model);
+    encode.set_model(call.model);
     for (int i = 0; i < call.batch && !call.motion_values.empty(); ++i) {
-      auto* motion = encode_.add_motions();
+      auto* motion = encode.add_motions();
       motion->set_frames(call.motion_frames);
       motion->set_columns(99);
       motion->set_frame_rate(call.motion_frame_rate);
       motion->set_layout("h36m-expmap-99");
       motion->mutable_values()->Add(call.motion_values.begin(), call.motion_values.end());
     }
-    sample_.set_model(call.model);
-    sample_.set_count(call.batch);
-    sample_.set_seed(seed);
+    sample.set_model(call.model);
+    sample.set_count(call.batch);
+    sample.set_seed(seed);
+  }
+};
+
+class GrpcDriver : public CallDriver {
+ public:
+  GrpcDriver(const std::string& target, const LoadCall& call, unsigned seed)
+      : operation_(call.operation), requests_(call, seed) {
+    // A channel of its own (no shared subchannel), as separate clients have.
+    grpc::ChannelArguments arguments;
+    arguments.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);
+    arguments.SetMaxReceiveMessageSize(256 << 20);
+    arguments.SetMaxSendMessageSize(256 << 20);
+    stub_ = v1::MotionManifold::NewStub(grpc::CreateCustomChannel(target, grpc::InsecureChannelCredentials(), arguments));
   }
 
   std::string call() override {
@@ -69,13 +82,13 @@ class GrpcDriver : public CallDriver {
     grpc::Status status;
     if (operation_ == "decode") {
       v1::MotionsReply reply;
-      status = stub_->Decode(&context, decode_, &reply);
+      status = stub_->Decode(&context, requests_.decode, &reply);
     } else if (operation_ == "encode") {
       v1::EncodeReply reply;
-      status = stub_->Encode(&context, encode_, &reply);
+      status = stub_->Encode(&context, requests_.encode, &reply);
     } else {
       v1::MotionsReply reply;
-      status = stub_->Sample(&context, sample_, &reply);
+      status = stub_->Sample(&context, requests_.sample, &reply);
     }
     return status_name(status.error_code());
   }
@@ -83,9 +96,7 @@ class GrpcDriver : public CallDriver {
  private:
   std::string operation_;
   std::unique_ptr<v1::MotionManifold::Stub> stub_;
-  v1::DecodeRequest decode_;
-  v1::EncodeRequest encode_;
-  v1::SampleRequest sample_;
+  LoadRequests requests_;
 };
 
 class RestDriver : public CallDriver {
@@ -95,22 +106,11 @@ class RestDriver : public CallDriver {
     client_.set_keep_alive(true);
     client_.set_tcp_nodelay(true);  // headers and body go out in two writes
     client_.set_read_timeout(120, 0);
-    std::mt19937 engine(seed);
-    nlohmann::json body = {{"model", call.model}};
-    if (call.operation == "decode") {
-      body["codes"] = nlohmann::json::array();
-      for (int i = 0; i < call.batch; ++i) body["codes"].push_back(random_code(engine));
-    } else if (call.operation == "encode") {
-      const nlohmann::json motion = {{"frames", call.motion_frames}, {"columns", 99},
-                                     {"frame_rate", call.motion_frame_rate}, {"layout", "h36m-expmap-99"},
-                                     {"values", call.motion_values}};
-      body["motions"] = nlohmann::json::array();
-      for (int i = 0; i < call.batch; ++i) body["motions"].push_back(motion);
-    } else {
-      body["count"] = call.batch;
-      body["seed"] = seed;
-    }
-    body_ = body.dump();
+    // The body as the client writes it (wire/rest_json.h).
+    const LoadRequests requests(call, seed);
+    body_ = call.operation == "decode"   ? ::mm::wire::body_text(::mm::wire::to_json(requests.decode))
+            : call.operation == "encode" ? ::mm::wire::body_text(::mm::wire::to_json(requests.encode))
+                                         : ::mm::wire::body_text(::mm::wire::to_json(requests.sample));
   }
 
   std::string call() override {

@@ -9,7 +9,7 @@
 
 #include "core/caller_identity.h"
 #include "grpc/error_status.h"
-#include "grpc/proto_translation.h"
+#include "translation/proto_translation.h"
 
 namespace mm::service::wire {
 

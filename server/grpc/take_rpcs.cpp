@@ -6,7 +6,7 @@
 
 #include "grpc/error_status.h"
 #include "grpc/manifold_service.h"
-#include "grpc/proto_translation.h"
+#include "translation/proto_translation.h"
 
 namespace mm::service::wire {
 namespace {
@@ -123,11 +123,7 @@ grpc::Status ManifoldService::EncodeTake(grpc::ServerContext* context, grpc::Ser
     TakeReplySink sink;
     sink.on_start = [reply](const TakeReplyStart& start) { to_wire(start.answered_by, reply->mutable_answered_by()); };
     sink.on_window = [reply](const TakeWindow& window) { to_wire(window, reply->add_windows()); };
-    const TakeSummaryReply summary = core_.run_take(ctx, TakeKind::kEncode, request, chunk_reader(context, reader), sink);
-    reply->set_frames(summary.input_frames);
-    reply->set_frame_rate(summary.input_frame_rate);
-    reply->set_window_seconds(summary.window_seconds);
-    reply->set_hop_seconds(summary.hop_seconds);
+    to_wire(core_.run_take(ctx, TakeKind::kEncode, request, chunk_reader(context, reader), sink), reply);
   });
 }
 

@@ -1,18 +1,20 @@
-// JSON <-> the core's plain types (api/api_types.h) for the REST frontend.
-// Field names are the C++ members' (snake_case), the same as the proto's.
-// Where the C++ type holds JSON text (JobSpec::config_json,
-// ModelInfo::provenance_json / evaluation_json), the REST field carries the
-// JSON object itself, named without "_json": "config", "provenance",
-// "evaluation".
-//
-// Reading is lenient where proto3's JSON mapping is: an absent or null field
-// takes the C++ default, a float may be the string "NaN", "Infinity" or
-// "-Infinity", and a 64-bit integer (seed, iterations) a decimal string. It is
-// strict about what JSON itself can get wrong: a body that does not parse is
-// INVALID_ARGUMENT with field "" and the parser's position; a field of the
-// wrong JSON type, or an unknown field, is INVALID_ARGUMENT naming the field's
-// path ("motions[0].values[12]", "from.motion.frames") and the expected
-// type. Values in range, lengths, model names: the core's to check.
+// REST JSON bodies <-> the core's plain types (api/api_types.h). The JSON is
+// read into the proto's messages and written from them by the code the
+// client writes and reads it with (wire/rest_json.h), and the messages are
+// translated as gRPC's are (translation/proto_translation.h), so REST and
+// gRPC, server and client, share one definition of every field. What is
+// REST's alone is here:
+// - the body's text parsed: INVALID_ARGUMENT with field "" and the parser's
+//   position for a body that does not parse, or that nests deeper than
+//   kMaxJsonDepth;
+// - a field the wire code cannot read (wrong JSON type, unknown field,
+//   integer out of range) answered as INVALID_ARGUMENT naming its path
+//   ("motions[0].values[12]", "from.motion.frames") and what was expected;
+// - REST tells a field left out from one sent as zero, which proto3 cannot:
+//   a `count`, `steps`, `method`, `iterations` or `variant` that is there
+//   reaches the core as sent (a REST 0 is 0, refused by the core naming it),
+//   one left out or null takes the core's default.
+// Values in range, lengths, model names: the core's to check.
 //
 // Thread safety: pure functions; call from any thread.
 #pragma once
@@ -33,6 +35,8 @@ InterpolateRequest interpolate_request_from_json(const std::string& body);
 AnalogyRequest analogy_request_from_json(const std::string& body);
 DenoiseRequest denoise_request_from_json(const std::string& body);
 JobSpec job_spec_from_json(const std::string& body);
+// {"model", "windows": [{"start_seconds", "code"}], "frame_rate", "frames", "decoder", "blend"}
+DecodeTrackRequest decode_track_request_from_json(const std::string& body);
 // The body of a call that takes no fields (activate, cancel): empty or {}.
 void empty_request_from_json(const std::string& body);
 
@@ -43,25 +47,11 @@ std::string motions_reply_to_json(const MotionsReply& reply);
 std::string model_info_to_json(const ModelInfo& model);
 std::string model_list_to_json(const std::vector<ModelInfo>& models);  // {"models": [...]}
 std::string clip_list_to_json(const ListClipsReply& reply);     // {"clips": [...], "truncated": false}
-std::string clip_file_to_json(const ClipFile& clip);            // {"path", "format", "size_bytes"}
+std::string clip_file_to_json(const ClipFile& clip);            // {"path", "format", "size_bytes", "uploaded"}
 std::string read_clip_reply_to_json(const ReadClipReply& reply);  // {"path", ..., "motion": {...}}
 std::string job_info_to_json(const JobInfo& job);
 std::string job_list_to_json(const std::vector<JobInfo>& jobs);  // {"jobs": [...]}
-
-// Takes (POST /v1/takes:*, /v1/tracks:decode): a reply gathered whole, as
-// REST answers it after the take's end.
-struct GatheredTake {
-  TakeReplyStart start;
-  std::vector<TakeWindow> windows;
-  std::vector<float> values;    // frames x start.columns
-  std::vector<float> error_mm;  // one a frame; empty for a decoded track
-  TakeSummaryReply summary;
-};
-// {"model", "windows": [{"start_seconds", "code"}], "frame_rate", "frames", "decoder", "blend"}
-DecodeTrackRequest decode_track_request_from_json(const std::string& body);
-// {"answered_by", "frames", "frame_rate", "window_seconds", "hop_seconds", "windows": [...]}
-std::string code_track_to_json(const GatheredTake& take);
-// {"answered_by", "frame_rate", "frames", "columns", "layout", "values", "error_mm", "summary", "windows"}
-std::string take_reply_to_json(const GatheredTake& take);
+// The take routes' replies are written in take_routes.cpp, from the
+// messages they gather (wire/rest_json.h's CodeTrack and TakeReply).
 
 }  // namespace mm::service::rest

@@ -12,6 +12,8 @@
 #include "rest/bvh_translation.h"
 #include "rest/json_translation.h"
 #include "rest/query_translation.h"
+#include "translation/proto_translation.h"
+#include "wire/rest_json.h"
 
 namespace mm::service::rest {
 namespace {
@@ -19,16 +21,37 @@ namespace {
 constexpr const char* kJsonType = "application/json";
 constexpr const char* kTextType = "text/plain";
 
+// A take's reply gathered whole, as REST answers it after the take's end:
+// the messages REST's JSON writes (gathered into them, so that the frames
+// are not copied once more to be written), and the core's summary for the
+// X-Take-* headers.
+struct GatheredTake {
+  ::mm::wire::TakeReply reply;
+  TakeSummaryReply summary;
+  int columns = 0;
+};
+
 // The core's reply gathered into `take`.
 TakeReplySink gathering_sink(GatheredTake& take) {
   TakeReplySink sink;
-  sink.on_start = [&take](const TakeReplyStart& start) { take.start = start; };
-  sink.on_window = [&take](const TakeWindow& window) { take.windows.push_back(window); };
+  sink.on_start = [&take](const TakeReplyStart& start) {
+    wire::to_wire(start, &take.reply.header);
+    take.columns = start.columns;
+  };
+  sink.on_window = [&take](const TakeWindow& window) { wire::to_wire(window, take.reply.summary.add_windows()); };
   sink.on_frames = [&take](const float* values, const float* error_mm, int64_t count) {
-    take.values.insert(take.values.end(), values, values + count * take.start.columns);
-    if (error_mm != nullptr) take.error_mm.insert(take.error_mm.end(), error_mm, error_mm + count);
+    take.reply.frames.mutable_values()->Add(values, values + count * take.columns);
+    if (error_mm != nullptr) take.reply.frames.mutable_error_mm()->Add(error_mm, error_mm + count);
   };
   return sink;
+}
+
+// The summary once the core has answered: the reply's frame count and the
+// summary's fields beside the windows gathered.
+void finish(GatheredTake& take, const TakeSummaryReply& summary) {
+  take.summary = summary;
+  wire::to_wire(summary, &take.reply.summary);
+  take.reply.frames.set_frames(take.columns > 0 ? take.reply.frames.values_size() / take.columns : 0);
 }
 
 std::string decimal(double value) {
@@ -50,13 +73,13 @@ void send_frames(const GatheredTake& take, const httplib::Request& request, cons
   const std::string accept = request.get_header_value("Accept");
   response.status = 200;
   if (!names_bvh(accept) && !names_text(accept)) {
-    return response.set_content(take_reply_to_json(take), kJsonType);
+    return response.set_content(::mm::wire::body_text(::mm::wire::to_json(take.reply)), kJsonType);
   }
   MotionFrames frames;
-  frames.columns = take.start.columns;
-  frames.values = take.values;
+  frames.columns = take.columns;
+  frames.values.assign(take.reply.frames.values().begin(), take.reply.frames.values().end());
   response.set_header("X-Take-Frames", std::to_string(frames.frame_count()));
-  response.set_header("X-Take-Frame-Rate", decimal(take.start.frame_rate));
+  response.set_header("X-Take-Frame-Rate", decimal(take.reply.header.frame_rate()));
   response.set_header("X-Take-Mean-Error-Mm", decimal(take.summary.mean_error_mm));
   response.set_header("X-Take-Max-Error-Mm", decimal(take.summary.max_error_mm));
   response.set_header("X-Take-Windows", std::to_string(take.summary.windows));
@@ -64,7 +87,7 @@ void send_frames(const GatheredTake& take, const httplib::Request& request, cons
     try {
       return response.set_content(
           write_bvh_text(skeleton_motion_to_bvh(shape.skeleton, bvh_layout_of(shape.skeleton), frames,
-                                                take.start.frame_rate)),
+                                                take.reply.header.frame_rate())),
           kBvhType);
     } catch (const InputError& error) {
       throw ApiError(ErrorCode::kInternal, "", std::string("the reply cannot be written as BVH: ") + error.what());
@@ -92,7 +115,7 @@ void answer_take(ManifoldCore& core, RouteId route, const CallContext& context, 
   // model's skeleton, a body read in its columns or skeleton.
   GatheredTake take;
   const auto send = [&](const TakeSummaryReply& summary, const ModelShape& shape) {
-    take.summary = summary;
+    finish(take, summary);
     send_frames(take, request, shape, response);
   };
   if (route == RouteId::kDecodeTrack) {
@@ -125,9 +148,14 @@ void answer_take(ManifoldCore& core, RouteId route, const CallContext& context, 
                    "a take named by path= has an empty body, found " + std::to_string(body.size()) + " bytes");
   }
   if (kind == TakeKind::kEncode) {
-    take.summary = core.run_take(context, kind, take_request, TakeChunkReader(), gathering_sink(take), translation);
+    const TakeSummaryReply summary =
+        core.run_take(context, kind, take_request, TakeChunkReader(), gathering_sink(take), translation);
+    ::motionmanifold::v1::CodeTrack track;
+    *track.mutable_answered_by() = take.reply.header.answered_by();
+    track.mutable_windows()->Swap(take.reply.summary.mutable_windows());
+    wire::to_wire(summary, &track);
     response.status = 200;
-    return response.set_content(code_track_to_json(take), kJsonType);
+    return response.set_content(::mm::wire::body_text(::mm::wire::to_json(track)), kJsonType);
   }
   translation.write = send;
   core.run_take(context, kind, take_request, TakeChunkReader(), gathering_sink(take), translation);

@@ -1,4 +1,4 @@
-#include "grpc/proto_translation.h"
+#include "translation/proto_translation.h"
 
 namespace mm::service::wire {
 
@@ -289,6 +289,13 @@ void to_wire(const TakeReplyStart& start, v1::TakeOutputHeader* out) {
   out->set_frame_rate(start.frame_rate);
   out->set_columns(start.columns);
   out->set_layout(start.layout);
+}
+
+void to_wire(const TakeSummaryReply& summary, v1::CodeTrack* out) {
+  out->set_frames(summary.input_frames);
+  out->set_frame_rate(summary.input_frame_rate);
+  out->set_window_seconds(summary.window_seconds);
+  out->set_hop_seconds(summary.hop_seconds);
 }
 
 void to_wire(const TakeSummaryReply& summary, v1::TakeSummary* out) {

@@ -1,13 +1,16 @@
 // Translation between the wire messages of motionmanifold.v1 and the core
-// API's plain types (api/api_types.h), one function per message. Fields map
-// one to one under the same names; nothing is validated here (the core
-// validates, once for both protocols).
+// API's plain types (api/api_types.h), one function per message, for both
+// frontends: gRPC translates its messages as they come; REST reads its JSON
+// into the same messages first (wire/rest_json.h) and then translates them
+// here. Fields map one to one under the same names; nothing is validated
+// here (the core validates, once for both protocols).
 //
 // Proto3 cannot tell an unset field from one set to its zero value, so where
 // the core's default is not the zero value (SampleRequest.count,
 // InterpolateRequest.steps and method, DenoiseRequest.iterations,
 // JobSpec.variant) the zero value stands for the core's default; every other
-// value, zero included, reaches the core as sent.
+// value, zero included, reaches the core as sent. (REST can tell them apart
+// and reads a zero that is there as zero: server/rest/json_translation.cpp.)
 //
 // Thread safety: pure functions of their arguments.
 #pragma once
@@ -52,6 +55,9 @@ void to_wire(const JobProgress& progress, v1::JobProgress* out);
 void to_wire(const JobInfo& info, v1::Job* out);
 void to_wire(const TakeWindow& window, v1::TakeWindow* out);
 void to_wire(const TakeReplyStart& start, v1::TakeOutputHeader* out);
+// A code track's take: its frames and rate, window length and hop (its
+// answered_by and windows apart, as they come).
+void to_wire(const TakeSummaryReply& summary, v1::CodeTrack* out);
 void to_wire(const TakeSummaryReply& summary, v1::TakeSummary* out);  // windows apart  // state as job_state_name(): "queued", ...
 
 }  // namespace mm::service::wire
