@@ -224,7 +224,8 @@ json to_json(const v1::Job& job) {
           {"created_at", job.created_at()},
           {"started_at", job.started_at()},
           {"finished_at", job.finished_at()},
-          {"resumes", job.resumes()}};
+          {"resumes", job.resumes()},
+          {"resolved_config", embedded(job.resolved_config_json())}};
 }
 
 json to_json(const v1::ListJobsReply& reply) {
@@ -415,6 +416,7 @@ v1::Job job_from_json(const json& body) {
   job.set_started_at(body.value("started_at", 0.0));
   job.set_finished_at(body.value("finished_at", 0.0));
   job.set_resumes(body.value("resumes", 0));
+  job.set_resolved_config_json(embedded_text(body, "resolved_config"));
   return job;
 }
 

@@ -324,7 +324,8 @@ json job_json(const JobInfo& job) {
               {"created_at", job.created_at},
               {"started_at", job.started_at},
               {"finished_at", job.finished_at},
-              {"resumes", job.resumes}};
+              {"resumes", job.resumes},
+              {"resolved_config", embedded_json(job.resolved_config_json)}};
 }
 
 std::string dump(const json& value) { return value.dump(-1, ' ', false, json::error_handler_t::replace); }
