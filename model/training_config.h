@@ -162,7 +162,8 @@ TrainConfig read_train_config(const std::string& path);
 // of train_config_from_json_text (naming `source_name` and the field); for an
 // override outside its field's range above, one naming `override_prefix` and
 // the field ("--batch" for the tool's flag, "batch" for a job's), the value
-// and the range; for an unknown variant, variant_config's.
+// and the range; for an unknown variant, variant_config's. Thread safe (no
+// shared state).
 ResolvedTrainConfig resolve_train_config(const std::string& config_text, const std::string& variant,
                                          const TrainOverrides& overrides, const std::string& source_name,
                                          const std::string& override_prefix);
