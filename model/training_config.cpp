@@ -116,7 +116,7 @@ class FieldReader {
 void read_model(const json& j, ModelConfig& m, const std::string& path, const std::string& source) {
   FieldReader r(j, path, source);
   r.read("pose_dims", m.pose_dims, 1, 10000);
-  r.read("hidden", m.hidden, 1, 65536);
+  r.read("hidden", m.hidden, kMinTrainHidden, kMaxTrainHidden);
   r.read("latent", m.latent, 1, 65536);
   r.read("frames", m.frames, 8, 100000);
   r.read("rotation_decoder", m.rotation_decoder);
@@ -269,8 +269,8 @@ TrainConfig train_config_from_json_text(const std::string& text, const std::stri
     if (!mmd.empty()) c.losses.mmd = parse_mmd_form(mmd, at + "mmd");
     if (!adversarial.empty()) c.losses.adversarial = parse_adversarial_reduction(adversarial, at + "adversarial");
   }
-  r.read("batch", c.batch, 2, 100000);  // the MMD estimate needs two samples
-  r.read("iterations", c.iterations, 0, 1e12);
+  r.read("batch", c.batch, kMinTrainBatch, kMaxTrainBatch);
+  r.read("iterations", c.iterations, 0, static_cast<double>(kMaxTrainIterations));
   r.read("learning_rate", c.learning_rate, 0, 10);
   r.read("lr_decay", c.lr_decay, 0, 1);
   r.read("decay_every", c.decay_every, 1, 1e9);
@@ -281,6 +281,54 @@ TrainConfig train_config_from_json_text(const std::string& text, const std::stri
   r.read("dataset", c.dataset);
   r.read("output_dir", c.output_dir);
   return c;
+}
+
+ResolvedTrainConfig resolve_train_config(const std::string& config_text, const std::string& variant,
+                                         const TrainOverrides& o, const std::string& source_name,
+                                         const std::string& override_prefix) {
+  ResolvedTrainConfig resolved;
+  TrainConfig& c = resolved.config;
+  if (config_text.empty()) {
+    c = variant_config(variant);
+  } else {
+    c = train_config_from_json_text(config_text, source_name);
+    const json document = parse_json_text(config_text, source_name);  // read without error just above
+    resolved.pose_dims_from_dataset = !(document.contains("model") && document["model"].contains("pose_dims"));
+  }
+  const auto check = [&override_prefix](const char* field, int64_t value, int64_t min, int64_t max) {
+    if (value < min || value > max) {
+      throw InputError(override_prefix + field + ": value " + std::to_string(value) + " out of range [" +
+                       std::to_string(min) + ", " + std::to_string(max) + "]");
+    }
+  };
+  // 0 (or nothing) is "the configuration's": only a value given replaces it.
+  if (o.iterations != 0) {
+    check("iterations", o.iterations, 1, kMaxTrainIterations);
+    c.iterations = o.iterations;
+  }
+  if (o.batch != 0) {
+    check("batch", o.batch, kMinTrainBatch, kMaxTrainBatch);
+    c.batch = o.batch;
+  }
+  if (o.hidden != 0) {
+    check("hidden", o.hidden, kMinTrainHidden, kMaxTrainHidden);
+    c.model.hidden = o.hidden;
+  }
+  if (o.seed) c.seed = *o.seed;
+  if (o.losses) c.losses = *o.losses;
+  if (o.loss_angle) c.losses.angle = *o.loss_angle;
+  if (o.loss_position) c.losses.position = *o.loss_position;
+  if (o.loss_mmd) c.losses.mmd = *o.loss_mmd;
+  if (o.loss_adversarial) c.losses.adversarial = *o.loss_adversarial;
+  if (!o.dataset.empty()) c.dataset = o.dataset;
+  if (!o.output_dir.empty()) c.output_dir = o.output_dir;
+  return resolved;
+}
+
+std::string to_json_text(const ResolvedTrainConfig& resolved) {
+  json j = json::parse(to_json_text(resolved.config));
+  if (resolved.pose_dims_from_dataset) j["model"].erase("pose_dims");
+  return j.dump(2);
 }
 
 TrainConfig read_train_config(const std::string& path) {

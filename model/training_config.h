@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -106,6 +107,39 @@ struct TrainConfig {
   std::string output_dir;       // checkpoints, training log and the exported model
 };
 
+// The ranges the reader holds a configuration's sizes to; an override of
+// one (TrainOverrides) is held to the same.
+constexpr int kMinTrainBatch = 2;  // the MMD estimate needs two samples
+constexpr int kMaxTrainBatch = 100000;
+constexpr int kMinTrainHidden = 1, kMaxTrainHidden = 65536;
+constexpr int64_t kMaxTrainIterations = 1'000'000'000'000;
+
+// Values given beside a configuration that replace its own: the tool's
+// `train` flags and a training job's spec. What "not given" means is written
+// here once: 0, an empty optional or an empty path means the configuration's
+// value.
+struct TrainOverrides {
+  int64_t iterations = 0;
+  int batch = 0;
+  int hidden = 0;  // model.hidden
+  std::optional<uint64_t> seed;
+  std::optional<LossForms> losses;  // a preset, applied before the forms below
+  std::optional<AngleReduction> loss_angle;
+  std::optional<PositionReduction> loss_position;
+  std::optional<MmdForm> loss_mmd;
+  std::optional<AdversarialReduction> loss_adversarial;
+  std::string dataset, output_dir;
+};
+
+// A configuration resolved for a run: what it trains, whole.
+struct ResolvedTrainConfig {
+  TrainConfig config;
+  // The configuration did not give model.pose_dims: the run sets them to its
+  // dataset's kept columns (51 for H3.6M) once it has loaded it, so that one
+  // configuration trains any skeleton.
+  bool pose_dims_from_dataset = true;
+};
+
 // Names of the Table 1 variants: S, D, DK, DKG, DKGM, DKGMZ, Seq2seq.
 const std::vector<std::string>& variant_names();
 
@@ -121,6 +155,23 @@ std::string to_json_text(const TrainConfig& config);
 // of the wrong type or range are InputErrors naming the field.
 TrainConfig train_config_from_json_text(const std::string& text, const std::string& source_name);
 TrainConfig read_train_config(const std::string& path);
+
+// The configuration a run trains: `config_text` read by
+// train_config_from_json_text (empty: `variant`'s defaults, variant_config),
+// then each override that is given. Throws InputError: for a bad text, that
+// of train_config_from_json_text (naming `source_name` and the field); for an
+// override outside its field's range above, one naming `override_prefix` and
+// the field ("--batch" for the tool's flag, "batch" for a job's), the value
+// and the range; for an unknown variant, variant_config's. Thread safe (no
+// shared state).
+ResolvedTrainConfig resolve_train_config(const std::string& config_text, const std::string& variant,
+                                         const TrainOverrides& overrides, const std::string& source_name,
+                                         const std::string& override_prefix);
+
+// JSON text of a resolved configuration: to_json_text(config), without
+// model.pose_dims when they come from the dataset. Read back by
+// resolve_train_config without overrides it resolves to the same.
+std::string to_json_text(const ResolvedTrainConfig& resolved);
 
 std::string to_json_text(const ModelConfig& config);
 ModelConfig model_config_from_json_text(const std::string& text, const std::string& source_name);

@@ -236,6 +236,7 @@ void read_job(const Json& body, const std::string& path, UnknownFields unknown, 
   job->set_started_at(reader.number("started_at"));
   job->set_finished_at(reader.number("finished_at"));
   job->set_resumes(reader.int32("resumes"));
+  job->set_resolved_config_json(reader.object_text("resolved_config", "the job's resolved training configuration"));
   reader.finish();
 }
 
@@ -480,7 +481,8 @@ Json to_json(const v1::Job& job) {
               {"created_at", job.created_at()},
               {"started_at", job.started_at()},
               {"finished_at", job.finished_at()},
-              {"resumes", job.resumes()}};
+              {"resumes", job.resumes()},
+              {"resolved_config", embedded(job.resolved_config_json())}};
 }
 
 Json to_json(const v1::ListJobsReply& reply) {

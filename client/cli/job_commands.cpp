@@ -154,6 +154,10 @@ void add_job_commands(CLI::App& app, const ClientSettings& settings, Action& act
         print_json(to_json(job));
       } else {
         print_job_line(job);
+        // What the job trains, whole: the spec resolved at submission.
+        if (!job.resolved_config_json().empty()) {
+          std::printf("configuration: %s\n", to_json(job)["resolved_config"].dump().c_str());
+        }
       }
       return kExitSuccess;
     };

@@ -182,22 +182,31 @@ int64_t exported_iterations(const MotionManifold& model) {
   return iterations.is_number_integer() ? iterations.get<int64_t>() : 0;
 }
 
-// The training configuration file: its fields (training_config.h), with
-// numbers too large for a double (1e999) refused as bad input naming it.
-TrainConfig read_config_file(const std::string& path) {
-  const std::string text = read_input_file(path, "--config");
-  try {
-    return train_config_from_json_text(text, path);
-  } catch (const nlohmann::json::exception& e) {
-    throw InputError(path + ": not a valid training configuration (JSON): " + json_error_reason(e.what()));
+// The configuration `train` runs: the --config file (or --variant's
+// defaults) with the flags given, by the rule a training job's spec follows
+// too (resolve_train_config). Numbers too large for a double (1e999) in the
+// file are refused as bad input naming it.
+ResolvedTrainConfig resolve_config(const TrainOptions& o) {
+  const std::string text = o.config_path.empty() ? "" : read_input_file(o.config_path, "--config");
+  TrainOverrides overrides;
+  overrides.iterations = o.iterations;
+  overrides.batch = o.batch;
+  overrides.hidden = o.hidden;
+  if (o.seed_option->count() > 0) overrides.seed = o.seed;
+  if (!o.losses.empty()) overrides.losses = loss_preset(o.losses, "--losses");
+  if (!o.loss_angle.empty()) overrides.loss_angle = parse_angle_reduction(o.loss_angle, "--loss-angle");
+  if (!o.loss_position.empty()) overrides.loss_position = parse_position_reduction(o.loss_position, "--loss-position");
+  if (!o.loss_mmd.empty()) overrides.loss_mmd = parse_mmd_form(o.loss_mmd, "--loss-mmd");
+  if (!o.loss_adversarial.empty()) {
+    overrides.loss_adversarial = parse_adversarial_reduction(o.loss_adversarial, "--loss-adversarial");
   }
-}
-
-// Whether a configuration file gives "model": {"pose_dims": ...} itself.
-bool config_sets_pose_dims(const std::string& path) {
-  const auto document = nlohmann::json::parse(read_input_file(path, "--config"), nullptr, false);
-  return document.is_object() && document.contains("model") && document["model"].is_object() &&
-         document["model"].contains("pose_dims");
+  overrides.dataset = o.dataset;
+  overrides.output_dir = o.out;
+  try {
+    return resolve_train_config(text, o.variant, overrides, o.config_path, "--");
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(o.config_path + ": not a valid training configuration (JSON): " + json_error_reason(e.what()));
+  }
 }
 
 int run_resume(const std::string& checkpoint, const std::string& dataset_path, int64_t iterations,
@@ -216,24 +225,8 @@ int run_train(const TrainOptions& o, const std::string& command_line) {
     if (o.dataset.empty()) throw InputError("--resume needs --dataset (the prepared dataset the run was trained on)");
     return run_resume(o.resume, o.dataset, o.iterations, o.device, command_line, o.progress_json);
   }
-  TrainConfig config = o.config_path.empty() ? variant_config(o.variant) : read_config_file(o.config_path);
-  // The pose dimensions are the dataset's kept columns (51 for H3.6M), not a
-  // choice: a configuration that does not fix them takes them from the
-  // dataset, so that one configuration trains any skeleton.
-  const bool fixes_pose_dims = !o.config_path.empty() && config_sets_pose_dims(o.config_path);
-  if (!o.dataset.empty()) config.dataset = o.dataset;
-  if (!o.out.empty()) config.output_dir = o.out;
-  if (o.iterations > 0) config.iterations = o.iterations;
-  if (o.batch > 0) config.batch = o.batch;
-  if (o.hidden > 0) config.model.hidden = o.hidden;
-  if (o.seed_option->count() > 0) config.seed = o.seed;
-  if (!o.losses.empty()) config.losses = loss_preset(o.losses, "--losses");
-  if (!o.loss_angle.empty()) config.losses.angle = parse_angle_reduction(o.loss_angle, "--loss-angle");
-  if (!o.loss_position.empty()) config.losses.position = parse_position_reduction(o.loss_position, "--loss-position");
-  if (!o.loss_mmd.empty()) config.losses.mmd = parse_mmd_form(o.loss_mmd, "--loss-mmd");
-  if (!o.loss_adversarial.empty()) {
-    config.losses.adversarial = parse_adversarial_reduction(o.loss_adversarial, "--loss-adversarial");
-  }
+  ResolvedTrainConfig resolved = resolve_config(o);
+  TrainConfig& config = resolved.config;
   if (config.dataset.empty()) throw InputError("train: no dataset: give --dataset or \"dataset\" in the configuration");
   if (config.output_dir.empty()) {
     throw InputError("train: no output folder: give --out or \"output_dir\" in the configuration");
@@ -241,7 +234,7 @@ int run_train(const TrainOptions& o, const std::string& command_line) {
   check_input_file(config.dataset, o.dataset.empty() ? "dataset" : "--dataset");
   const c10::Device device = parse_device(o.device);
   const PreparedDataset data = load_dataset(config.dataset);
-  if (!fixes_pose_dims) config.model.pose_dims = data.normalization.dims();
+  if (resolved.pose_dims_from_dataset) config.model.pose_dims = data.normalization.dims();
   Trainer trainer(config, data, device);
   nlohmann::json origin = nlohmann::json::object();
   if (!o.init_from.empty()) {

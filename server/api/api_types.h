@@ -222,6 +222,9 @@ struct JobProgress {
 struct JobInfo {
   std::string id;
   JobSpec spec;
+  // The training configuration the spec resolved to at submission, whole
+  // (JSON text of model/training_config.h): what the run trains.
+  std::string resolved_config_json;
   JobState state = JobState::kQueued;
   JobProgress progress;
   std::string error;            // why a failed job failed

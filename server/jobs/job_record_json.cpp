@@ -4,6 +4,8 @@
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
+#include "jobs/job_spec_check.h"
+
 namespace mm::service {
 namespace {
 
@@ -42,6 +44,26 @@ JobSpec spec_from_json_text(const std::string& text) {
   return s;
 }
 
+std::string stored_spec_to_json_text(const JobInfo& job) {
+  json j = spec_json(job.spec);
+  j["resolved_config"] = job.resolved_config_json;
+  return j.dump();
+}
+
+void stored_spec_from_json_text(const std::string& text, JobInfo& job) {
+  job.spec = spec_from_json_text(text);
+  const json j = json::parse(text);
+  if (j.contains("resolved_config")) {
+    job.resolved_config_json = j["resolved_config"].get<std::string>();
+    return;
+  }
+  try {
+    job.resolved_config_json = resolved_job_config_json(job.spec);
+  } catch (const std::exception&) {
+    job.resolved_config_json.clear();
+  }
+}
+
 std::string progress_to_json_text(const JobProgress& progress) { return progress_json(progress).dump(); }
 
 JobProgress progress_from_json_text(const std::string& text) {
@@ -69,6 +91,7 @@ JobState job_state_from_name(const std::string& name) {
 std::string job_to_json_text(const JobInfo& job) {
   return json{{"id", job.id},
               {"spec", spec_json(job.spec)},
+              {"resolved_config", job.resolved_config_json},
               {"state", job_state_name(job.state)},
               {"progress", progress_json(job.progress)},
               {"error", job.error},

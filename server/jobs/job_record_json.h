@@ -18,6 +18,15 @@ namespace mm::service {
 std::string job_to_json_text(const JobInfo& job);
 std::string spec_to_json_text(const JobSpec& spec);
 JobSpec spec_from_json_text(const std::string& text);
+// The spec column of a stored record: the spec's fields and, under
+// "resolved_config", the configuration it resolved to at submission (its
+// JSON text as a string).
+std::string stored_spec_to_json_text(const JobInfo& job);
+// Reads that column into job.spec and job.resolved_config_json. A record
+// stored by a server that did not resolve configurations has none: it is
+// resolved now from the spec (resolved_job_config_json), or left empty when
+// the spec no longer resolves (the job then fails when it runs, saying why).
+void stored_spec_from_json_text(const std::string& text, JobInfo& job);
 std::string progress_to_json_text(const JobProgress& progress);
 JobProgress progress_from_json_text(const std::string& text);
 // The inverse of job_state_name().

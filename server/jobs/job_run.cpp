@@ -3,12 +3,12 @@
 // model it made. Each step's child process is supervised by run_child
 // (child_supervision.cpp).
 #include <filesystem>
-#include <fstream>
 #include <mutex>
 #include <nlohmann/json.hpp>
 
 #include <spdlog/spdlog.h>
 
+#include "format/atomic_file.h"
 #include "jobs/job_spec_check.h"
 #include "jobs/model_publication.h"
 #include "jobs/training_jobs_state.h"
@@ -72,17 +72,18 @@ RunEnd TrainingJobs::State::run_job(JobInfo& job) {
     // No checkpoint yet: start afresh, without a partial log of a run that
     // died before its first checkpoint.
     fs::remove_all(run);
-    nlohmann::json training = job.spec.config_json.empty() ? nlohmann::json{{"variant", job.spec.variant}}
-                                                            : nlohmann::json::parse(job.spec.config_json);
+    // The configuration resolved at submission, whole: the child's argv
+    // names no field of the spec. A record stored before configurations
+    // were resolved is resolved when read; one that no longer resolves
+    // fails here, saying why.
+    if (job.resolved_config_json.empty()) job.resolved_config_json = resolved_job_config_json(job.spec);
+    nlohmann::json training = nlohmann::json::parse(job.resolved_config_json);
     // The server's resume point after a crash, whatever the configuration says.
     training["checkpoint_every"] = config.checkpoint_every;
     const fs::path config_file = dir / "config.json";
-    std::ofstream(config_file, std::ios::binary) << training.dump(2) << "\n";
+    write_file_atomically(config_file.string(), training.dump(2) + "\n");
     argv = {config.tool_path, "train", "--config", config_file.string(), "--dataset", dataset_file,
-            "--out", run.string(), "--seed", std::to_string(job.spec.seed), "--progress-json"};
-    if (job.spec.iterations > 0) argv.insert(argv.end(), {"--iterations", std::to_string(job.spec.iterations)});
-    if (job.spec.hidden > 0) argv.insert(argv.end(), {"--hidden", std::to_string(job.spec.hidden)});
-    if (job.spec.batch > 0) argv.insert(argv.end(), {"--batch", std::to_string(job.spec.batch)});
+            "--out", run.string(), "--progress-json"};
   }
   const RunEnd end = run_child(job, argv, argv[1]);
   if (end != RunEnd::kSucceeded) return end;

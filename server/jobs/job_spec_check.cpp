@@ -131,11 +131,23 @@ JobDataset resolve_job_dataset(const std::string& data_root, const std::string& 
                         "one skeleton");
 }
 
-int64_t job_iterations(const JobSpec& spec) {
-  if (spec.iterations > 0) return spec.iterations;
-  if (!spec.config_json.empty()) return train_config_from_json_text(spec.config_json, "config").iterations;
-  return variant_config(spec.variant).iterations;
+// The spec's fields as overrides of its configuration: 0 is the
+// configuration's, the seed is always the spec's.
+static ResolvedTrainConfig resolve_job_config(const JobSpec& spec) {
+  TrainOverrides overrides;
+  overrides.iterations = spec.iterations;
+  overrides.hidden = spec.hidden;
+  overrides.batch = spec.batch;
+  overrides.seed = spec.seed;
+  ResolvedTrainConfig resolved = resolve_train_config(spec.config_json, spec.variant, overrides, "config", "");
+  resolved.config.dataset.clear();
+  resolved.config.output_dir.clear();
+  return resolved;
 }
+
+std::string resolved_job_config_json(const JobSpec& spec) { return to_json_text(resolve_job_config(spec)); }
+
+int64_t job_iterations(const JobSpec& spec) { return resolve_job_config(spec).config.iterations; }
 
 void check_job_spec(const JobSpec& spec) {
   const auto& variants = job_variants();
@@ -167,7 +179,7 @@ void check_job_spec(const JobSpec& spec) {
       if (!document.is_object()) {
         refuse("config", "config is JSON " + std::string(document.type_name()) + ", expected an object");
       }
-      config = train_config_from_json_text(spec.config_json, "config");
+      config = resolve_job_config(spec).config;
     } catch (const InputError& e) {
       refuse("config", e.what());
     }

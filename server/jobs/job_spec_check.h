@@ -52,6 +52,16 @@ constexpr int kMaxJobBatch = 1024;
 // otherwise.
 void check_job_spec(const JobSpec& spec);
 
+// The training configuration a checked spec trains, whole, as the JSON text
+// of model/training_config.h (to_json_text of a ResolvedTrainConfig): its
+// config (or its variant's defaults) with its iterations, hidden and batch
+// where they are not 0 and its seed, by the rule the tool's `train` flags
+// follow (resolve_train_config). model.pose_dims is left out unless config
+// gives it (the run takes the dataset's); dataset and output_dir are empty
+// (the server gives the run its own). Throws InputError for a spec that
+// check_job_spec refuses.
+std::string resolved_job_config_json(const JobSpec& spec);
+
 // The iterations a checked spec trains: its own, else its configuration's,
 // else its variant's default.
 int64_t job_iterations(const JobSpec& spec);

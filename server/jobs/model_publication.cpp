@@ -6,6 +6,9 @@
 #include <stdexcept>
 #include <vector>
 
+#include "jobs/job_spec_check.h"
+#include "training_config.h"
+
 namespace mm::service {
 namespace {
 
@@ -28,28 +31,39 @@ bool holds_card_of(const fs::path& folder, const std::string& id) {
   return in && text.str().find(marker(id)) != std::string::npos;
 }
 
+// The configuration the job trained (JSON text): its record's, or for a
+// record stored without one, its spec's resolved now by the same rule.
+std::string trained_config_json(const JobInfo& job) {
+  return job.resolved_config_json.empty() ? resolved_job_config_json(job.spec) : job.resolved_config_json;
+}
+
 }  // namespace
 
 std::string job_model_card(const JobInfo& job, double training_seconds) {
   const JobSpec& s = job.spec;
+  const std::string config_json = trained_config_json(job);
+  const TrainConfig c = train_config_from_json_text(config_json, "resolved_config");
   std::ostringstream card;
   card << "# " << (s.model_name.empty() ? "job-" + job.id : s.model_name) << "\n\n"
        << marker(job.id) << "\n\n"
        << "## Job\n\n"
        << "| field | value |\n| --- | --- |\n"
        << "| dataset | `" << s.dataset << "` |\n"
-       << "| variant | " << (s.variant.empty() ? "(from config)" : s.variant) << " |\n"
+       << "| variant | " << c.variant << " |\n"
        << "| config | " << (s.config_json.empty() ? "(none)" : "`" + s.config_json + "`") << " |\n"
-       << "| iterations requested | " << (s.iterations > 0 ? std::to_string(s.iterations) : "the configuration's")
-       << " |\n"
-       << "| seed | " << s.seed << " |\n"
-       << "| hidden | " << (s.hidden > 0 ? std::to_string(s.hidden) : "the configuration's") << " |\n"
-       << "| batch | " << (s.batch > 0 ? std::to_string(s.batch) : "the configuration's") << " |\n"
+       << "| iterations requested | " << c.iterations << " |\n"
+       << "| seed | " << c.seed << " |\n"
+       << "| hidden | " << c.model.hidden << " |\n"
+       << "| batch | " << c.batch << " |\n"
+       << "| loss forms | " << loss_preset_name(c.losses) << " |\n"
        << "| iterations trained | " << job.progress.iteration << " of " << job.progress.total << " |\n"
        << "| training time | " << static_cast<long long>(training_seconds + 0.5) << " s |\n"
        << "| resumed after a restart | " << job.resumes << " times |\n\n"
        << "## Final losses\n\n| term | value |\n| --- | --- |\n";
   for (const auto& [name, value] : job.progress.losses) card << "| " << name << " | " << value << " |\n";
+  card << "\n## Configuration\n\nWhat the job trained, resolved at submission (model.pose_dims, when absent, were "
+          "the dataset's; checkpoint_every was the server's --checkpoint-every):\n\n```json\n"
+       << config_json << "\n```\n";
   card << "\nThe run's own provenance (command line, iterations, device) is in manifest.json.\n";
   return card.str();
 }

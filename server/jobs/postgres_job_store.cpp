@@ -18,7 +18,7 @@ constexpr long long kQueueLockKey = 0x6d6d6a6f6273LL;  // "mmjobs"
 JobInfo read_row(const pqxx::row& row) {
   JobInfo job;
   job.id = row[0].as<std::string>();
-  job.spec = spec_from_json_text(row[1].as<std::string>());
+  stored_spec_from_json_text(row[1].as<std::string>(), job);
   job.state = job_state_from_name(row[2].as<std::string>());
   job.progress = progress_from_json_text(row[3].as<std::string>());
   job.error = row[4].as<std::string>();
@@ -92,7 +92,7 @@ QueueRoom PostgresJobStore::insert_within_limits(const JobInfo& job, const std::
   work.exec_params(
       "INSERT INTO training_jobs (id, spec, state, progress, error, published_model, created_at, started_at,"
       " finished_at, resumes, submitter) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11)",
-      job.id, spec_to_json_text(job.spec), std::string(job_state_name(job.state)),
+      job.id, stored_spec_to_json_text(job), std::string(job_state_name(job.state)),
       progress_to_json_text(job.progress), job.error, job.published_model, job.created_at, job.started_at,
       job.finished_at, job.resumes, submitter);
   work.commit();

@@ -65,7 +65,7 @@ constexpr const char* kColumns =
 JobInfo read_row(const Statement& row) {
   JobInfo job;
   job.id = row.text(0);
-  job.spec = spec_from_json_text(row.text(1));
+  stored_spec_from_json_text(row.text(1), job);
   job.state = job_state_from_name(row.text(2));
   job.progress = progress_from_json_text(row.text(3));
   job.error = row.text(4);
@@ -159,7 +159,7 @@ QueueRoom SqliteJobStore::insert_within_limits(const JobInfo& job, const std::st
                    "INSERT INTO jobs (id, spec, state, progress, error, published_model, created_at, started_at,"
                    " finished_at, resumes, submitter) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
   insert.bind(1, job.id)
-      .bind(2, spec_to_json_text(job.spec))
+      .bind(2, stored_spec_to_json_text(job))
       .bind(3, std::string(job_state_name(job.state)))
       .bind(4, progress_to_json_text(job.progress))
       .bind(5, job.error)

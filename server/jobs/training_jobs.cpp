@@ -122,6 +122,7 @@ JobInfo TrainingJobs::submit(const JobSpec& spec, const std::string& submitter) 
     job.id = new_job_id();
   } while (store.find(job.id));
   job.spec = spec;
+  job.resolved_config_json = resolved_job_config_json(spec);
   job.state = JobState::kQueued;
   job.created_at = unix_now();
   const QueueRoom room = store.insert_within_limits(job, submitter, s.config.max_queued, s.config.max_queued_per_submitter);

@@ -240,6 +240,7 @@ void to_wire(const JobInfo& info, v1::Job* out) {
   out->set_started_at(info.started_at);
   out->set_finished_at(info.finished_at);
   out->set_resumes(info.resumes);
+  out->set_resolved_config_json(info.resolved_config_json);
 }
 
 TakeRequest to_api(const v1::TakeHeader& header) {

@@ -499,6 +499,19 @@ TEST_F(ClientTest, ASubmittedJobIsWatchedToItsEndListedAndGot) {
     EXPECT_EQ(job["progress"]["iteration"], 30);
     EXPECT_EQ(job["published_model"], "client-tiny");
     EXPECT_EQ(job["spec"]["variant"], "D");
+    // The whole configuration it trained: the spec's values, the rest D's.
+    const auto& config = job["resolved_config"];
+    EXPECT_EQ(config["model"]["hidden"], 16) << got.out;
+    EXPECT_EQ(config["batch"], 4) << got.out;
+    EXPECT_EQ(config["iterations"], 30) << got.out;
+    EXPECT_EQ(config["seed"], 3) << got.out;
+    EXPECT_EQ(config["variant"], "D") << got.out;
+    EXPECT_EQ(config["model"]["latent"], 64) << got.out;
+    EXPECT_EQ(config["weights"]["position"], 0.0) << got.out;
+    const auto plain = run_client(protocol + " jobs get " + id);
+    ASSERT_EQ(plain.exit_code, 0) << plain.err;
+    EXPECT_NE(plain.out.find("\nconfiguration: {"), std::string::npos) << plain.out;
+    EXPECT_NE(plain.out.find("\"hidden\":16"), std::string::npos) << plain.out;
   }
   // A finished job cannot be cancelled.
   const auto cancel = run_client(grpc() + " " + token() + " jobs cancel " + id);

@@ -127,5 +127,84 @@ TEST(TrainingConfig, LossFormsReadFromJsonPresetFirstThenEachForm) {
             std::string::npos);
 }
 
+// resolve_train_config is the one rule of the tool's `train` flags and a
+// training job's spec: what is not given (0, no value) is the configuration's.
+TEST(TrainingConfig, ResolvingKeepsTheConfigurationsValuesWhereNoOverrideIsGiven) {
+  const std::string text = R"({"variant": "DK", "batch": 8, "iterations": 500, "seed": 9, "model": {"hidden": 128}})";
+  const ResolvedTrainConfig none = resolve_train_config(text, "S", TrainOverrides{}, "c", "--");
+  EXPECT_EQ(to_json_text(none.config), to_json_text(train_config_from_json_text(text, "c")));
+  EXPECT_EQ(none.config.variant, "DK");  // the text replaces the variant
+
+  TrainOverrides overrides;
+  overrides.hidden = 16;
+  overrides.seed = 0;  // a seed given, even 0, replaces the configuration's
+  overrides.loss_mmd = MmdForm::kSevenScales;
+  overrides.output_dir = "run";
+  const TrainConfig c = resolve_train_config(text, "S", overrides, "c", "--").config;
+  EXPECT_EQ(c.model.hidden, 16);
+  EXPECT_EQ(c.seed, 0u);
+  EXPECT_EQ(c.losses.mmd, MmdForm::kSevenScales);
+  EXPECT_EQ(c.losses.angle, AngleReduction::kFrameNorm);
+  EXPECT_EQ(c.output_dir, "run");
+  EXPECT_EQ(c.batch, 8);
+  EXPECT_EQ(c.iterations, 500);
+  EXPECT_EQ(c.dataset, "");
+  EXPECT_EQ(c.weights.adversarial, 0.0);  // DK's
+
+  // No text: the variant's defaults.
+  overrides = TrainOverrides{};
+  overrides.iterations = 40;
+  const TrainConfig v = resolve_train_config("", "D", overrides, "c", "--").config;
+  TrainConfig expected = variant_config("D");
+  expected.iterations = 40;
+  EXPECT_EQ(to_json_text(v), to_json_text(expected));
+}
+
+TEST(TrainingConfig, AnOverrideOutsideItsFieldsRangeNamesTheFieldTheValueAndTheRange) {
+  const auto error_of_override = [](const TrainOverrides& overrides, const std::string& prefix) -> std::string {
+    try {
+      resolve_train_config("", "DKGM", overrides, "c", prefix);
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "";
+  };
+  TrainOverrides batch;
+  batch.batch = 1;
+  EXPECT_EQ(error_of_override(batch, "--"), "--batch: value 1 out of range [2, 100000]");
+  TrainOverrides hidden;
+  hidden.hidden = 70000;
+  EXPECT_EQ(error_of_override(hidden, ""), "hidden: value 70000 out of range [1, 65536]");
+  TrainOverrides iterations;
+  iterations.iterations = -3;
+  EXPECT_EQ(error_of_override(iterations, "--"), "--iterations: value -3 out of range [1, 1000000000000]");
+}
+
+// The pose dimensions are the dataset's unless the configuration fixes them;
+// the resolved JSON keeps that, so that reading it back resolves the same.
+TEST(TrainingConfig, AResolvedConfigurationReadsBackToItselfAndLeavesPoseDimsToTheDataset) {
+  TrainOverrides overrides;
+  overrides.batch = 4;
+  overrides.seed = 3;
+  const ResolvedTrainConfig from_dataset =
+      resolve_train_config(R"({"variant": "D", "learning_rate": 0.002})", "", overrides, "c", "");
+  EXPECT_TRUE(from_dataset.pose_dims_from_dataset);
+  const std::string text = to_json_text(from_dataset);
+  EXPECT_EQ(text.find("pose_dims"), std::string::npos) << text;
+  const ResolvedTrainConfig back = resolve_train_config(text, "", TrainOverrides{}, "c", "");
+  EXPECT_TRUE(back.pose_dims_from_dataset);
+  EXPECT_EQ(to_json_text(back), text);
+  EXPECT_EQ(back.config.batch, 4);
+  EXPECT_EQ(back.config.seed, 3u);
+  EXPECT_DOUBLE_EQ(back.config.learning_rate, 0.002);
+
+  const ResolvedTrainConfig fixed = resolve_train_config(R"({"model": {"pose_dims": 60}})", "", overrides, "c", "");
+  EXPECT_FALSE(fixed.pose_dims_from_dataset);
+  const ResolvedTrainConfig fixed_back = resolve_train_config(to_json_text(fixed), "", TrainOverrides{}, "c", "");
+  EXPECT_FALSE(fixed_back.pose_dims_from_dataset);
+  EXPECT_EQ(fixed_back.config.model.pose_dims, 60);
+  EXPECT_TRUE(resolve_train_config("", "DKGM", overrides, "c", "").pose_dims_from_dataset);
+}
+
 }  // namespace
 }  // namespace mm

@@ -17,6 +17,8 @@
 
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
 #include "jobs/model_publication.h"
 #include "jobs/sqlite_job_store.h"
 #include "jobs/training_jobs.h"
@@ -29,6 +31,7 @@ namespace {
 namespace fs = std::filesystem;
 using namespace std::chrono_literals;
 
+using nlohmann::json;
 using test::read_text;
 
 // Runs the tool as a user would; returns its exit status.
@@ -393,6 +396,102 @@ TEST_F(TrainingJobsTest, PreparedFileJobPublishesUnderItsModelName) {
   EXPECT_FALSE(fs::exists(job_dir(config_, job.id) / "dataset.mmd"));  // used in place, not prepared again
   // The name is now taken.
   refusal([&] { jobs->submit(spec); }, ErrorCode::kFailedPrecondition, "model_name");
+}
+
+// At submission the spec and its configuration resolve into one whole
+// training configuration, by the tool's own rule: the record holds it, and
+// the child trains it from a file, its command line naming no spec field.
+TEST_F(TrainingJobsTest, ASubmittedJobHoldsItsWholeConfigurationAndItsChildIsGivenNoSpecField) {
+  JobSpec spec = tiny_spec(30);  // iterations 30, seed 3, hidden 16, batch 4
+  spec.variant = "";
+  spec.config_json = R"({"variant": "D", "learning_rate": 0.002, "batch": 12, "model": {"hidden": 64}})";
+  auto jobs = make_jobs();
+  const JobInfo submitted = jobs->submit(spec);
+  for (const JobInfo& record : {submitted, jobs->get(submitted.id)}) {
+    const json c = json::parse(record.resolved_config_json);
+    // The spec's fields where it gives them.
+    EXPECT_EQ(c["iterations"], 30);
+    EXPECT_EQ(c["seed"], 3);
+    EXPECT_EQ(c["model"]["hidden"], 16);
+    EXPECT_EQ(c["batch"], 4);
+    // The configuration's, and for what it does not say, variant D's defaults.
+    EXPECT_EQ(c["learning_rate"], 0.002);
+    EXPECT_EQ(c["variant"], "D");
+    EXPECT_EQ(c["weights"]["position"], 0.0);
+    EXPECT_EQ(c["weights"]["manifold"], 0.0);
+    EXPECT_EQ(c["weights"]["wasserstein"], 0.1);
+    EXPECT_EQ(c["model"]["latent"], 64);
+    EXPECT_EQ(c["model"]["frames"], 150);
+    EXPECT_EQ(c["lr_decay"], 0.999);
+    EXPECT_EQ(c["decay_every"], 20);
+    EXPECT_EQ(c["losses"]["preset"], "frame-norm");
+    // The dataset's pose dimensions, and the server's own paths, are the run's.
+    EXPECT_FALSE(c["model"].contains("pose_dims")) << c.dump();
+    EXPECT_EQ(c["dataset"], "");
+    EXPECT_EQ(c["output_dir"], "");
+  }
+
+  const JobInfo job = wait_finished(*jobs, submitted.id);
+  ASSERT_EQ(job_state_name(job.state), std::string("succeeded")) << job.error;
+  EXPECT_EQ(job.progress.iteration, 30);
+  const fs::path model = fs::path(config_.model_store) / job.published_model;
+  const std::string command = json::parse(read_text(model / "manifest.json"))["provenance"]["command"];
+  EXPECT_NE(command.find(" train --config " + (job_dir(config_, job.id) / "config.json").string()), std::string::npos)
+      << command;
+  for (const char* flag : {"--iterations", "--seed", "--hidden", "--batch", "--variant"}) {
+    EXPECT_EQ(command.find(flag), std::string::npos) << flag << " in " << command;
+  }
+  // What the tool trained: the record's configuration, with the dataset's
+  // pose dimensions and the server's checkpoint interval.
+  const json trained = json::parse(read_text(job_dir(config_, job.id) / "run" / "config.json"));
+  json expected = json::parse(job.resolved_config_json);
+  expected["model"]["pose_dims"] = 51;  // H3.6M's kept columns
+  expected["checkpoint_every"] = config_.checkpoint_every;
+  expected["dataset"] = trained["dataset"];
+  expected["output_dir"] = trained["output_dir"];
+  EXPECT_EQ(trained, expected);
+  // The model card states the values trained.
+  const std::string card = read_text(model / "MODEL_CARD.md");
+  for (const char* row : {"| variant | D |", "| iterations requested | 30 |", "| seed | 3 |", "| hidden | 16 |",
+                          "| batch | 4 |"}) {
+    EXPECT_NE(card.find(row), std::string::npos) << row << " not in\n" << card;
+  }
+}
+
+// A record stored by a server that did not resolve configurations (its spec
+// column holds the spec alone) loads with its spec resolved by the same rule,
+// and runs.
+TEST_F(TrainingJobsTest, ARecordStoredWithoutAResolvedConfigurationLoadsResolvedAndRuns) {
+  fs::create_directories(config_.state_dir);
+  const std::string database = (fs::path(config_.state_dir) / "jobs.sqlite").string();
+  const std::string id = "0123456789ab";
+  {
+    JobInfo job;
+    job.id = id;
+    job.spec = tiny_spec(20);
+    job.created_at = 1;
+    SqliteJobStore records(database);
+    ASSERT_TRUE(records.insert_if_room(job, 10));
+    // The spec column as such a server wrote it.
+    SqliteDatabase(database).execute(
+        R"(UPDATE jobs SET spec = '{"batch":4,"config":"","dataset":"h36m","hidden":16,"iterations":20,)"
+        R"("model_name":"","seed":"3","variant":"D"}' WHERE id = ')" + id + "'");
+    const auto stored = records.find(id);
+    ASSERT_TRUE(stored);
+    EXPECT_EQ(stored->spec.hidden, 16);
+    const json c = json::parse(stored->resolved_config_json);
+    EXPECT_EQ(c["model"]["hidden"], 16);
+    EXPECT_EQ(c["iterations"], 20);
+    EXPECT_EQ(c["variant"], "D");
+  }
+  auto jobs = make_jobs();
+  const JobInfo job = wait_finished(*jobs, id);
+  ASSERT_EQ(job_state_name(job.state), std::string("succeeded")) << job.error;
+  EXPECT_EQ(job.progress.iteration, 20);
+  EXPECT_EQ(json::parse(job.resolved_config_json)["batch"], 4);
+  const json trained = json::parse(read_text(job_dir(config_, id) / "run" / "config.json"));
+  EXPECT_EQ(trained["model"]["hidden"], 16);
+  EXPECT_EQ(trained["seed"], 3);
 }
 
 TEST_F(TrainingJobsTest, RecordsSurviveANewTrainingJobsOnTheSameStateDir) {

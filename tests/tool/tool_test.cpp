@@ -84,6 +84,16 @@ TEST(Tool, UnknownVariantIsAUsageErrorNamingTheValue) {
   EXPECT_NE(r.output.find("XYZ"), std::string::npos) << r.output;
 }
 
+// train's flags replace the configuration's values by the rule a training
+// job's spec follows (resolve_train_config), held to the ranges a
+// configuration file is held to: refused before the dataset is looked for.
+TEST(Tool, TrainFlagsAreHeldToTheConfigurationsRanges) {
+  const auto r = run_tool("train --variant D --hidden 70000 --dataset nowhere.mmd --out /tmp/unused");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--hidden: value 70000 out of range [1, 65536]"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("nowhere.mmd"), std::string::npos) << r.output;
+}
+
 TEST(Tool, MissingSubcommandIsAUsageError) { EXPECT_EQ(run_tool("").exit_code, 2); }
 
 // A tiny bench run: every operation is timed and its tensor operations

@@ -75,6 +75,7 @@ v1::Job job(const std::string& id) {
   j.set_created_at(1764150000.125);
   j.set_started_at(1764150001.5);
   j.set_resumes(1);
+  j.set_resolved_config_json(R"({"model":{"hidden":16},"variant":"DK"})");
   return j;
 }
 
@@ -305,7 +306,8 @@ TEST(RestJson, JobIsWrittenWithItsSpecProgressAndTimes) {
   EXPECT_EQ(body_text(to_json(j)),
             R"({"created_at":1764150000.125,"error":"","finished_at":0.0,"id":"job-1",)"
             R"("progress":{"eta_seconds":4.0,"iteration":7,"iterations_per_second":3.5,)"
-            R"("losses":{"kl":0.5,"total":1.25},"total":20},"published_model":"","resumes":1,)"
+            R"("losses":{"kl":0.5,"total":1.25},"total":20},"published_model":"",)"
+            R"("resolved_config":{"model":{"hidden":16},"variant":"DK"},"resumes":1,)"
             R"("spec":{"batch":4,"dataset":"h3.6m/dataset","hidden":16,"iterations":20,"model_name":"mine",)"
             R"("seed":18446744073709551615,"variant":"DK"},"started_at":1764150001.5,"state":"running"})");
 }
