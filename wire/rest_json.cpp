@@ -189,6 +189,7 @@ void read_model(const Json& body, const std::string& path, UnknownFields unknown
     }
   }
   model->set_load_seconds(reader.number("load_seconds"));
+  model->set_precision(reader.string("precision"));
   model->set_provenance_json(reader.object_text("provenance", "the model's provenance"));
   model->set_evaluation_json(reader.object_text("evaluation", "the model's evaluation"));
   model->set_model_card(reader.string("model_card"));
@@ -425,6 +426,7 @@ Json to_json(const v1::ModelInfo& model) {
               {"layout", model.layout()},
               {"decoders", std::vector<std::string>(model.decoders().begin(), model.decoders().end())},
               {"load_seconds", model.load_seconds()},
+              {"precision", model.precision()},
               {"provenance", embedded(model.provenance_json())},
               {"evaluation", embedded(model.evaluation_json())},
               {"model_card", model.model_card()},

@@ -15,8 +15,9 @@ using ::mm::wire::to_json;
 namespace {
 
 void print_model_line(const v1::ModelInfo& m) {
-  std::printf("%s %-24s %s  %-6s hidden %-4d latent %-3d %s\n", m.active() ? "*" : " ", m.name().c_str(),
-              m.version().c_str(), m.variant().c_str(), m.hidden(), m.latent(), m.loaded() ? "loaded" : "");
+  std::printf("%s %-24s %s  %-6s hidden %-4d latent %-3d %-4s %s\n", m.active() ? "*" : " ", m.name().c_str(),
+              m.version().c_str(), m.variant().c_str(), m.hidden(), m.latent(), m.precision().c_str(),
+              m.loaded() ? "loaded" : "");
 }
 
 }  // namespace

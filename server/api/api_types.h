@@ -149,6 +149,7 @@ struct ModelInfo {
   std::string layout;
   std::vector<std::string> decoders;
   double load_seconds = 0;  // of its latest load; 0 when not loaded
+  std::string precision = "fp32";  // of its inference weights, as --precision sets it for this model
   // Describe only: the manifest's provenance and the evaluation, JSON text
   // ("{}" when absent), and the model card (Markdown, empty when absent).
   std::string provenance_json = "{}";

@@ -277,6 +277,7 @@ ModelInfo ModelStore::info(const std::string& name, bool details) const {
   }
   info.loaded = loaded != nullptr;
   if (loaded) info.load_seconds = loaded->load_seconds;
+  info.precision = precision_name(precisions_.of(name));
   // The listing reads the manifest, not the weights: it must not load models.
   const auto manifest = nlohmann::json::parse(read_text(dir / kManifest), nullptr, false);
   if (!manifest.is_discarded() && manifest.is_object()) {

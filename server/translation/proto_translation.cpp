@@ -175,6 +175,7 @@ void to_wire(const ModelInfo& info, v1::ModelInfo* out) {
   out->set_layout(info.layout);
   for (const auto& decoder : info.decoders) out->add_decoders(decoder);
   out->set_load_seconds(info.load_seconds);
+  out->set_precision(info.precision);
   out->set_provenance_json(info.provenance_json);
   out->set_evaluation_json(info.evaluation_json);
   out->set_model_card(info.model_card);

@@ -102,6 +102,17 @@ TEST(ServerConfig, LowerPrecisionsDecodeCloseToFp32OrAreRefusedNamingTheCpu) {
     {
       ServerProcess server({"--precision", "h36m-dkgm-h100=" + precision});
       lower = sampled_poses(server);
+      // The model list says which precision each model is served in.
+      const Reply models = get(server.rest_port(), "/v1/models");
+      ASSERT_EQ(models.status, 200) << models.body;
+      int listed = 0;
+      const auto document = nlohmann::json::parse(models.body);  // the loop below reads into it
+      for (const auto& model : document["models"]) {
+        const bool named = model["name"] == "h36m-dkgm-h100";
+        EXPECT_EQ(model["precision"], named ? precision : "fp32") << model["name"];
+        listed += named;
+      }
+      EXPECT_EQ(listed, 1);
     }
     ASSERT_EQ(fp32.size(), lower.size());
     ASSERT_FALSE(fp32.empty());

@@ -95,6 +95,7 @@ v1::ModelInfo model_info(const std::string& name) {
   m.add_decoders("rotation");
   m.add_decoders("velocity");
   m.set_load_seconds(0.75);
+  m.set_precision("int8");
   m.set_provenance_json(R"({"dataset":"h3.6m"})");
   m.set_evaluation_json("{}");
   m.set_model_card("# card\n");
@@ -296,7 +297,8 @@ TEST(RestJson, ModelInfoEmbedsItsJsonTextAsObjects) {
   EXPECT_EQ(body_text(to_json(m)),
             R"({"active":true,"columns":99,"decoders":["rotation","rotation2"],"evaluation":{},"frame_rate":25.0,)"
             R"("frames":150,"hidden":1024,"latent":64,"layout":"h36m-expmap-99","load_seconds":0.75,"loaded":true,)"
-            R"("model_card":"# card\n","name":"h36m-dkgm-h100","provenance":{"dataset":"h3.6m"},"skeleton":null,)"
+            R"("model_card":"# card\n","name":"h36m-dkgm-h100","precision":"int8","provenance":{"dataset":"h3.6m"},)"
+            R"("skeleton":null,)"
             R"("variant":"DKGM","version":"fedcba9876543210"})");
 }
 
