@@ -138,7 +138,6 @@ struct PackedLinear::Impl {
   memory::dim n, k;
   Type type;
   std::vector<float> weight_scales;  // int8: one per output row
-  std::vector<float> bias_values;    // int8: added after the product
   memory::desc bias_desc, packed_desc;
   memory packed_weight, bias;
   std::mutex products_mutex;
@@ -200,8 +199,6 @@ PackedLinear::PackedLinear(const at::Tensor& weight, const at::Tensor& bias, Pre
     auto scales = source.abs().amax(1).div_(kInt8Largest).clamp_min_(std::numeric_limits<float>::min());
     source = source.div(scales.unsqueeze(1)).round_().to(at::kChar).contiguous();
     m.weight_scales.assign(scales.data_ptr<float>(), scales.data_ptr<float>() + m.n);
-    const auto bias_values = bias.detach().to(at::kFloat).contiguous();
-    m.bias_values.assign(bias_values.data_ptr<float>(), bias_values.data_ptr<float>() + m.n);
   }
   m.packed_desc = m.describe(kPackingRows, memory::desc({m.k, m.n}, m.type, Tag::any)).weights_desc();
   memory plain(memory::desc({m.k, m.n}, m.type == Type::s8 ? Type::s8 : Type::f32, Tag::ba), cpu_engine(),
@@ -260,9 +257,10 @@ void PackedLinear::apply(const at::Tensor& input, at::Tensor& out) const {
   if (m.type != Type::s8) arguments.emplace(DNNL_ARG_BIAS, m.bias);
   product->matmul.execute(stream, arguments);
   stream.wait();
-  if (m.type == Type::s8) {
+  if (m.type == Type::s8) {  // the product left the bias out: it comes after the row's scale
+    const auto* bias = static_cast<const float*>(m.bias.get_data_handle());
     float* rows_out = out.data_ptr<float>();
-    for (memory::dim r = 0; r < rows; ++r) finish_int8_row(rows_out + r * m.n, m.bias_values.data(), m.n, row_scales[r]);
+    for (memory::dim r = 0; r < rows; ++r) finish_int8_row(rows_out + r * m.n, bias, m.n, row_scales[r]);
   }
 }
 

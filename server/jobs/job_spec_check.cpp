@@ -133,7 +133,7 @@ JobDataset resolve_job_dataset(const std::string& data_root, const std::string& 
 
 // The spec's fields as overrides of its configuration: 0 is the
 // configuration's, the seed is always the spec's.
-static ResolvedTrainConfig resolve_job_config(const JobSpec& spec) {
+ResolvedTrainConfig resolve_job_config(const JobSpec& spec) {
   TrainOverrides overrides;
   overrides.iterations = spec.iterations;
   overrides.hidden = spec.hidden;
@@ -146,8 +146,6 @@ static ResolvedTrainConfig resolve_job_config(const JobSpec& spec) {
 }
 
 std::string resolved_job_config_json(const JobSpec& spec) { return to_json_text(resolve_job_config(spec)); }
-
-int64_t job_iterations(const JobSpec& spec) { return resolve_job_config(spec).config.iterations; }
 
 void check_job_spec(const JobSpec& spec) {
   const auto& variants = job_variants();

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "api/api_types.h"
+#include "training_config.h"
 
 namespace mm::service {
 
@@ -52,19 +53,17 @@ constexpr int kMaxJobBatch = 1024;
 // otherwise.
 void check_job_spec(const JobSpec& spec);
 
-// The training configuration a checked spec trains, whole, as the JSON text
-// of model/training_config.h (to_json_text of a ResolvedTrainConfig): its
-// config (or its variant's defaults) with its iterations, hidden and batch
-// where they are not 0 and its seed, by the rule the tool's `train` flags
-// follow (resolve_train_config). model.pose_dims is left out unless config
-// gives it (the run takes the dataset's); dataset and output_dir are empty
-// (the server gives the run its own). Throws InputError for a spec that
-// check_job_spec refuses.
-std::string resolved_job_config_json(const JobSpec& spec);
+// The training configuration a checked spec trains, whole: its config (or
+// its variant's defaults) with its iterations, hidden and batch where they
+// are not 0 and its seed, by the rule the tool's `train` flags follow
+// (resolve_train_config). model.pose_dims come from the dataset unless
+// config gives them; dataset and output_dir are empty (the server gives the
+// run its own). Throws InputError for a spec that check_job_spec refuses.
+ResolvedTrainConfig resolve_job_config(const JobSpec& spec);
 
-// The iterations a checked spec trains: its own, else its configuration's,
-// else its variant's default.
-int64_t job_iterations(const JobSpec& spec);
+// The same as JSON text (to_json_text of a ResolvedTrainConfig): what a job
+// record keeps.
+std::string resolved_job_config_json(const JobSpec& spec);
 
 // The Table 1 variants the tool trains.
 const std::vector<std::string>& job_variants();
