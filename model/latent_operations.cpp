@@ -44,9 +44,10 @@ at::Tensor stack_motions(const MotionManifold& model, const std::vector<MotionFr
 }
 
 // Normalised clips (n, frames, D) to raw motions; the root translation of
-// `translation_from` (same count) when given.
+// `translation_from` (same count) when given, else the model's generated
+// root when it has a trajectory network.
 std::vector<MotionFrames> to_motions(const MotionManifold& model, const at::Tensor& normalized,
-                                     const std::vector<MotionFrames>* translation_from) {
+                                     const std::vector<MotionFrames>* translation_from, const at::Tensor& codes) {
   auto raw = model.to_raw(normalized).cpu().contiguous();
   std::vector<MotionFrames> result(static_cast<size_t>(raw.size(0)));
   const int64_t per_motion = raw.size(1) * raw.size(2);
@@ -59,6 +60,7 @@ std::vector<MotionFrames> to_motions(const MotionManifold& model, const at::Tens
       for (int64_t f = 0; f < result[i].frame_count(); ++f) std::memcpy(result[i].frame(f), source.frame(f), 3 * sizeof(float));
     }
   }
+  if (!translation_from && model.has_trajectory()) write_generated_roots(model, normalized, codes, result);
   return result;
 }
 
@@ -77,7 +79,7 @@ std::vector<MotionFrames> decode_codes(const MotionManifold& model, const at::Te
     throw InputError("codes: expected shape (n, " + std::to_string(latent) + "), found " + c10::str(codes.sizes()));
   }
   if (!at::isfinite(codes).all().item<bool>()) throw InputError("codes: values must be finite numbers");
-  return to_motions(model, model.decode(codes.to(at::kFloat), kind), translation_from);
+  return to_motions(model, model.decode(codes.to(at::kFloat), kind), translation_from, codes);
 }
 
 at::Tensor sample_codes(const MotionManifold& model, int n, uint64_t seed, double prior_variance) {
@@ -131,7 +133,7 @@ std::vector<MotionFrames> denoise_motions(const MotionManifold& model, const std
   const auto normalized = model.to_normalized(raw);
   auto projected = project_onto_manifold(model, normalized, missing, kind, options.iterations);
   if (missing.defined() && options.keep_observed) projected = at::where(missing, projected, normalized);
-  return to_motions(model, projected, &motions);
+  return to_motions(model, projected, &motions, at::Tensor());
 }
 
 at::Tensor project_onto_manifold(const MotionManifold& model, const at::Tensor& normalized, const at::Tensor& missing,

@@ -25,9 +25,11 @@ namespace mm {
 // Codes of the motions, (n, latent).
 at::Tensor encode_motions(const MotionManifold& model, const std::vector<MotionFrames>& motions);
 
-// One motion per row of codes (n, latent), un-normalised. Dropped root
-// translation is zero unless `translation_from` (same count as codes) gives
-// motions whose translation columns are copied.
+// One motion per row of codes (n, latent), un-normalised. The root
+// translation columns are copied from `translation_from` (same count as
+// codes) when given; otherwise they hold the root path the model's
+// trajectory network generates (root_trajectory.h: it travels, with the
+// lowest foot on the floor), or zero for a model without one.
 std::vector<MotionFrames> decode_codes(const MotionManifold& model, const at::Tensor& codes, DecoderKind kind,
                                        const std::vector<MotionFrames>* translation_from = nullptr);
 

@@ -127,6 +127,7 @@ void MotionManifold::to(at::Device device) {
   if (!rotation_decoder_.is_empty()) rotation_decoder_->to(device);
   if (!velocity_decoder_.is_empty()) velocity_decoder_->to(device);
   discriminator_->to(device);
+  if (!trajectory_.is_empty()) trajectory_->to(device);
   fk_.to(device);
   build_tensors();
 }
@@ -137,6 +138,13 @@ void MotionManifold::train(bool on) {
   if (!rotation_decoder_.is_empty()) rotation_decoder_->train(on);
   if (!velocity_decoder_.is_empty()) velocity_decoder_->train(on);
   discriminator_->train(on);
+  if (!trajectory_.is_empty()) trajectory_->train(on);
+}
+
+void MotionManifold::set_trajectory(RootTrajectory trajectory, const std::string& training_json) {
+  trajectory_ = std::move(trajectory);
+  trajectory_training_json_ = training_json;
+  if (!trajectory_.is_empty()) trajectory_->to(device_);
 }
 
 void MotionManifold::pack_for_inference(Precision precision) {
@@ -194,6 +202,11 @@ void MotionManifold::save(const std::string& dir, const std::string& provenance_
       {"skeleton", nlohmann::json::parse(skeleton_.to_json_text())},
       {"provenance", nlohmann::json::parse(provenance_json)},
   };
+  if (!trajectory_.is_empty()) {
+    save_module(*trajectory_, dir + "/trajectory.pt");
+    manifest["trajectory"] = {{"shape", nlohmann::json::parse(to_json_text(trajectory_->config()))},
+                              {"training", nlohmann::json::parse(trajectory_training_json_)}};
+  }
   write_file_atomically(dir + "/manifest.json", manifest.dump(1));
 }
 
@@ -218,6 +231,15 @@ MotionManifold MotionManifold::load(const std::string& dir, at::Device device) {
   if (model.config_.velocity_decoder) load_module(*model.velocity_decoder_, dir + "/velocity_decoder.pt");
   load_module(*model.discriminator_, dir + "/discriminator.pt");
   if (manifest.contains("provenance")) model.provenance_json_ = manifest["provenance"].dump();
+  if (manifest.contains("trajectory")) {
+    const auto& trajectory = manifest["trajectory"];
+    const std::string source = manifest_path + ": trajectory";
+    if (!trajectory.is_object() || !trajectory.contains("shape")) throw InputError(source + ": missing field \"shape\"");
+    RootTrajectory network(model.config_.pose_dims, model.config_.latent,
+                           trajectory_config_from_json_text(trajectory["shape"].dump(), source + ".shape"));
+    load_module(*network, dir + "/trajectory.pt");
+    model.set_trajectory(network, trajectory.value("training", nlohmann::json::object()).dump());
+  }
   model.to(device);
   model.train(false);
   if (device.is_cpu()) model.pack_for_inference(Precision::kFp32);

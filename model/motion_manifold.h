@@ -18,6 +18,7 @@
 #include "format/pose_normalization.h"
 #include "format/skeleton.h"
 #include "forward_kinematics.h"
+#include "root_trajectory.h"
 #include "training_config.h"
 
 namespace mm {
@@ -50,6 +51,18 @@ class MotionManifold {
   DecoderKind default_decoder() const;
   Discriminator& discriminator() { return discriminator_; }
   const Discriminator& discriminator() const { return discriminator_; }
+
+  // The root trajectory network (root_trajectory.h), trained apart from the
+  // manifold after it; a model without one generates motion that stays in
+  // place (root translation zero), as the paper's does.
+  bool has_trajectory() const { return !trajectory_.is_empty(); }
+  // The network (a shared handle); empty without one.
+  RootTrajectory trajectory() const { return trajectory_; }
+  // Installs a trajectory network (on the model's device); `training_json`
+  // is free JSON text kept in the manifest beside its shape (how it was
+  // trained). Not concurrently with inference.
+  void set_trajectory(RootTrajectory trajectory, const std::string& training_json = "{}");
+  const std::string& trajectory_training_json() const { return trajectory_training_json_; }
 
   // All generator parameters (encoder and decoders), for the optimiser.
   std::vector<at::Tensor> generator_parameters() const;
@@ -87,7 +100,8 @@ class MotionManifold {
   at::Tensor decode(const at::Tensor& codes, DecoderKind kind) const;
 
   // Writes the model as a folder: manifest.json (shape, normalisation,
-  // skeleton, provenance) and one weights file per network, each written to
+  // skeleton, provenance, the trajectory network's shape and training when
+  // there is one) and one weights file per network, each written to
   // a temporary file and renamed, manifest last, so a reader never sees a
   // half-written model. `provenance` is free JSON text kept in the manifest.
   void save(const std::string& dir, const std::string& provenance_json = "{}") const;
@@ -110,6 +124,8 @@ class MotionManifold {
   Encoder encoder_{nullptr};
   Decoder rotation_decoder_{nullptr}, velocity_decoder_{nullptr};
   Discriminator discriminator_{nullptr};
+  RootTrajectory trajectory_{nullptr};
+  std::string trajectory_training_json_ = "{}";
   std::string provenance_json_ = "{}";
   // Denormalisation as one affine map: raw = base_ + (x * std + mean) . scatter_
   at::Tensor kept_mean_, kept_std_, base_, scatter_, kept_index_;

@@ -1,5 +1,8 @@
 #include "take_processor.h"
 
+#include "format/foot_contacts.h"
+#include "format/root_path.h"
+
 #include <c10/core/InferenceMode.h>
 
 #include <algorithm>
@@ -166,6 +169,11 @@ struct TakeProcessor::State {
   int64_t output_frames = 0;
   int windows = 0;
   double error_sum = 0, error_max = 0;
+  // The generated root: its path so far, and its height at the last frame
+  // answered (a take is not held whole, so each frame's lowest foot is put
+  // on the floor instead of levelling the whole path).
+  std::optional<RootPathIntegrator> root_path;
+  double root_height = 0;
   int64_t held_peak = 0;
   bool finished = false;
 };
@@ -273,6 +281,7 @@ void TakeProcessor::State::run_batch(const std::vector<int64_t>& starts) {
     if (output.defined()) {
       auto out = model.to_raw(output).to(at::kFloat).cpu().contiguous();
       decoded.assign(out.data_ptr<float>(), out.data_ptr<float>() + out.numel());
+      if (options.root == TakeRoot::kGenerated) write_generated_root_changes(model, output, code, decoded.data(), columns);
     }
   });
   raw_windows = {};
@@ -326,7 +335,7 @@ void TakeProcessor::State::answer(MotionFrames& output) {
     const float* given = reference.frame(output_frames + f);
     float* out = output.frame(f);
     float* ref = filled.frame(f);
-    std::memcpy(out, given, kRootTranslationValues * sizeof(float));
+    if (options.root == TakeRoot::kInput) std::memcpy(out, given, kRootTranslationValues * sizeof(float));
     for (int c = 0; c < columns; ++c) {
       if (std::isnan(given[c])) continue;
       ref[c] = given[c];
@@ -340,6 +349,12 @@ void TakeProcessor::State::answer(MotionFrames& output) {
   }
   output_frames += count;
   reference.drop_before(output_frames);
+  if (options.root == TakeRoot::kGenerated) {
+    const double rate = options.at_model_rate ? kTakeModelRate : options.frame_rate;
+    if (!root_path) root_path.emplace(kRootRotationStepsPerFrame * kTakeModelRate / rate);
+    root_path->integrate(output);
+    root_height = place_root_on_floor(model.skeleton(), output, root_height);
+  }
   if (sink.on_frames) sink.on_frames(output, errors);
 }
 
@@ -353,6 +368,10 @@ TakeProcessor::TakeProcessor(const MotionManifold& model, TakeOptions options, T
     if (d.zeros_are_missing && d.means_are_missing) {
       throw InputError("means_are_missing: expected either zeros_are_missing or means_are_missing, found both");
     }
+  }
+  if (options.root == TakeRoot::kGenerated && !model.has_trajectory()) {
+    throw InputError("root: \"generated\" needs a model with a trajectory network, which this model lacks; expected "
+                     "\"input\"");
   }
   state_ = std::make_unique<State>(model, std::move(options), std::move(sink), std::move(run));
 }
@@ -505,11 +524,17 @@ TakeSummary decode_code_track(const MotionManifold& model, const std::vector<Tak
   TakeAssembler assembler(columns, options.blend);
   MotionResampler to_output(columns, kTakeModelRate, options.frame_rate);
   int64_t emitted = 0;
+  RootPathIntegrator root_path(kRootRotationStepsPerFrame * kTakeModelRate / options.frame_rate);
+  double root_height = 0;
   auto hand_out = [&](MotionFrames& frames) {
     const int64_t count = std::min(frames.frame_count(), output_frames - emitted);
     if (count <= 0) return;
     frames.values.resize(static_cast<size_t>(count * columns));
     emitted += count;
+    if (model.has_trajectory()) {
+      root_path.integrate(frames);
+      root_height = place_root_on_floor(model.skeleton(), frames, root_height);
+    }
     if (sink.on_frames) sink.on_frames(frames, {});
   };
   const auto batch = static_cast<size_t>(options.batch_windows);
@@ -522,8 +547,10 @@ TakeSummary decode_code_track(const MotionManifold& model, const std::vector<Tak
     run_tensor_work(run, [&] {
       c10::InferenceMode inference;
       auto code = at::from_blob(codes.data(), {count, latent}).to(model.device());
-      auto out = model.to_raw(model.decode(code, options.decoder)).to(at::kFloat).cpu().contiguous();
+      auto poses = model.decode(code, options.decoder);
+      auto out = model.to_raw(poses).to(at::kFloat).cpu().contiguous();
       decoded.assign(out.data_ptr<float>(), out.data_ptr<float>() + out.numel());
+      if (model.has_trajectory()) write_generated_root_changes(model, poses, code, decoded.data(), columns);
     });
     MotionFrames final_frames, window_frames, output;
     final_frames.columns = window_frames.columns = output.columns = columns;
@@ -548,6 +575,14 @@ TakeSummary decode_code_track(const MotionManifold& model, const std::vector<Tak
   summary.output_rate = options.frame_rate;
   summary.windows = static_cast<int>(track.size());
   return summary;
+}
+
+const char* take_root_name(TakeRoot root) { return root == TakeRoot::kInput ? "input" : "generated"; }
+
+TakeRoot parse_take_root(const std::string& name, const std::string& field) {
+  if (name == "input") return TakeRoot::kInput;
+  if (name == "generated") return TakeRoot::kGenerated;
+  throw InputError(field + ": expected \"input\" or \"generated\", found \"" + name + "\"");
 }
 
 }  // namespace mm

@@ -48,6 +48,15 @@ namespace mm {
 enum class TakeOperation { kEncode, kReconstruct, kDenoise };
 const char* take_operation_name(TakeOperation operation);  // "encode" / "reconstruct" / "denoise"
 
+// Where a take's output root path comes from: the input's (the default:
+// a reconstruction of a recorded take keeps where it went), or the model's
+// trajectory network (root_trajectory.h) from the output's poses, with the
+// lowest foot on the floor.
+enum class TakeRoot { kInput, kGenerated };
+const char* take_root_name(TakeRoot root);  // "input" / "generated"
+// InputError naming `field`, the value and the two names otherwise.
+TakeRoot parse_take_root(const std::string& name, const std::string& field = "root");
+
 struct TakeOptions {
   TakeOperation operation = TakeOperation::kReconstruct;
   double frame_rate = kTakeModelRate;  // Hz of the input frames, 10 to 1000 ("frame_rate")
@@ -55,6 +64,9 @@ struct TakeOptions {
   TakeBlend blend = TakeBlend::kCrossfade;
   bool at_model_rate = false;  // output at 25 Hz instead of the take's rate and length
   DecoderKind decoder = DecoderKind::kRotation;
+  // Reconstruct and denoise: the output's root path. kGenerated needs a
+  // model with a trajectory network (InputError naming "root" otherwise).
+  TakeRoot root = TakeRoot::kInput;
   // Denoise only. NaN values are always missing there; these say what else
   // is (zeros, means: tested per value at the input's rate, where a value
   // is still exact, and then missing as a NaN is), how many rounds fill the
@@ -164,8 +176,9 @@ struct CodeTrackDecoding {
 // Decodes a code track (windows in order of start, as encode gives them;
 // only start_seconds and code are read) into one continuous motion: every
 // code decoded to a window at its start (rounded to a 25 Hz frame), the
-// windows joined as a take's are, brought to the output rate. The root does
-// not move (the model has no root translation). Results go to sink.on_frames
+// windows joined as a take's are, brought to the output rate. The root
+// travels as the model's trajectory network says (root_trajectory.h), with
+// the lowest foot on the floor; a model without one leaves it in place. Results go to sink.on_frames
 // with an empty error. InputError naming "windows[i].start_seconds" (the
 // first must be 0, each at or after the previous, none leaving a frame
 // uncovered), "windows[i].code" (latent finite floats), "frame_rate" or

@@ -19,11 +19,15 @@ FloatJson floats_json(const Floats& values) {
 FloatJson code_json(const v1::Code& code) { return floats_json(code.values()); }
 
 FloatJson motion_json(const v1::Motion& motion) {
-  return FloatJson{{"frames", motion.frames()},
-                   {"columns", motion.columns()},
-                   {"frame_rate", motion.frame_rate()},
-                   {"layout", motion.layout()},
-                   {"values", floats_json(motion.values())}};
+  FloatJson out{{"frames", motion.frames()},
+                {"columns", motion.columns()},
+                {"frame_rate", motion.frame_rate()},
+                {"layout", motion.layout()},
+                {"values", floats_json(motion.values())}};
+  // A reply's: a request leaves both out.
+  if (!motion.root().empty()) out["root"] = motion.root();
+  if (motion.contacts_size() > 0) out["contacts"] = std::vector<uint32_t>(motion.contacts().begin(), motion.contacts().end());
+  return out;
 }
 
 FloatJson motions_json(const google::protobuf::RepeatedPtrField<v1::Motion>& motions) {
@@ -76,6 +80,19 @@ void read_motion(const Json& value, const std::string& path, UnknownFields unkno
   motion->set_frame_rate(reader.number("frame_rate"));
   motion->set_layout(reader.string("layout"));
   reader.floats("values", motion->mutable_values());
+  // A reply's members, accepted in a request (a motion a server sent may be
+  // sent back) and there ignored.
+  motion->set_root(reader.string("root"));
+  if (const Json* v = reader.find("contacts")) {
+    const std::string contacts = reader.path("contacts");
+    if (!v->is_array()) throw type_error(contacts, "an array of integers", *v);
+    for (size_t i = 0; i < v->size(); ++i) {
+      if (!(*v)[i].is_number_unsigned() || (*v)[i].get<uint64_t>() > 0xffffffffu) {
+        throw type_error(index_path(contacts, i), "an integer from 0 to 4294967295", (*v)[i]);
+      }
+      motion->add_contacts((*v)[i].get<uint32_t>());
+    }
+  }
   reader.finish();
 }
 
@@ -190,6 +207,15 @@ void read_model(const Json& body, const std::string& path, UnknownFields unknown
   }
   model->set_load_seconds(reader.number("load_seconds"));
   model->set_precision(reader.string("precision"));
+  model->set_trajectory(reader.boolean("trajectory"));
+  if (const Json* v = reader.find("feet")) {
+    const std::string feet = reader.path("feet");
+    if (!v->is_array()) throw type_error(feet, "an array of strings", *v);
+    for (size_t i = 0; i < v->size(); ++i) {
+      if (!(*v)[i].is_string()) throw type_error(index_path(feet, i), "a string", (*v)[i]);
+      model->add_feet((*v)[i].get<std::string>());
+    }
+  }
   model->set_provenance_json(reader.object_text("provenance", "the model's provenance"));
   model->set_evaluation_json(reader.object_text("evaluation", "the model's evaluation"));
   model->set_model_card(reader.string("model_card"));
@@ -261,12 +287,14 @@ FloatJson to_json(const v1::EncodeRequest& request) {
 Json to_json(const v1::SampleRequest& request) {
   Json out{{"model", request.model()}, {"seed", request.seed()}, {"decoder", request.decoder()}};
   if (request.count() != 0) out["count"] = request.count();
+  if (request.plant_feet()) out["plant_feet"] = true;
   return out;
 }
 
 FloatJson to_json(const v1::DecodeRequest& request) {
-  return FloatJson{
-      {"model", request.model()}, {"codes", codes_json(request.codes())}, {"decoder", request.decoder()}};
+  FloatJson out{{"model", request.model()}, {"codes", codes_json(request.codes())}, {"decoder", request.decoder()}};
+  if (request.plant_feet()) out["plant_feet"] = true;
+  return out;
 }
 
 FloatJson to_json(const v1::InterpolateRequest& request) {
@@ -276,15 +304,18 @@ FloatJson to_json(const v1::InterpolateRequest& request) {
                 {"decoder", request.decoder()}};
   if (request.steps() != 0) out["steps"] = request.steps();
   if (!request.method().empty()) out["method"] = request.method();
+  if (request.plant_feet()) out["plant_feet"] = true;
   return out;
 }
 
 FloatJson to_json(const v1::AnalogyRequest& request) {
-  return FloatJson{{"model", request.model()},
-                   {"a", motion_or_code_json(request.a())},
-                   {"b", motion_or_code_json(request.b())},
-                   {"c", motion_or_code_json(request.c())},
-                   {"decoder", request.decoder()}};
+  FloatJson out{{"model", request.model()},
+                {"a", motion_or_code_json(request.a())},
+                {"b", motion_or_code_json(request.b())},
+                {"c", motion_or_code_json(request.c())},
+                {"decoder", request.decoder()}};
+  if (request.plant_feet()) out["plant_feet"] = true;
+  return out;
 }
 
 FloatJson to_json(const v1::DenoiseRequest& request) {
@@ -331,6 +362,7 @@ void from_json(const Json& body, v1::SampleRequest& out, UnknownFields unknown) 
   out.set_count(reader.int32("count"));
   out.set_seed(reader.uint64("seed"));
   out.set_decoder(reader.string("decoder"));
+  out.set_plant_feet(reader.boolean("plant_feet"));
   reader.finish();
 }
 
@@ -340,6 +372,7 @@ void from_json(const Json& body, v1::DecodeRequest& out, UnknownFields unknown) 
   out.set_model(reader.string("model"));
   read_codes(reader, "codes", out.mutable_codes());
   out.set_decoder(reader.string("decoder"));
+  out.set_plant_feet(reader.boolean("plant_feet"));
   reader.finish();
 }
 
@@ -352,6 +385,7 @@ void from_json(const Json& body, v1::InterpolateRequest& out, UnknownFields unkn
   out.set_steps(reader.int32("steps"));
   out.set_method(reader.string("method"));
   out.set_decoder(reader.string("decoder"));
+  out.set_plant_feet(reader.boolean("plant_feet"));
   reader.finish();
 }
 
@@ -363,6 +397,7 @@ void from_json(const Json& body, v1::AnalogyRequest& out, UnknownFields unknown)
   read_motion_or_code(reader, "b", [&out] { return out.mutable_b(); });
   read_motion_or_code(reader, "c", [&out] { return out.mutable_c(); });
   out.set_decoder(reader.string("decoder"));
+  out.set_plant_feet(reader.boolean("plant_feet"));
   reader.finish();
 }
 
@@ -427,6 +462,8 @@ Json to_json(const v1::ModelInfo& model) {
               {"decoders", std::vector<std::string>(model.decoders().begin(), model.decoders().end())},
               {"load_seconds", model.load_seconds()},
               {"precision", model.precision()},
+              {"trajectory", model.trajectory()},
+              {"feet", std::vector<std::string>(model.feet().begin(), model.feet().end())},
               {"provenance", embedded(model.provenance_json())},
               {"evaluation", embedded(model.evaluation_json())},
               {"model_card", model.model_card()},

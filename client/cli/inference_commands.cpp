@@ -22,12 +22,18 @@ namespace {
 // The options every inference command has.
 struct ModelChoice {
   std::string model, decoder;
+  bool plant_feet = false;
 
   void add_to(CLI::App* command, bool with_decoder) {
     command->add_option("--model", model, "model of the server's store (default: the active one)");
     if (with_decoder) {
       command->add_option("--decoder", decoder, "rotation or velocity (default: the model's)");
     }
+  }
+  // Decode, sample, interpolate and analogy: their motions' generated root.
+  void add_plant_feet(CLI::App* command) {
+    command->add_flag("--plant-feet", plant_feet,
+                      "correct the generated root where a foot is planted, so that planted feet stay put");
   }
 };
 
@@ -135,6 +141,7 @@ void add_decode(CLI::App& app, const ClientSettings& settings, Action& action) {
       "decode", "Decode codes (JSON files as encode prints them, or bare arrays) into motions at 25 Hz; read them "
                 "back with --rate 25.");
   o->model.add_to(command, true);
+  o->model.add_plant_feet(command);
   command->add_option("--code", o->codes, "code file(s) (.json; - for standard input)")->required();
   command->add_option("--out", o->out, "motion file of the first code (.txt or .bvh; - for standard output)");
   o->out_dir.add_to(command, "folder for every code's motion: decode_000.txt, ...");
@@ -148,6 +155,7 @@ void add_decode(CLI::App& app, const ClientSettings& settings, Action& action) {
       v1::DecodeRequest request;
       request.set_model(o->model.model);
       request.set_decoder(o->model.decoder);
+      request.set_plant_feet(o->model.plant_feet);
       for (const auto& path : o->codes) *request.add_codes() = read_code(path);
       const auto server = connect(settings.connection);
       ModelRigs rigs(*server);
@@ -169,6 +177,7 @@ void add_sample(CLI::App& app, const ClientSettings& settings, Action& action) {
       "sample", "Draw codes from the prior N(0, I) and write their motions (25 Hz) as <out-dir>/sample_000.txt, "
                 "... (or .bvh with --format bvh); the same seed, count and model give the same motions.");
   o->model.add_to(command, true);
+  o->model.add_plant_feet(command);
   command->add_option("--count", o->count, "number of motions")->check(CLI::PositiveNumber)->capture_default_str();
   command->add_option("--seed", o->seed, "seed of the codes")->capture_default_str();
   o->out_dir.add_to(command, "folder for the motion files");
@@ -178,6 +187,7 @@ void add_sample(CLI::App& app, const ClientSettings& settings, Action& action) {
       v1::SampleRequest request;
       request.set_model(o->model.model);
       request.set_decoder(o->model.decoder);
+      request.set_plant_feet(o->model.plant_feet);
       request.set_count(o->count);
       request.set_seed(o->seed);
       const auto server = connect(settings.connection);
@@ -201,6 +211,7 @@ void add_interpolate(CLI::App& app, const ClientSettings& settings, Action& acti
       "interpolate", std::string("Interpolate between two motions or codes (Sec. 5.3) and write the --steps motions "
                                  "(ends included) as <out-dir>/interpolation_000.txt, .... ") + kMotionInputNote);
   o->model.add_to(command, true);
+  o->model.add_plant_feet(command);
   command->add_option("--from", o->from.path, "first motion (.txt, .bvh) or code (.json)")->required();
   command->add_option("--to", o->to.path, "last motion (.txt, .bvh) or code (.json)")->required();
   add_rate(command, {&o->from, &o->to});
@@ -220,6 +231,7 @@ void add_interpolate(CLI::App& app, const ClientSettings& settings, Action& acti
       *request.mutable_to() = motion_or_code(o->to, rigs, o->model.model);
       request.set_model(rigs.pinned(o->model.model));
       request.set_decoder(o->model.decoder);
+      request.set_plant_feet(o->model.plant_feet);
       request.set_steps(o->steps);
       request.set_method(o->method);
       const auto reply = server->interpolate(request);
@@ -239,6 +251,7 @@ void add_analogy(CLI::App& app, const ClientSettings& settings, Action& action) 
       "analogy", std::string("Write the motion of a - b + c (Sec. 5.5): a has a feature b lacks, c receives it. ") +
                      kMotionInputNote);
   o->model.add_to(command, true);
+  o->model.add_plant_feet(command);
   command->add_option("--a", o->a.path, "motion (.txt, .bvh) or code (.json) with the feature")->required();
   command->add_option("--b", o->b.path, "motion or code without it (subtracted)")->required();
   command->add_option("--c", o->c.path, "motion or code to give it to")->required();
@@ -258,6 +271,7 @@ void add_analogy(CLI::App& app, const ClientSettings& settings, Action& action) 
       *request.mutable_c() = motion_or_code(o->c, rigs, o->model.model);
       request.set_model(rigs.pinned(o->model.model));
       request.set_decoder(o->model.decoder);
+      request.set_plant_feet(o->model.plant_feet);
       const auto reply = server->analogy(request);
       return finish_motions(settings, reply, rigs, o->out, {}, "analogy");
     };

@@ -92,6 +92,7 @@ std::string take_query(const v1::TakeHeader& h, bool bvh) {
   if (h.means_are_missing()) add("means_are_missing", "true");
   if (h.iterations() > 0) add("iterations", std::to_string(h.iterations()));
   if (h.keep_observed()) add("keep_observed", "true");
+  if (!h.root().empty()) add("root", h.root());
   return query;
 }
 

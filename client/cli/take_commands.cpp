@@ -23,7 +23,7 @@ namespace {
 // The options of every take command.
 struct TakeOptions {
   TakeSource input;
-  std::string model, decoder, blend, out, error_csv;
+  std::string model, decoder, blend, out, error_csv, root;
   double hop_seconds = 0;  // 0: the server's 3 s
   bool at_model_rate = false;
   // denoise
@@ -44,6 +44,9 @@ struct TakeOptions {
     command->add_option("--blend", blend, "how overlapping windows join: crossfade (default) or cut");
     command->add_flag("--at-model-rate", at_model_rate, "reply at the model's 25 Hz instead of the take's rate");
     command->add_option("--error-csv", error_csv, "also write each frame's error: frame,seconds,error_mm");
+    command->add_option("--root", root,
+                        "the reply's root path: input (the take's own, default) or generated (the model's trajectory "
+                        "network, feet on the floor)");
   }
 
   void set_header(v1::TakeHeader& header) const {
@@ -55,6 +58,7 @@ struct TakeOptions {
     header.set_means_are_missing(means_are_missing);
     header.set_iterations(iterations);
     header.set_keep_observed(keep_observed);
+    header.set_root(root);
   }
 };
 

@@ -13,7 +13,8 @@
 // root translation in mm (frame 0 holds zeros in the data set). BVH wants
 // positions, so the export writes their running sum (frame f: the sum of
 // frames 0..f) and the import writes differences of consecutive positions
-// at 25 Hz (frame 0: zero). The model ignores these columns.
+// at 25 Hz (frame 0: the root's position, so that a reply exported again
+// starts where the file did). The model ignores these columns.
 //
 // The 7 leaves of H3.6M (RightToeBase_End, ..., RightWrist_End_Site) carry no
 // motion (rotating a leaf moves no joint) and are written as End Sites, so a

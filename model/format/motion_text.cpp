@@ -288,4 +288,22 @@ std::vector<MotionFrames> split_phases(const MotionFrames& motion, int factor) {
   return phases;
 }
 
+std::vector<MotionFrames> split_phases_keeping_root_path(const MotionFrames& motion, int factor) {
+  auto phases = split_phases(motion, factor);
+  for (int k = 0; k < factor; ++k) {
+    MotionFrames& phase = phases[static_cast<size_t>(k)];
+    for (int64_t i = 0; i < phase.frame_count(); ++i) {
+      float* root = phase.frame(i);
+      for (int a = 0; a < 3; ++a) {
+        double change = 0;
+        if (i > 0) {
+          for (int64_t j = (i - 1) * factor + k + 1; j <= i * factor + k; ++j) change += motion.frame(j)[a];
+        }
+        root[a] = static_cast<float>(change);
+      }
+    }
+  }
+  return phases;
+}
+
 }  // namespace mm

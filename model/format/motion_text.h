@@ -93,4 +93,12 @@ void write_motion_text_file(const MotionFrames& motion, const std::string& path)
 // Throws InputError when factor < 1.
 std::vector<MotionFrames> split_phases(const MotionFrames& motion, int factor);
 
+// The same phases with the root's change over each kept frame's span: frame
+// k of phase p holds the sum of columns 0..2 of input frames (k - 1) x
+// factor + p + 1 .. k x factor + p (0 in frame 0), so the running sum of
+// the phase is the input's root path at the kept frames. split_phases keeps
+// the input's per-frame change, which is the root's motion over one input
+// frame only (half of it for H3.6M's 50 Hz at 25 Hz). Throws as split_phases.
+std::vector<MotionFrames> split_phases_keeping_root_path(const MotionFrames& motion, int factor);
+
 }  // namespace mm

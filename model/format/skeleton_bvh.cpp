@@ -246,11 +246,16 @@ MotionFrames import_frames(const Skeleton& skeleton, const std::vector<int>& mat
       for (int c = 0; c < 3; ++c) out[3 + 3 * j + c] = static_cast<float>(e[c]);
       if (j == 0) {
         for (int c = 0; c < 3; ++c) {
-          const double change = k == 0 ? 0.0 : position[c] - previous[c];
+          // Frame 0's change is the root's start, so that the running sum
+          // is the file's own positions and a reply keeps where it was.
+          const double change = k == 0 ? position[c] : position[c] - previous[c];
           if (std::fabs(change) > kMaxRootTranslationMm) {
-            throw InputError(source_name + ": the root moves " + std::to_string(change) + " mm between " +
-                             (own_rate ? std::string("") : std::string("25 Hz ")) + "frames " +
-                             std::to_string(k - 1) + " and " + std::to_string(k) + ", more than " +
+            throw InputError(source_name + (k == 0 ? ": the root starts " + std::to_string(change) +
+                                                         " mm from the origin, more than "
+                                                   : ": the root moves " + std::to_string(change) + " mm between " +
+                                                         (own_rate ? std::string("") : std::string("25 Hz ")) +
+                                                         "frames " + std::to_string(k - 1) + " and " +
+                                                         std::to_string(k) + ", more than ") +
                              std::to_string(kMaxRootTranslationMm) + " mm");
           }
           out[c] = static_cast<float>(change);

@@ -16,7 +16,9 @@
 //
 // Root position: BVH holds positions, the layout changes; the export writes
 // the running sum of the changes (frame f: the sum of frames 0..f), the
-// import the differences of consecutive positions at 25 Hz. Lengths are
+// import the differences of consecutive positions at 25 Hz, frame 0's the
+// root's position itself, so that an exported reply starts where the file
+// did. Lengths are
 // converted by the layout's millimetres_per_unit (10 for a file in cm).
 //
 // All functions are reentrant. Bad input throws InputError naming the source.

@@ -20,6 +20,8 @@
 #include <thread>
 #include <utility>
 
+#include "format/foot_contacts.h"
+#include "latent_operations.h"
 #include "cli_validators.h"
 #include "commands.h"
 #include "cuda_graph_replay.h"
@@ -143,6 +145,26 @@ void bench_device(const BenchOptions& o, const PreparedDataset& data, c10::Devic
                             [&] { model.decode(codes, DecoderKind::kRotation); }));
     }
   }
+  // What a decode to motions (the service's) adds to the networks: the
+  // frames in the layout, the trajectory network's root path in the world
+  // (a network of the shipped shape, random weights: it costs the same),
+  // and the feet planted.
+  if (!device.is_cpu()) return;
+  model.pack_for_inference(Precision::kFp32);
+  for (int batch : {1, 30}) {
+    c10::InferenceMode inference;
+    const auto codes = at::randn({batch, config.model.latent});
+    model.set_trajectory(RootTrajectory(nullptr));
+    out.push_back(measure("decode to motions, standing (packed fp32)", batch, device, repeats,
+                          [&] { decode_codes(model, codes, DecoderKind::kRotation); }));
+    model.set_trajectory(RootTrajectory(config.model.pose_dims, config.model.latent, TrajectoryConfig{}));
+    out.push_back(measure("decode to motions, root path (packed fp32)", batch, device, repeats,
+                          [&] { decode_codes(model, codes, DecoderKind::kRotation); }));
+    out.push_back(measure("decode to motions, root path, feet planted (packed fp32)", batch, device, repeats, [&] {
+      for (auto& motion : decode_codes(model, codes, DecoderKind::kRotation)) plant_feet(model.skeleton(), motion, 25);
+    }));
+  }
+  model.set_trajectory(RootTrajectory(nullptr));
 }
 
 // Where a decoder step's time goes on the CPU: each of its products (the

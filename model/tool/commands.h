@@ -38,5 +38,7 @@ void add_render_commands(CLI::App& app, Action& action);
 void add_take_commands(CLI::App& app, Action& action);
 // take-seams: where a take's windows meet, measured (model/take_seams.h).
 void add_take_seams_command(CLI::App& app, Action& action);
+// train-trajectory and evaluate-trajectory: the root path of generated motion.
+void add_trajectory_commands(CLI::App& app, Action& action);
 
 }  // namespace mm::tool

@@ -439,8 +439,10 @@ void add_decode(CLI::App& app, Action& action) {
   };
   auto o = std::make_shared<Options>();
   auto* command = app.add_subcommand(
-      "decode", "Decode a code (JSON as printed by encode) into a motion file at 25 Hz, standing in place (root "
-                "translation zero); read it back with --rate 25.");
+      "decode",
+      "Decode a code (JSON as printed by encode) into a motion file at 25 Hz, the root travelling as the model's "
+      "trajectory network says (world layout; a model without one stands in place: root translation zero); read it "
+      "back with --rate 25.");
   o->model.add_to(command, true);
   command->add_option("--code", o->code,
                       "JSON file: {\"code\": [...]} or a bare array of the model's latent size (64), each within "

@@ -156,6 +156,7 @@ void add_take_operation(CLI::App* take, Action& action, TakeOperation operation)
     double rate = kDataSetRate;
     double hop = kDefaultHopSeconds;
     bool at_model_rate = false;
+    std::string root = "input";
     DenoiseOptions denoise;
   };
   auto o = std::make_shared<Options>();
@@ -167,9 +168,9 @@ void add_take_operation(CLI::App* take, Action& action, TakeOperation operation)
       : denoises
           ? "Denoise a take: every window projected onto the manifold (Sec. 5.4), values given as nan (and those "
             "--zeros-are-missing or --means-are-missing names) missing and filled from the manifold; the windows "
-            "joined, at the take's rate and length, root translation the input's. "
+            "joined, at the take's rate and length, root translation the input's (or --root generated). "
           : "Reconstruct a take: every window encoded and decoded, the windows joined, at the take's rate and "
-            "length (or 25 Hz with --at-model-rate), root translation the input's. ";
+            "length (or 25 Hz with --at-model-rate), root translation the input's (or --root generated). ";
   if (!encodes) {
     description += "Prints a summary as JSON (mean and largest per-frame error: the mean distance of the joints "
                    "from the input's, mm). ";
@@ -188,6 +189,11 @@ void add_take_operation(CLI::App* take, Action& action, TakeOperation operation)
   if (!encodes) {
     command->add_flag("--at-model-rate", o->at_model_rate, "reply at the model's 25 Hz instead of the take's rate");
     command->add_option("--error-csv", o->error_csv, "also write each frame's error: frame,seconds,error_mm");
+    command
+        ->add_option("--root", o->root,
+                     "the output's root path: input (the take's own) or generated (the model's trajectory "
+                     "network, feet on the floor)")
+        ->capture_default_str();
   }
   if (denoises) {
     auto* zeros = command->add_flag("--zeros-are-missing", o->denoise.zeros_are_missing,
@@ -227,6 +233,7 @@ void add_take_operation(CLI::App* take, Action& action, TakeOperation operation)
       options.at_model_rate = o->at_model_rate;
       options.decoder = o->model.kind(model);
       options.denoise = o->denoise;
+      options.root = parse_take_root(o->root, "--root");
       TakeResult result;
       try {
         result = process_take(model, take.frames, options);

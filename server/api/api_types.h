@@ -65,6 +65,11 @@ struct Motion {
   double frame_rate = 0;
   std::string layout;
   std::vector<float> values;
+  // Replies only: where the root translation comes from ("generated",
+  // "input" or "none") and, per frame, the planted feet (bit k: foot k of
+  // the model's ModelInfo::feet).
+  std::string root;
+  std::vector<uint32_t> contacts;
 };
 constexpr const char* kH36mLayout = "h36m-expmap-99";
 
@@ -94,10 +99,13 @@ struct EncodeReply {
   std::vector<Code> codes;
 };
 
+// plant_feet (Decode, Sample, Interpolate, Analogy): correct the root so
+// that planted feet stay where they were put (format/foot_contacts.h).
 struct DecodeRequest {
   std::string model;
   std::vector<Code> codes;
   std::string decoder;
+  bool plant_feet = false;
 };
 struct MotionsReply {
   AnsweredBy answered_by;
@@ -110,6 +118,7 @@ struct SampleRequest {
   int count = 1;
   uint64_t seed = 0;  // the same seed gives the same motions
   std::string decoder;
+  bool plant_feet = false;
 };
 
 struct InterpolateRequest {
@@ -118,6 +127,7 @@ struct InterpolateRequest {
   int steps = 2;  // codes from `from` to `to` inclusive
   std::string method = "linear";  // "linear" or "spherical"
   std::string decoder;
+  bool plant_feet = false;
 };
 
 // a - b + c (Sec. 5.5).
@@ -125,6 +135,7 @@ struct AnalogyRequest {
   std::string model;
   MotionOrCode a, b, c;
   std::string decoder;
+  bool plant_feet = false;
 };
 
 struct DenoiseRequest {
@@ -150,6 +161,8 @@ struct ModelInfo {
   std::vector<std::string> decoders;
   double load_seconds = 0;  // of its latest load; 0 when not loaded
   std::string precision = "fp32";  // of its inference weights, as --precision sets it for this model
+  bool trajectory = false;         // it has a root trajectory network: its motions travel
+  std::vector<std::string> feet;   // its skeleton's feet, in the order of Motion::contacts' bits
   // Describe only: the manifest's provenance and the evaluation, JSON text
   // ("{}" when absent), and the model card (Markdown, empty when absent).
   std::string provenance_json = "{}";

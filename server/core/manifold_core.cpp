@@ -17,6 +17,7 @@
 #include "core/motion_conversion.h"
 #include "core/service_metrics.h"
 #include "core/take_operations.h"
+#include "format/foot_contacts.h"
 #include "format/input_error.h"
 #include "jobs/training_jobs.h"
 #include "latent_operations.h"
@@ -203,12 +204,16 @@ struct ManifoldCore::State {
   // The motions of `codes`, and the codes themselves when the reply carries
   // them (Sample, Interpolate, Analogy: not Decode, whose codes are the
   // caller's own).
+  // With plant_feet, the root path is corrected so that planted feet stay
+  // put (format/foot_contacts.h).
   MotionsReply decode_reply(const std::shared_ptr<const LoadedModel>& model, const at::Tensor& codes,
-                            DecoderKind kind, bool with_codes = true) {
+                            DecoderKind kind, bool plant_feet_too, bool with_codes = true) {
     MotionsReply reply;
     reply.answered_by = {model->name, model->version};
-    for (const auto& motion : executor.decode(model, codes, kind)) {
-      reply.motions.push_back(to_wire_motion(motion, model->shape));
+    const std::string root = model->model.has_trajectory() ? "generated" : "none";
+    for (auto& motion : executor.decode(model, codes, kind)) {
+      if (plant_feet_too) plant_feet(model->shape.skeleton, motion, 25);
+      reply.motions.push_back(to_wire_motion(motion, model->shape, root));
     }
     if (with_codes) reply.codes = to_codes(codes);
     return reply;
@@ -349,7 +354,7 @@ MotionsReply ManifoldCore::decode(const CallContext& ctx, const DecodeRequest& g
     }
     return written(*model,
                    state_->decode_reply(model, codes_tensor(request.codes, model->shape.latent), kind,
-                                        /*with_codes=*/false),
+                                        request.plant_feet, /*with_codes=*/false),
                    translation);
   });
 }
@@ -362,7 +367,8 @@ MotionsReply ManifoldCore::sample(const CallContext& ctx, const SampleRequest& g
     const SampleRequest& request = read_for(*model, given, translation, read);
     const DecoderKind kind = state_->decoder_for(*model, request.decoder);
     check_count(request.count, 1, state_->config.limits.max_sample_count, "count", "max_sample_count");
-    return written(*model, state_->decode_reply(model, sample_codes(model->model, request.count, request.seed), kind),
+    return written(*model, state_->decode_reply(model, sample_codes(model->model, request.count, request.seed), kind,
+                                                     request.plant_feet),
                    translation);
   });
 }
@@ -381,7 +387,7 @@ MotionsReply ManifoldCore::interpolate(const CallContext& ctx, const Interpolate
     const auto from = state_->latent_of(model, request.from, "from");
     const auto to = state_->latent_of(model, request.to, "to");
     const auto codes = interpolate_codes(from, to, request.steps, request.method == "spherical");
-    return written(*model, state_->decode_reply(model, codes, kind), translation);
+    return written(*model, state_->decode_reply(model, codes, kind, request.plant_feet), translation);
   });
 }
 
@@ -395,7 +401,9 @@ MotionsReply ManifoldCore::analogy(const CallContext& ctx, const AnalogyRequest&
     const auto a = state_->latent_of(model, request.a, "a");
     const auto b = state_->latent_of(model, request.b, "b");
     const auto c = state_->latent_of(model, request.c, "c");
-    return written(*model, state_->decode_reply(model, analogy_code(a, b, c).unsqueeze(0), kind), translation);
+    return written(*model,
+                   state_->decode_reply(model, analogy_code(a, b, c).unsqueeze(0), kind, request.plant_feet),
+                   translation);
   });
 }
 
@@ -430,7 +438,7 @@ MotionsReply ManifoldCore::denoise(const CallContext& ctx, const DenoiseRequest&
     state_->executor.run([&] { denoised = denoise_motions(model->model, frames, kind, options); });
     MotionsReply reply;
     reply.answered_by = {model->name, model->version};
-    for (const auto& motion : denoised) reply.motions.push_back(to_wire_motion(motion, model->shape));
+    for (const auto& motion : denoised) reply.motions.push_back(to_wire_motion(motion, model->shape, "input"));
     return written(*model, std::move(reply), translation);
   });
 }

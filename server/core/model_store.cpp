@@ -14,6 +14,8 @@
 #include <spdlog/spdlog.h>
 
 #include "core/service_metrics.h"
+#include "format/foot_contacts.h"
+#include "format/input_error.h"
 
 namespace mm::service {
 namespace fs = std::filesystem;
@@ -291,6 +293,15 @@ ModelInfo ModelStore::info(const std::string& name, bool details) const {
     info.variant = provenance.value("variant", "");
     if (details) info.provenance_json = provenance.dump();
     if (details && manifest.contains("skeleton")) info.skeleton_json = manifest["skeleton"].dump();
+    info.trajectory = manifest.contains("trajectory");
+    try {
+      const Skeleton skeleton = manifest.contains("skeleton")
+                                    ? Skeleton::from_json_text(manifest["skeleton"].dump(), kManifest)
+                                    : Skeleton::h36m();
+      info.feet = find_feet(skeleton).names;
+    } catch (const InputError&) {
+      // A malformed skeleton is reported when the model is loaded.
+    }
   }
   if (loaded) {
     info.columns = loaded->shape.columns;

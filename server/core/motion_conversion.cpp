@@ -1,5 +1,8 @@
 #include "core/motion_conversion.h"
 
+#include "format/foot_contacts.h"
+#include "format/skeleton_bvh.h"
+
 #include <cmath>
 #include <cstdio>
 
@@ -77,13 +80,17 @@ MotionFrames to_model_frames(const Motion& motion, const ModelShape& shape, cons
   return frames;
 }
 
-Motion to_wire_motion(const MotionFrames& frames, const ModelShape& shape) {
+Motion to_wire_motion(const MotionFrames& frames, const ModelShape& shape, const std::string& root) {
   Motion motion;
   motion.frames = static_cast<int>(frames.frame_count());
   motion.columns = frames.columns;
   motion.frame_rate = 25;
   motion.layout = shape.layout;
   motion.values = frames.values;
+  motion.root = root;
+  if (frames.columns == skeleton_motion_columns(shape.skeleton)) {
+    for (const uint8_t planted : foot_contacts(shape.skeleton, frames, 25)) motion.contacts.push_back(planted);
+  }
   return motion;
 }
 

@@ -37,8 +37,10 @@ std::string layout_name(int columns);
 // not finite or out of the text format's bounds (format/motion_text.h).
 MotionFrames to_model_frames(const Motion& motion, const ModelShape& shape, const std::string& field);
 
-// A motion of the model's output (25 Hz, its layout) for the wire.
-Motion to_wire_motion(const MotionFrames& frames, const ModelShape& shape);
+// A motion of the model's output (25 Hz, its layout) for the wire, with
+// `root` saying where its root path comes from ("generated", "input",
+// "none") and the planted feet of every frame (format/foot_contacts.h).
+Motion to_wire_motion(const MotionFrames& frames, const ModelShape& shape, const std::string& root);
 
 // Checks a code for field `field`: shape.latent finite values within +-1e3
 // (a code from the prior has |values| below 6).

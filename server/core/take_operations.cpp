@@ -126,6 +126,16 @@ TakeSummaryReply run_take_on_model(const LoadedModel& model, DecoderKind decoder
     options.denoise.iterations = iterations;
     options.denoise.keep_observed = request.keep_observed;
   }
+  if (!request.root.empty() && request.root != "input" && request.root != "generated") {
+    throw invalid("root", "expected \"input\" or \"generated\" (or empty: input), found \"" + request.root + "\"");
+  }
+  if (request.root == "generated") {
+    if (!model.model.has_trajectory()) {
+      throw invalid("root", "\"generated\" needs a model with a trajectory network, which model \"" + model.name +
+                                "\" lacks; expected \"input\"");
+    }
+    if (kind != TakeKind::kEncode) options.root = TakeRoot::kGenerated;
+  }
 
   const TakeSink forward = library_sink(sink, request.frame_rate);
   std::unique_ptr<TakeProcessor> processor;

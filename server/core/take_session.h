@@ -48,6 +48,9 @@ struct TakeRequest {
   bool means_are_missing = false;
   int iterations = 0;  // 0: four
   bool keep_observed = false;
+  // Reconstruct and denoise: the reply's root path, "input" (empty) or
+  // "generated" (the model's trajectory network).
+  std::string root;
   // A file under the data root as the take instead of the reader's frames:
   // motion text at frame_rate (0: 50 Hz, the H3.6M files') or BVH at its own
   // Frame Time. Needs the clip-read access.

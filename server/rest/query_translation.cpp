@@ -70,7 +70,7 @@ bool boolean(const QueryParameters& parameters, const std::string& name) {
 }  // namespace
 
 TakeRequest take_request_from_query(const QueryParameters& parameters, bool denoise, bool bvh_body) {
-  std::set<std::string> known = {"model", "frame_rate", "hop_seconds", "blend", "decoder", "at_model_rate", "path"};
+  std::set<std::string> known = {"model", "frame_rate", "hop_seconds", "blend", "decoder", "at_model_rate", "path", "root"};
   if (denoise) known.insert({"zeros_are_missing", "means_are_missing", "iterations", "keep_observed"});
   check_known_and_single(parameters, known);
   TakeRequest request;
@@ -87,6 +87,7 @@ TakeRequest take_request_from_query(const QueryParameters& parameters, bool deno
   request.decoder = text(parameters, "decoder");
   request.at_model_rate = boolean(parameters, "at_model_rate");
   request.path = text(parameters, "path");
+  request.root = text(parameters, "root");
   if (has_path && request.path.empty()) throw invalid("path", "path is empty, expected a file under the data root");
   if (denoise) {
     request.zeros_are_missing = boolean(parameters, "zeros_are_missing");

@@ -48,6 +48,7 @@ DecodeRequest to_api(const v1::DecodeRequest& request) {
   out.codes.reserve(request.codes_size());
   for (const auto& code : request.codes()) out.codes.push_back(to_api(code));
   out.decoder = request.decoder();
+  out.plant_feet = request.plant_feet();
   return out;
 }
 
@@ -56,6 +57,7 @@ SampleRequest to_api(const v1::SampleRequest& request) {
   if (request.count() != 0) out.count = request.count();  // 0 is proto3's "unset"
   out.seed = request.seed();
   out.decoder = request.decoder();
+  out.plant_feet = request.plant_feet();
   out.model = request.model();
   return out;
 }
@@ -68,6 +70,7 @@ InterpolateRequest to_api(const v1::InterpolateRequest& request) {
   if (request.steps() != 0) out.steps = request.steps();
   if (!request.method().empty()) out.method = request.method();
   out.decoder = request.decoder();
+  out.plant_feet = request.plant_feet();
   return out;
 }
 
@@ -78,6 +81,7 @@ AnalogyRequest to_api(const v1::AnalogyRequest& request) {
   out.b = to_api(request.b());
   out.c = to_api(request.c());
   out.decoder = request.decoder();
+  out.plant_feet = request.plant_feet();
   return out;
 }
 
@@ -131,6 +135,8 @@ void to_wire(const Motion& motion, v1::Motion* out) {
   out->set_frame_rate(motion.frame_rate);
   out->set_layout(motion.layout);
   copy_into(motion.values, out->mutable_values());
+  out->set_root(motion.root);
+  out->mutable_contacts()->Add(motion.contacts.begin(), motion.contacts.end());
 }
 
 void to_wire(const Code& code, v1::Code* out) {
@@ -176,6 +182,8 @@ void to_wire(const ModelInfo& info, v1::ModelInfo* out) {
   for (const auto& decoder : info.decoders) out->add_decoders(decoder);
   out->set_load_seconds(info.load_seconds);
   out->set_precision(info.precision);
+  out->set_trajectory(info.trajectory);
+  for (const auto& foot : info.feet) out->add_feet(foot);
   out->set_provenance_json(info.provenance_json);
   out->set_evaluation_json(info.evaluation_json);
   out->set_model_card(info.model_card);
@@ -258,6 +266,7 @@ TakeRequest to_api(const v1::TakeHeader& header) {
   request.means_are_missing = header.means_are_missing();
   request.iterations = header.iterations();
   request.keep_observed = header.keep_observed();
+  request.root = header.root();
   return request;
 }
 

@@ -29,6 +29,7 @@
 #include <thread>
 #include <vector>
 
+#include "format/foot_contacts.h"
 #include "format/motion_text.h"
 #include "latent_operations.h"
 #include "motion_manifold.h"
@@ -234,6 +235,60 @@ TEST_F(RestApi, SampleGivesTheLibrarysCodesAndMotionsForASeed) {
   const Reply again = post(port(), "/v1/sample", json{{"count", 3}, {"seed", "7"}});
   ASSERT_EQ(again.status, 200) << again.body;
   EXPECT_EQ(again.document["codes"], reply.document["codes"]);
+}
+
+// The default model has a trajectory network: sampled motions travel in
+// world layout (root "generated"), carry a contact bitmask a frame, and
+// plant_feet corrects the root only in frames with a planted foot, which
+// lowers the skating.
+TEST_F(RestApi, SampledMotionsTravelWithContactsAndPlantingTheFeetLowersTheirSkating) {
+  const Reply models = get(port(), "/v1/models");
+  ASSERT_EQ(models.status, 200) << models.body;
+  bool listed = false;
+  for (const auto& model : models.document["models"]) {
+    if (model["name"] != "h36m-dkgm-h100") continue;
+    listed = true;
+    EXPECT_EQ(model["trajectory"], true);
+    EXPECT_EQ(model["feet"], json::array({"RightFoot", "LeftFoot"}));
+  }
+  EXPECT_TRUE(listed);
+
+  const Reply plain = post(port(), "/v1/sample", json{{"count", 8}, {"seed", 21}});
+  const Reply planted = post(port(), "/v1/sample", json{{"count", 8}, {"seed", 21}, {"plant_feet", true}});
+  ASSERT_EQ(plain.status, 200) << plain.body.substr(0, 300);
+  ASSERT_EQ(planted.status, 200) << planted.body.substr(0, 300);
+  const Skeleton skeleton = Skeleton::h36m();
+  SkatingCount before, after;
+  double longest_path = 0;
+  for (size_t i = 0; i < 8; ++i) {
+    const json& a = plain.document["motions"][i];
+    const json& b = planted.document["motions"][i];
+    EXPECT_EQ(a["root"], "generated");
+    ASSERT_EQ(a["contacts"].size(), 150u);
+    MotionFrames motion, corrected;
+    motion.values = floats(a["values"]);
+    corrected.values = floats(b["values"]);
+    double path = 0;
+    for (int64_t f = 1; f < 150; ++f) path += std::hypot(motion.frame(f)[0], motion.frame(f)[2]);
+    longest_path = std::max(longest_path, path);
+    const auto contacts = foot_contacts(skeleton, motion, 25);
+    for (int64_t f = 0; f < 150; ++f) {
+      EXPECT_EQ(a["contacts"][static_cast<size_t>(f)].get<int>(), contacts[static_cast<size_t>(f)]) << "frame " << f;
+      // Frames with no planted foot keep their root move; no pose changes.
+      if (contacts[static_cast<size_t>(f)] == 0) {
+        EXPECT_EQ(corrected.frame(f)[0], motion.frame(f)[0]) << "motion " << i << " frame " << f;
+        EXPECT_EQ(corrected.frame(f)[2], motion.frame(f)[2]) << "motion " << i << " frame " << f;
+      }
+      for (int c = 3; c < 99; ++c) ASSERT_EQ(corrected.frame(f)[c], motion.frame(f)[c]);
+    }
+    const SkatingCount x = skating_ratio(skeleton, motion, 25), y = skating_ratio(skeleton, corrected, 25);
+    before.skating += x.skating, before.frames += x.frames;
+    after.skating += y.skating, after.frames += y.frames;
+  }
+  std::printf("8 samples: longest root path %.0f mm; skating %.3f, with the feet planted %.3f\n", longest_path,
+              before.ratio(), after.ratio());
+  EXPECT_GT(longest_path, 500.0);
+  EXPECT_LT(after.ratio(), before.ratio());
 }
 
 TEST_F(RestApi, InterpolateBetweenMotionsAndBetweenCodesGivesTheLibrarysResult) {

@@ -74,8 +74,13 @@ std::vector<double> sampled_poses(const ServerProcess& server) {
   const Reply reply = post(server.rest_port(), "/v1/sample", nlohmann::json{{"count", 1}, {"seed", 3}});
   EXPECT_EQ(reply.status, 200) << reply.body;
   const auto body = nlohmann::json::parse(reply.body);
+  // The joints' exponential maps: the root's path (columns 0..2, mm) is the
+  // trajectory network's, from these poses.
   std::vector<double> values;
-  for (const auto& v : body["motions"][0]["values"]) values.push_back(v.get<double>());
+  const auto& all = body["motions"][0]["values"];
+  for (size_t i = 0; i < all.size(); ++i) {
+    if (i % 99 >= 3) values.push_back(all[i].get<double>());
+  }
   return values;
 }
 

@@ -443,6 +443,82 @@ TEST_F(Takes, A120HzBvhOfTheH36mSkeletonComesBackAt120HzOverBothProtocols) {
   EXPECT_NEAR(written.frame_time_s, in.frame_time_s, 1e-9);
 }
 
+// A BVH take whose root starts away from the origin (as a capture's does)
+// comes back where it was: the reply's root follows the input's absolute
+// positions over REST (BVH in and out) and over gRPC (the client's import
+// of the BVH, the reply exported again), not restarted at the origin.
+TEST_F(Takes, ABvhTakeKeepsItsAbsoluteRootOverBothProtocols) {
+  const Skeleton skeleton = Skeleton::h36m();
+  MotionFrames at_60 = resample_motion(head(s5("walking_1.txt"), 600), 50, 60);
+  at_60.frame(0)[0] = 1234.5f;  // the capture's start, mm
+  at_60.frame(0)[2] = -876.0f;
+  const std::string bvh = write_bvh_text(skeleton_motion_to_bvh(skeleton, bvh_layout_of(skeleton), at_60, 60));
+  const BvhFile in = parse_bvh_text(bvh, "take.bvh");
+  const Reply reply = post_take(server().rest_port(), "/v1/takes:reconstruct", bvh, "application/x-bvh", "application/x-bvh");
+  ASSERT_EQ(reply.status, 200) << reply.body.substr(0, 500);
+  const BvhFile out = parse_bvh_text(reply.body, "reply.bvh");
+  ASSERT_EQ(out.frame_count(), in.frame_count());
+  double largest = 0;
+  for (int64_t f = 0; f < in.frame_count(); f += 17) {
+    const auto want = bvh_world_positions(in, f)[0], got = bvh_world_positions(out, f)[0];
+    for (int a = 0; a < 3; ++a) largest = std::max(largest, std::fabs(got[a] - want[a]));
+  }
+  EXPECT_LT(largest, 1.0) << "mm, REST";
+  EXPECT_NEAR(bvh_world_positions(out, 0)[0][0], 1234.5, 1.0);
+
+  const MotionFrames frames = skeleton_motion_from_bvh_at_file_rate(skeleton, in, "take.bvh");
+  auto stub = stub_of(server());
+  const StreamedTake take = reconstruct(*stub, frames, 60);
+  ASSERT_TRUE(take.status.ok()) << take.status.error_message();
+  MotionFrames back;
+  back.values = take.values;
+  const BvhFile written = parse_bvh_text(write_bvh_text(skeleton_motion_to_bvh(skeleton, bvh_layout_of(skeleton), back, 60)),
+                                         "reply.bvh");
+  largest = 0;
+  for (int64_t f = 0; f < in.frame_count(); f += 17) {
+    const auto want = bvh_world_positions(in, f)[0], got = bvh_world_positions(written, f)[0];
+    for (int a = 0; a < 3; ++a) largest = std::max(largest, std::fabs(got[a] - want[a]));
+  }
+  EXPECT_LT(largest, 1.0) << "mm, gRPC";
+}
+
+// root "generated": the reply's root is the model's trajectory, which
+// travels about as far as the recording over 20 s of walking, with the
+// lowest foot on the floor; "input" copies the take's; anything else, or a
+// model without a trajectory network, is refused naming "root".
+TEST_F(Takes, AGeneratedRootTravelsLikeTheRecordingAndABadRootIsRefusedNamingIt) {
+  const MotionFrames walk = head(s5("walking_1.txt"), 1000);
+  auto stub = stub_of(server());
+  v1::TakeHeader header = take_header(50);
+  header.set_root("generated");
+  const StreamedTake take = stream_take(*stub, false, header, chunks_of(walk));
+  ASSERT_TRUE(take.status.ok()) << take.status.error_message();
+  ASSERT_EQ(take.frames, walk.frame_count());
+  double recorded = 0, generated = 0;
+  for (int64_t f = 1; f < walk.frame_count(); ++f) {
+    recorded += std::hypot(walk.frame(f)[0], walk.frame(f)[2]);
+    generated += std::hypot(take.values[static_cast<size_t>(f * kColumns)], take.values[static_cast<size_t>(f * kColumns + 2)]);
+  }
+  std::printf("[ root     ] 20 s of walking: recorded %.0f mm, generated %.0f mm\n", recorded, generated);
+  EXPECT_NEAR(generated, recorded, 0.25 * recorded);
+  // Over REST the same option is a query parameter.
+  const Reply reply = post_take(server().rest_port(), "/v1/takes:reconstruct?root=generated", motion_text(head(walk, 400)),
+                                "text/plain", "text/plain");
+  ASSERT_EQ(reply.status, 200) << reply.body.substr(0, 500);
+  const MotionFrames rest = parse_text_reply(reply.body);
+  double rest_travel = 0;
+  for (int64_t f = 1; f < rest.frame_count(); ++f) rest_travel += std::hypot(rest.frame(f)[0], rest.frame(f)[2]);
+  EXPECT_GT(rest_travel, 1000.0);
+  const Reply bad = post_take(server().rest_port(), "/v1/takes:reconstruct?root=somewhere", motion_text(head(walk, 400)),
+                              "text/plain", "application/json");
+  EXPECT_EQ(bad.status, 400);
+  EXPECT_NE(bad.body.find("\"field\":\"root\""), std::string::npos) << bad.body;
+  header.set_root("somewhere");
+  const StreamedTake refused = stream_take(*stub, false, header, chunks_of(head(walk, 400)));
+  EXPECT_EQ(refused.status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(refused.error_field, "root");
+}
+
 // DenoiseTake fills gaps of 0.5 s on five joints (NaN): nothing missing
 // comes back, and with keep_observed every observed value is returned as
 // sent (the root translation always is).

@@ -107,8 +107,9 @@ TEST(Tool, BenchTimesAndCountsTheTensorOperationsOfEveryOperation) {
   const auto results = nlohmann::json::parse(in)["results"];
   // Two training rows, then encode and decode at batch 1 and 30 with the
   // weights unpacked, packed in fp32 and, where the CPU has bf16 dot
-  // products, packed in bf16 and in int8.
-  ASSERT_TRUE(results.size() == 10u || results.size() == 18u) << results.dump();
+  // products, packed in bf16 and in int8; then decodes to motions standing,
+  // with the root path, and with the feet planted, at batch 1 and 30.
+  ASSERT_TRUE(results.size() == 16u || results.size() == 24u) << results.dump();
   std::map<std::string, int64_t> operations;
   for (const auto& result : results) {
     EXPECT_GT(result["median_ms"].get<double>(), 0.0) << result.dump();
@@ -119,6 +120,9 @@ TEST(Tool, BenchTimesAndCountsTheTensorOperationsOfEveryOperation) {
   EXPECT_GT(operations.at("training iteration (DKGM) 4"), 2 * operations.at("decode (rotation) (unpacked fp32) 1"));
   // The packed products are oneDNN's, not LibTorch operators: fewer counted.
   EXPECT_LT(operations.at("decode (rotation) (packed fp32) 30"), operations.at("decode (rotation) (unpacked fp32) 30"));
+  // The root path is the trajectory network's operations on top.
+  EXPECT_GT(operations.at("decode to motions, root path (packed fp32) 30"),
+            operations.at("decode to motions, standing (packed fp32) 30"));
 }
 
 TEST(Tool, PrepareTrainEvaluateAndDecodeOnRealData) {

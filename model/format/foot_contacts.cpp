@@ -1,0 +1,236 @@
+#include "format/foot_contacts.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <limits>
+
+namespace mm {
+namespace {
+
+bool names_a_foot(const std::string& name) {
+  std::string lower(name.size(), ' ');
+  std::transform(name.begin(), name.end(), lower.begin(), [](unsigned char c) { return std::tolower(c); });
+  return lower.find("foot") != std::string::npos || lower.find("toe") != std::string::npos ||
+         lower.find("ankle") != std::string::npos;
+}
+
+// The child of the root that joint j hangs from (j itself when it is one).
+int leg_of(const Skeleton& skeleton, int j) {
+  while (j > 0 && skeleton.joints[static_cast<size_t>(j)].parent > 0) j = skeleton.joints[static_cast<size_t>(j)].parent;
+  return j;
+}
+
+double horizontal_distance(const Vec3& a, const Vec3& b) { return std::hypot(a[0] - b[0], a[2] - b[2]); }
+
+// Per frame and foot: the lowest joint's height and that joint's
+// horizontal displacement since the frame before (frame 1's for frame 0):
+// the point the foot stands on, which stays put while the heel lifts and
+// the foot rolls over its toes.
+struct FootTracks {
+  std::vector<double> lowest;    // frames x feet
+  std::vector<double> movement;  // frames x feet, mm per frame
+};
+
+// The foot's joint lowest at frame f.
+int lowest_joint(const std::vector<int>& foot, const std::vector<Vec3>& world, int64_t f, int joint_count) {
+  int lowest = foot.front();
+  for (int j : foot) {
+    if (world[static_cast<size_t>(f * joint_count + j)][1] < world[static_cast<size_t>(f * joint_count + lowest)][1]) lowest = j;
+  }
+  return lowest;
+}
+
+FootTracks track_feet(const SkeletonFeet& feet, const std::vector<Vec3>& world, int64_t frames, int joint_count) {
+  const size_t foot_count = feet.joints.size();
+  FootTracks tracks{std::vector<double>(static_cast<size_t>(frames) * foot_count),
+                    std::vector<double>(static_cast<size_t>(frames) * foot_count, 0.0)};
+  for (int64_t f = 0; f < frames; ++f) {
+    for (size_t k = 0; k < foot_count; ++k) {
+      const int j = lowest_joint(feet.joints[k], world, f, joint_count);
+      const int64_t before = f > 0 ? f - 1 : std::min<int64_t>(1, frames - 1), after = f > 0 ? f : 0;
+      tracks.lowest[static_cast<size_t>(f) * foot_count + k] = world[static_cast<size_t>(f * joint_count + j)][1];
+      tracks.movement[static_cast<size_t>(f) * foot_count + k] =
+          horizontal_distance(world[static_cast<size_t>(after * joint_count + j)],
+                              world[static_cast<size_t>(before * joint_count + j)]);
+    }
+  }
+  return tracks;
+}
+
+}  // namespace
+
+SkeletonFeet find_feet(const Skeleton& skeleton) {
+  SkeletonFeet feet;
+  std::vector<int> leg_of_foot;  // per foot, the leg it belongs to
+  const int count = skeleton.joint_count();
+  std::vector<bool> in_foot(static_cast<size_t>(count), false);
+  for (int j = 1; j < count; ++j) {
+    const int parent = skeleton.joints[static_cast<size_t>(j)].parent;
+    const bool below_foot = parent >= 0 && in_foot[static_cast<size_t>(parent)];
+    if (!below_foot && !names_a_foot(skeleton.joints[static_cast<size_t>(j)].name)) continue;
+    in_foot[static_cast<size_t>(j)] = true;
+    const int leg = leg_of(skeleton, j);
+    const auto known = std::find(leg_of_foot.begin(), leg_of_foot.end(), leg);
+    if (known == leg_of_foot.end()) {
+      leg_of_foot.push_back(leg);
+      feet.joints.push_back({j});
+      feet.names.push_back(skeleton.joints[static_cast<size_t>(j)].name);
+    } else {
+      feet.joints[static_cast<size_t>(known - leg_of_foot.begin())].push_back(j);
+    }
+  }
+  return feet;
+}
+
+std::vector<Vec3> pose_positions(const Skeleton& skeleton, const float* frame) {
+  const size_t count = skeleton.joints.size();
+  std::vector<Vec3> positions(count);
+  std::vector<Mat3> world(count);
+  for (size_t j = 0; j < count; ++j) {
+    const Vec3 expmap{frame[3 + 3 * j], frame[4 + 3 * j], frame[5 + 3 * j]};
+    const Mat3 local = expmap_to_matrix(expmap);
+    const int parent = skeleton.joints[j].parent;
+    if (parent < 0) {
+      world[j] = local;
+      positions[j] = {0, 0, 0};
+      continue;
+    }
+    // Row vectors (the skeleton file's convention): R_world[j] = R_local[j]
+    // R_world[parent], p[j] = offset[j] R_world[parent] + p[parent].
+    const auto p = static_cast<size_t>(parent);
+    world[j] = multiply(local, world[p]);
+    const Vec3 turned = multiply(skeleton.joints[j].offset_mm, world[p]);
+    positions[j] = {turned[0] + positions[p][0], turned[1] + positions[p][1], turned[2] + positions[p][2]};
+  }
+  return positions;
+}
+
+std::vector<Vec3> world_positions(const Skeleton& skeleton, const MotionFrames& motion) {
+  const int64_t frames = motion.frame_count();
+  const size_t count = skeleton.joints.size();
+  std::vector<Vec3> world;
+  world.reserve(static_cast<size_t>(frames) * count);
+  Vec3 root{0, 0, 0};
+  for (int64_t f = 0; f < frames; ++f) {
+    const float* frame = motion.frame(f);
+    for (int a = 0; a < 3; ++a) root[static_cast<size_t>(a)] += frame[a];
+    for (const Vec3& p : pose_positions(skeleton, frame)) world.push_back({p[0] + root[0], p[1] + root[1], p[2] + root[2]});
+  }
+  return world;
+}
+
+double floor_height(const Skeleton& skeleton, const SkeletonFeet& feet, const std::vector<Vec3>& world,
+                    int64_t frames) {
+  if (feet.empty() || frames < 1) return 0.0;
+  std::vector<double> lowest(static_cast<size_t>(frames), std::numeric_limits<double>::infinity());
+  const int count = skeleton.joint_count();
+  for (int64_t f = 0; f < frames; ++f) {
+    for (const auto& foot : feet.joints) {
+      for (int j : foot) lowest[static_cast<size_t>(f)] = std::min(lowest[static_cast<size_t>(f)], world[static_cast<size_t>(f * count + j)][1]);
+    }
+  }
+  const auto nth = lowest.begin() + static_cast<std::ptrdiff_t>(static_cast<double>(frames - 1) * 0.05);
+  std::nth_element(lowest.begin(), nth, lowest.end());
+  return *nth;
+}
+
+std::vector<uint8_t> foot_contacts(const Skeleton& skeleton, const MotionFrames& motion, double rate_hz,
+                                   const FootContactThresholds& thresholds) {
+  const int64_t frames = motion.frame_count();
+  std::vector<uint8_t> contacts(static_cast<size_t>(frames), 0);
+  const SkeletonFeet feet = find_feet(skeleton);
+  if (feet.empty() || frames < 2) return contacts;
+  const auto world = world_positions(skeleton, motion);
+  const double floor = floor_height(skeleton, feet, world, frames);
+  const FootTracks tracks = track_feet(feet, world, frames, skeleton.joint_count());
+  const size_t foot_count = feet.joints.size();
+  const double planted_mm_per_frame = thresholds.planted_speed_mm_s / rate_hz;
+  for (int64_t f = 0; f < frames; ++f) {
+    for (size_t k = 0; k < foot_count && k < 8; ++k) {
+      const size_t at = static_cast<size_t>(f) * foot_count + k;
+      if (tracks.lowest[at] - floor <= thresholds.near_floor_mm && tracks.movement[at] < planted_mm_per_frame) {
+        contacts[static_cast<size_t>(f)] |= static_cast<uint8_t>(1u << k);
+      }
+    }
+  }
+  return contacts;
+}
+
+SkatingCount skating_ratio(const Skeleton& skeleton, const MotionFrames& motion, double rate_hz,
+                           const FootContactThresholds& thresholds) {
+  const int64_t frames = motion.frame_count();
+  const SkeletonFeet feet = find_feet(skeleton);
+  SkatingCount count;
+  if (feet.empty() || frames < 2) return count;
+  const auto world = world_positions(skeleton, motion);
+  const double floor = floor_height(skeleton, feet, world, frames);
+  const FootTracks tracks = track_feet(feet, world, frames, skeleton.joint_count());
+  const size_t foot_count = feet.joints.size();
+  const double skating_mm_per_frame = thresholds.skating_speed_mm_s / rate_hz;
+  for (int64_t f = 1; f < frames; ++f) {
+    bool skating = false;
+    for (size_t k = 0; k < foot_count; ++k) {
+      const size_t at = static_cast<size_t>(f) * foot_count + k;
+      skating |= tracks.lowest[at] - floor <= thresholds.near_floor_mm && tracks.movement[at] > skating_mm_per_frame;
+    }
+    count.skating += skating ? 1 : 0;
+    ++count.frames;
+  }
+  return count;
+}
+
+double place_root_on_floor(const Skeleton& skeleton, MotionFrames& motion, double height_before) {
+  const SkeletonFeet feet = find_feet(skeleton);
+  if (feet.empty()) return height_before;
+  double previous = height_before;
+  for (int64_t f = 0; f < motion.frame_count(); ++f) {
+    float* frame = motion.frame(f);
+    const auto pose = pose_positions(skeleton, frame);
+    double lowest = std::numeric_limits<double>::infinity();
+    for (const auto& foot : feet.joints) {
+      for (int j : foot) lowest = std::min(lowest, pose[static_cast<size_t>(j)][1]);
+    }
+    const double height = -lowest;
+    frame[1] = static_cast<float>(height - previous);
+    previous += frame[1];  // what the running sum reaches, float rounding included
+  }
+  return previous;
+}
+
+std::vector<uint8_t> plant_feet(const Skeleton& skeleton, MotionFrames& motion, double rate_hz,
+                                const FootContactThresholds& thresholds) {
+  const auto contacts = foot_contacts(skeleton, motion, rate_hz, thresholds);
+  const SkeletonFeet feet = find_feet(skeleton);
+  const int64_t frames = motion.frame_count();
+  if (feet.empty() || frames < 2) return contacts;
+  const int joint_count = skeleton.joint_count();
+  const auto world = world_positions(skeleton, motion);  // the heights, which the correction keeps
+  std::vector<std::vector<Vec3>> poses;
+  poses.reserve(static_cast<size_t>(frames));
+  for (int64_t f = 0; f < frames; ++f) poses.push_back(pose_positions(skeleton, motion.frame(f)));
+  // Each planted frame's root change is chosen so that the point each
+  // planted foot stands on (its lowest joint) lands, on average, where it
+  // was in the frame before, on the path as corrected so far.
+  for (int64_t f = 1; f < frames; ++f) {
+    const uint8_t planted = contacts[static_cast<size_t>(f)];
+    if (planted == 0) continue;
+    double slip_x = 0, slip_z = 0;
+    int joints = 0;
+    for (size_t k = 0; k < feet.joints.size() && k < 8; ++k) {
+      if (!(planted & (1u << k))) continue;
+      const int j = lowest_joint(feet.joints[k], world, f, joint_count);
+      const Vec3& now = poses[static_cast<size_t>(f)][static_cast<size_t>(j)];
+      const Vec3& before = poses[static_cast<size_t>(f - 1)][static_cast<size_t>(j)];
+      // The joint's world change is the root's change plus the pose's.
+      slip_x += motion.frame(f)[0] + now[0] - before[0];
+      slip_z += motion.frame(f)[2] + now[2] - before[2];
+      ++joints;
+    }
+    motion.frame(f)[0] -= static_cast<float>(slip_x / joints);
+    motion.frame(f)[2] -= static_cast<float>(slip_z / joints);
+  }
+  return contacts;
+}
+
+}  // namespace mm

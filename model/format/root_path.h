@@ -1,0 +1,56 @@
+// The root's path in the world for motion whose root columns hold changes
+// in the root's own frame, as the H3.6M text layout records them: columns
+// 0..2 the root's move since the previous frame in the previous frame's
+// root axes (mm), columns 3..5 the root's rotation since the previous frame
+// (an exponential map). The H3.6M files hold these at 50 Hz, and the model
+// keeps every second frame, so at 25 Hz each frame's rotation change stands
+// for two of its 50 Hz steps (`rotation_steps` 2; 50 / rate in general).
+//
+// In world layout (what a BVH export, three.js or an engine reads, and what
+// the other functions of format/ take: skeleton_bvh.h, foot_contacts.h)
+// columns 0..2 are the root's move in world axes and columns 3..5 its world
+// orientation. A body rotates its pelvis by several degrees each step, so
+// reading the changes as an orientation (the pelvis never turning) makes
+// planted feet slide at about half the walking speed; integrated, they stay
+// within a few cm/s.
+//
+// Rotations use the row-vector convention of format/rotation_matrix.h: the
+// orientation after a frame is R_f = D_f^steps R_(f-1), and the move is
+// d_f R_(f-1), as in the reference visualisation of the data set.
+//
+// Thread safety: pure functions, and an integrator used by one thread.
+#pragma once
+
+#include "format/motion_text.h"
+#include "format/rotation_matrix.h"
+#include "format/skeleton.h"
+
+namespace mm {
+
+// Integrates a stream of frames in root-change layout into world layout, in
+// place, continuing from the orientation the previous call ended at (the
+// first frame's starts from the identity).
+class RootPathIntegrator {
+ public:
+  explicit RootPathIntegrator(double rotation_steps);
+  void integrate(MotionFrames& motion);
+
+ private:
+  double rotation_steps_;
+  Mat3 orientation_;
+  bool started_ = false;
+};
+
+// A whole clip to world layout, levelled and on the floor: integrated as
+// above, then turned about the origin so that its up is +y, and raised so
+// that the floor (foot_contacts.h's floor_height) is at y = 0: frame 0's
+// columns 0..2 hold the root's start (0, height, 0).
+//
+// Up: the data set's root frame is the pelvis's, tilted by a few degrees,
+// and nothing records the tilt of the first frame; the up is taken as the
+// mean of the pelvis's up axis over the clip made perpendicular to the
+// directions the root travels in (the path lies on a floor), so that a
+// walk neither climbs nor sinks.
+void integrate_level_root_path(const Skeleton& skeleton, MotionFrames& motion, double rotation_steps);
+
+}  // namespace mm
