@@ -198,6 +198,41 @@ double place_root_on_floor(const Skeleton& skeleton, MotionFrames& motion, doubl
   return previous;
 }
 
+void settle_on_floor(const Skeleton& skeleton, MotionFrames& motion, int window) {
+  const SkeletonFeet feet = find_feet(skeleton);
+  const int64_t frames = motion.frame_count();
+  if (feet.empty() || frames < 1) return;
+  const auto world = world_positions(skeleton, motion);
+  const int joint_count = skeleton.joint_count();
+  std::vector<double> lowest(static_cast<size_t>(frames));
+  for (int64_t f = 0; f < frames; ++f) {
+    double low = std::numeric_limits<double>::infinity();
+    for (const auto& foot : feet.joints) {
+      for (int j : foot) low = std::min(low, world[static_cast<size_t>(f * joint_count + j)][1]);
+    }
+    lowest[static_cast<size_t>(f)] = low;
+  }
+  std::vector<double> floor(static_cast<size_t>(frames)), offset(static_cast<size_t>(frames));
+  for (int64_t f = 0; f < frames; ++f) {
+    const int64_t from = std::max<int64_t>(0, f - window), to = std::min<int64_t>(frames - 1, f + window);
+    std::vector<double> near(lowest.begin() + from, lowest.begin() + to + 1);
+    const auto nth = near.begin() + static_cast<std::ptrdiff_t>(static_cast<double>(near.size() - 1) * 0.05);
+    std::nth_element(near.begin(), nth, near.end());
+    floor[static_cast<size_t>(f)] = *nth;
+  }
+  const int half = std::max(1, window / 2);
+  for (int64_t f = 0; f < frames; ++f) {
+    const int64_t from = std::max<int64_t>(0, f - half), to = std::min<int64_t>(frames - 1, f + half);
+    double sum = 0;
+    for (int64_t g = from; g <= to; ++g) sum += floor[static_cast<size_t>(g)];
+    offset[static_cast<size_t>(f)] = -sum / static_cast<double>(to - from + 1);
+  }
+  for (int64_t f = frames - 1; f >= 0; --f) {
+    const double before = f > 0 ? offset[static_cast<size_t>(f - 1)] : 0.0;
+    motion.frame(f)[1] += static_cast<float>(offset[static_cast<size_t>(f)] - before);
+  }
+}
+
 std::vector<uint8_t> plant_feet(const Skeleton& skeleton, MotionFrames& motion, double rate_hz,
                                 const FootContactThresholds& thresholds) {
   const auto contacts = foot_contacts(skeleton, motion, rate_hz, thresholds);

@@ -100,6 +100,15 @@ SkatingCount skating_ratio(const Skeleton& skeleton, const MotionFrames& motion,
 // the floor is.
 double place_root_on_floor(const Skeleton& skeleton, MotionFrames& motion, double height_before = 0);
 
+// Keeps a motion's feet on the floor at y = 0 without flattening its steps:
+// the root's height is shifted by a slowly varying offset, the negated 5th
+// percentile of the lowest foot joint's height over the `window` frames on
+// each side, averaged over half that window on each side. A path whose
+// vertical moves drift (a generated one, integrated) neither sinks nor
+// floats, while the body's rise and fall within a step stays. Returns
+// nothing; columns 1 (the root's height changes) are rewritten.
+void settle_on_floor(const Skeleton& skeleton, MotionFrames& motion, int window = 25);
+
 // Removes the skating that remains in a motion's root path: in every frame
 // in which a foot is planted (foot_contacts() of the motion as given), the
 // root's horizontal change from the frame before is corrected by the mean
