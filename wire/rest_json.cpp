@@ -184,6 +184,18 @@ void read_list(ObjectReader& reader, const std::string& key, google::protobuf::R
   for (size_t i = 0; i < v->size(); ++i) read_one((*v)[i], index_path(path, i), out->Add());
 }
 
+// An array of strings, when the member is there.
+void read_strings(ObjectReader& reader, const std::string& key, google::protobuf::RepeatedPtrField<std::string>* out) {
+  const Json* v = reader.find(key);
+  if (v == nullptr) return;
+  const std::string path = reader.path(key);
+  if (!v->is_array()) throw type_error(path, "an array of strings", *v);
+  for (size_t i = 0; i < v->size(); ++i) {
+    if (!(*v)[i].is_string()) throw type_error(index_path(path, i), "a string", (*v)[i]);
+    out->Add((*v)[i].get<std::string>());
+  }
+}
+
 void read_model(const Json& body, const std::string& path, UnknownFields unknown, v1::ModelInfo* model) {
   ObjectReader reader(body, path, unknown);
   model->set_name(reader.string("name"));
@@ -197,25 +209,11 @@ void read_model(const Json& body, const std::string& path, UnknownFields unknown
   model->set_columns(reader.int32("columns"));
   model->set_frame_rate(reader.number("frame_rate"));
   model->set_layout(reader.string("layout"));
-  if (const Json* v = reader.find("decoders")) {
-    const std::string decoders = reader.path("decoders");
-    if (!v->is_array()) throw type_error(decoders, "an array of strings", *v);
-    for (size_t i = 0; i < v->size(); ++i) {
-      if (!(*v)[i].is_string()) throw type_error(index_path(decoders, i), "a string", (*v)[i]);
-      model->add_decoders((*v)[i].get<std::string>());
-    }
-  }
+  read_strings(reader, "decoders", model->mutable_decoders());
   model->set_load_seconds(reader.number("load_seconds"));
   model->set_precision(reader.string("precision"));
   model->set_trajectory(reader.boolean("trajectory"));
-  if (const Json* v = reader.find("feet")) {
-    const std::string feet = reader.path("feet");
-    if (!v->is_array()) throw type_error(feet, "an array of strings", *v);
-    for (size_t i = 0; i < v->size(); ++i) {
-      if (!(*v)[i].is_string()) throw type_error(index_path(feet, i), "a string", (*v)[i]);
-      model->add_feet((*v)[i].get<std::string>());
-    }
-  }
+  read_strings(reader, "feet", model->mutable_feet());
   model->set_provenance_json(reader.object_text("provenance", "the model's provenance"));
   model->set_evaluation_json(reader.object_text("evaluation", "the model's evaluation"));
   model->set_model_card(reader.string("model_card"));

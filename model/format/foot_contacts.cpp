@@ -58,6 +58,14 @@ FootTracks track_feet(const SkeletonFeet& feet, const std::vector<Vec3>& world, 
   return tracks;
 }
 
+// A motion's feet, its floor and its feet's tracks: what contacts and
+// skating are read from.
+struct FeetOnTheFloor {
+  SkeletonFeet feet;
+  double floor = 0;
+  FootTracks tracks;
+};
+
 }  // namespace
 
 SkeletonFeet find_feet(const Skeleton& skeleton) {
@@ -135,16 +143,31 @@ double floor_height(const Skeleton& skeleton, const SkeletonFeet& feet, const st
   return *nth;
 }
 
+namespace {
+
+// Empty feet for a skeleton without any or a motion of fewer than 2 frames.
+FeetOnTheFloor feet_on_the_floor(const Skeleton& skeleton, const MotionFrames& motion) {
+  FeetOnTheFloor on;
+  const int64_t frames = motion.frame_count();
+  on.feet = find_feet(skeleton);
+  if (on.feet.empty() || frames < 2) return FeetOnTheFloor{};
+  const auto world = world_positions(skeleton, motion);
+  on.floor = floor_height(skeleton, on.feet, world, frames);
+  on.tracks = track_feet(on.feet, world, frames, skeleton.joint_count());
+  return on;
+}
+
+}  // namespace
+
 std::vector<uint8_t> foot_contacts(const Skeleton& skeleton, const MotionFrames& motion, double rate_hz,
                                    const FootContactThresholds& thresholds) {
   const int64_t frames = motion.frame_count();
   std::vector<uint8_t> contacts(static_cast<size_t>(frames), 0);
-  const SkeletonFeet feet = find_feet(skeleton);
-  if (feet.empty() || frames < 2) return contacts;
-  const auto world = world_positions(skeleton, motion);
-  const double floor = floor_height(skeleton, feet, world, frames);
-  const FootTracks tracks = track_feet(feet, world, frames, skeleton.joint_count());
-  const size_t foot_count = feet.joints.size();
+  const FeetOnTheFloor on = feet_on_the_floor(skeleton, motion);
+  if (on.feet.empty()) return contacts;
+  const FootTracks& tracks = on.tracks;
+  const double floor = on.floor;
+  const size_t foot_count = on.feet.joints.size();
   const double planted_mm_per_frame = thresholds.planted_speed_mm_s / rate_hz;
   for (int64_t f = 0; f < frames; ++f) {
     for (size_t k = 0; k < foot_count && k < 8; ++k) {
@@ -160,13 +183,12 @@ std::vector<uint8_t> foot_contacts(const Skeleton& skeleton, const MotionFrames&
 SkatingCount skating_ratio(const Skeleton& skeleton, const MotionFrames& motion, double rate_hz,
                            const FootContactThresholds& thresholds) {
   const int64_t frames = motion.frame_count();
-  const SkeletonFeet feet = find_feet(skeleton);
   SkatingCount count;
-  if (feet.empty() || frames < 2) return count;
-  const auto world = world_positions(skeleton, motion);
-  const double floor = floor_height(skeleton, feet, world, frames);
-  const FootTracks tracks = track_feet(feet, world, frames, skeleton.joint_count());
-  const size_t foot_count = feet.joints.size();
+  const FeetOnTheFloor on = feet_on_the_floor(skeleton, motion);
+  if (on.feet.empty()) return count;
+  const FootTracks& tracks = on.tracks;
+  const double floor = on.floor;
+  const size_t foot_count = on.feet.joints.size();
   const double skating_mm_per_frame = thresholds.skating_speed_mm_s / rate_hz;
   for (int64_t f = 1; f < frames; ++f) {
     bool skating = false;

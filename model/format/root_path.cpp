@@ -62,6 +62,22 @@ void RootPathIntegrator::integrate(MotionFrames& motion) {
   }
 }
 
+void root_changes_from_world(MotionFrames& motion, double rotation_steps) {
+  Mat3 before = identity_matrix();
+  for (int64_t f = 0; f < motion.frame_count(); ++f) {
+    float* frame = motion.frame(f);
+    const Mat3 orientation = expmap_to_matrix({frame[3], frame[4], frame[5]});
+    // R_f = D^steps R_(f-1) and a world move m = d R_(f-1), for row vectors.
+    const Vec3 move = f == 0 ? Vec3{0, 0, 0} : multiply(Vec3{frame[0], frame[1], frame[2]}, transpose(before));
+    const Vec3 change = scaled(matrix_to_expmap(multiply(orientation, transpose(before))), 1.0 / rotation_steps);
+    for (int a = 0; a < 3; ++a) {
+      frame[a] = static_cast<float>(move[static_cast<size_t>(a)]);
+      frame[3 + a] = static_cast<float>(change[static_cast<size_t>(a)]);
+    }
+    before = orientation;
+  }
+}
+
 void integrate_level_root_path(const Skeleton& skeleton, MotionFrames& motion, double rotation_steps) {
   const int64_t frames = motion.frame_count();
   if (frames < 1) return;

@@ -41,6 +41,14 @@ class RootPathIntegrator {
   bool started_ = false;
 };
 
+// The inverse of the integration: a motion in world layout back in the
+// root-change layout the model reads (each frame's move in the previous
+// frame's root axes, its rotation change as `rotation_steps` equal steps),
+// so that a generated motion can be encoded again. Frame 0 keeps no move
+// (where the root started is not a change) and its orientation as its
+// rotation change.
+void root_changes_from_world(MotionFrames& motion, double rotation_steps);
+
 // A whole clip to world layout, levelled and on the floor: integrated as
 // above, then turned about the origin so that its up is +y, and raised so
 // that the floor (foot_contacts.h's floor_height) is at y = 0: frame 0's

@@ -12,6 +12,7 @@
 
 #include "cli_validators.h"
 #include "commands.h"
+#include "format/root_path.h"
 #include "format/atomic_file.h"
 #include "format/input_error.h"
 #include "default_model.h"
@@ -60,6 +61,7 @@ struct MotionArgument {
 struct MotionInputs {
   std::vector<MotionArgument> motions;
   std::vector<int> rates;
+  bool generated = false;
 
   explicit MotionInputs(std::vector<std::string> options) {
     for (auto& option : options) motions.push_back({std::move(option)});
@@ -67,6 +69,10 @@ struct MotionInputs {
   // Registers --rate; `inputs` names the motions for its help.
   void add_rate_to(CLI::App* command, const std::string& inputs) {
     add_rate_option(command, rates, kDataSetRate, inputs);
+    command->add_flag("--generated", generated,
+                      "the motions are generated ones in world layout, as decode, sample, interpolate and analogy "
+                      "write them for a model with a trajectory network: their root is brought back to the "
+                      "layout's per-frame changes, which the model reads");
   }
   // Reads every file (or standard input for "-"); InputError on a bad path
   // or a --rate list of the wrong length.
@@ -83,6 +89,7 @@ struct MotionInputs {
     for (size_t i = 0; i < motions.size(); ++i) {
       result.push_back(motion_window(motions[i].text, input_name(motions[i].path), model.config().frames,
                                      motions[i].start, rate(i), model.skeleton()));
+      if (generated) root_changes_from_world(result.back(), kRootRotationStepsPerFrame);
     }
     return result;
   }

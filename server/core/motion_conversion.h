@@ -35,6 +35,8 @@ std::string layout_name(int columns);
 // count other than shape.frames (25 Hz) or 2 x shape.frames (50 Hz), a
 // values array of another length than frames x columns, and values that are
 // not finite or out of the text format's bounds (format/motion_text.h).
+// A motion whose root is "generated" (a reply's, in world layout) is
+// brought back to the root changes the model reads (format/root_path.h).
 MotionFrames to_model_frames(const Motion& motion, const ModelShape& shape, const std::string& field);
 
 // A motion of the model's output (25 Hz, its layout) for the wire, with

@@ -21,6 +21,7 @@ Motion to_api(const v1::Motion& motion) {
   out.frame_rate = motion.frame_rate();
   out.layout = motion.layout();
   out.values.assign(motion.values().begin(), motion.values().end());
+  out.root = motion.root();
   return out;
 }
 

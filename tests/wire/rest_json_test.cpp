@@ -295,11 +295,11 @@ TEST(RestJson, ModelInfoEmbedsItsJsonTextAsObjects) {
   m.set_evaluation_json("");         // empty: an empty object
   m.set_skeleton_json("not json");   // not JSON: null rather than a failed reply
   EXPECT_EQ(body_text(to_json(m)),
-            R"({"active":true,"columns":99,"decoders":["rotation","rotation2"],"evaluation":{},"frame_rate":25.0,)"
+            R"({"active":true,"columns":99,"decoders":["rotation","rotation2"],"evaluation":{},"feet":[],"frame_rate":25.0,)"
             R"("frames":150,"hidden":1024,"latent":64,"layout":"h36m-expmap-99","load_seconds":0.75,"loaded":true,)"
             R"("model_card":"# card\n","name":"h36m-dkgm-h100","precision":"int8","provenance":{"dataset":"h3.6m"},)"
             R"("skeleton":null,)"
-            R"("variant":"DKGM","version":"fedcba9876543210"})");
+            R"("trajectory":false,"variant":"DKGM","version":"fedcba9876543210"})");
 }
 
 TEST(RestJson, JobIsWrittenWithItsSpecProgressAndTimes) {

@@ -10,12 +10,16 @@ import { skeletonOf } from './model_skeletons.js';
 import { corruptZeroed } from './paper_corruption.js';
 import { atModelRate, bvhToModelRateMotion, textWindow } from './motion_files.js';
 import { bindMenu, operand, shelfEntry, shelve } from './motion_shelf.js';
+import { rootPath } from './root_path.js';
 
 const $ = (id) => document.getElementById(id);
 const decoder = () => $('decoder').value;  // '' is the model's default
 
+// A generated motion travels along its root path; any other stands at the origin.
 function figure(label, motion, skeleton) {
-  return { label, positions: motionPositions(atModelRate(motion), skeleton), parents: skeleton.parents, frameRate: 25 };
+  const atRate = atModelRate(motion);
+  return { label, positions: motionPositions(atRate, skeleton), parents: skeleton.parents, frameRate: 25,
+           rootPath: rootPath(atRate) };
 }
 
 // The skeleton of the model that answered `reply`.
@@ -106,16 +110,17 @@ async function interpolate(view) {
   const reply = await callApi('POST', 'v1/interpolate', {
     body: { from: operand(from), to: operand(to), steps: Number($('interpolate-steps').value), method, decoder: decoder() } });
   const skeleton = await skeletonOfReply(reply);
-  const steps = reply.motions.map((motion) => motionPositions(motion, skeleton));
+  const steps = reply.motions.map((motion) => figure('', motion, skeleton));
   const slider = $('interpolate-slider');
   slider.max = String(steps.length - 1);
   slider.value = String(Math.floor((steps.length - 1) / 2));
   const stepLabel = () => `${method} step ${Number(slider.value) + 1} of ${steps.length}`;
-  view.show([entryFigure(from.name, from),
-             { label: stepLabel(), positions: steps[Number(slider.value)], parents: skeleton.parents, frameRate: 25 },
-             entryFigure(to.name, to)]);
+  view.show([entryFigure(from.name, from), { ...steps[Number(slider.value)], label: stepLabel() }, entryFigure(to.name, to)]);
   slider.disabled = false;
-  slider.oninput = () => view.replacePositions(1, steps[Number(slider.value)], stepLabel());
+  slider.oninput = () => {
+    const step = steps[Number(slider.value)];
+    view.replacePositions(1, step.positions, stepLabel(), step.rootPath);
+  };
   reply.motions.forEach((motion, i) => shelve(`${from.name} → ${to.name} ${method} ${i + 1}/${steps.length}`, motion, skeleton,
                                               reply.codes[i]));
   say(`${steps.length} steps; move the slider to walk along the path; ${answeredBy(reply)}`);

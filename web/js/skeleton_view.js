@@ -1,26 +1,43 @@
-// The 3D view: a three.js scene with a ground grid and an orbit camera in
-// which each figure is a skeleton (a sphere per joint, a line per bone)
-// played at its motion's frame rate. Figures stand side by side, or on the
-// same spot when overlaid. Units are millimetres, y up (the FK's axes).
+// The 3D view: a three.js scene with a floor grid at y = 0 and an orbit
+// camera in which each figure is a skeleton (a sphere per joint, a line per
+// bone) played at its motion's frame rate. Figures stand side by side, or on
+// the same spot when overlaid. A figure with a root path (root_path.js: a
+// motion the server generated) travels along it, the camera following, and
+// a top-down inset in the view's corner draws those paths. Units are
+// millimetres, y up (the FK's axes).
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
+import { drawRootInset } from './root_path.js';
 
 const FIGURE_SPACING_MM = 1100;
-// The FK puts the hips at the origin; this lifts a standing figure's feet
-// (about 900 mm below the hips) onto the grid.
-const HIP_HEIGHT_MM = 930;
+// The FK puts the hips at the origin; a figure without a root path stands
+// there, lifted so that its feet (about 900 mm below the hips) touch the grid.
+const STANDING_ROOT_MM = [0, 930, 0];
 const JOINT_RADIUS_MM = 18;
+// The floor: 8 m square in cells of 500 mm, about the point the camera
+// follows, moved by whole cells so that its lines stay put under a walking
+// figure. A floor wide enough for any walk would pass behind the camera,
+// where software WebGL (SwiftShader, the browser test's) drops whole lines.
+const FLOOR_SIZE_MM = 8000;
+const FLOOR_CELL_MM = 500;
+// The camera's target eases towards the figures' roots with this time
+// constant, so that it follows a walk without the jitter of every step.
+const FOLLOW_SECONDS = 0.4;
 
 export const FIGURE_COLOURS = ['#4f9dff', '#ff8a3d', '#4fd18b', '#e05dd6', '#f2d14a', '#9aa4b2'];
 
 class Figure {
-  // positions: one Float64Array (joints x 3, mm) per frame; parents[j] < j.
-  constructor(scene, { label, positions, parents, frameRate, colour }) {
+  // positions: one Float64Array (joints x 3, mm, the root at the origin) per
+  // frame; parents[j] < j; rootPath: [x, y, z] (mm) of the root per frame, or
+  // null to stand at the origin.
+  constructor(scene, { label, positions, parents, frameRate, colour, rootPath = null }) {
     this.label = label;
     this.frameRate = frameRate;
     this.parents = parents;
+    this.colour = colour;
+    this.laneX = 0;  // the side-by-side offset, arrange()'s
+    this.root = STANDING_ROOT_MM;  // where the root is drawn at the frame shown
     this.group = new THREE.Group();
-    this.group.position.y = HIP_HEIGHT_MM;
     const material = new THREE.MeshStandardMaterial({ color: colour, roughness: 0.5 });
     const sphere = new THREE.SphereGeometry(JOINT_RADIUS_MM, 12, 8);
     this.joints = parents.map(() => {
@@ -33,19 +50,23 @@ class Figure {
     this.boneGeometry.setAttribute('position', new THREE.BufferAttribute(new Float32Array(bonePairs * 6), 3));
     this.group.add(new THREE.LineSegments(this.boneGeometry, new THREE.LineBasicMaterial({ color: colour })));
     scene.add(this.group);
-    this.setPositions(positions, label);
+    this.setPositions(positions, label, rootPath);
   }
 
-  setPositions(positions, label) {
+  setPositions(positions, label, rootPath = null) {
     this.positions = positions;
     this.label = label;
+    this.rootPath = rootPath;
   }
 
   get frameCount() { return this.positions.length; }
 
   // Poses the figure at `frame` (its last frame when the motion is shorter).
   pose(frame) {
-    const p = this.positions[Math.min(frame, this.positions.length - 1)];
+    const last = Math.min(frame, this.positions.length - 1);
+    const p = this.positions[last];
+    this.root = this.rootPath ? this.rootPath[last] : STANDING_ROOT_MM;
+    this.place();
     this.joints.forEach((joint, j) => joint.position.set(p[3 * j], p[3 * j + 1], p[3 * j + 2]));
     const bones = this.boneGeometry.attributes.position;
     let k = 0;
@@ -55,6 +76,11 @@ class Figure {
       bones.setXYZ(k++, p[3 * j], p[3 * j + 1], p[3 * j + 2]);
     });
     bones.needsUpdate = true;
+  }
+
+  // The joints are drawn about the root, so the whole figure moves with it.
+  place() {
+    this.group.position.set(this.laneX + this.root[0], this.root[1], this.root[2]);
   }
 
   dispose(scene) {
@@ -80,12 +106,22 @@ export class SkeletonView {
     const sun = new THREE.DirectionalLight('#ffffff', 1.5);
     sun.position.set(2000, 4000, 3000);
     this.scene.add(sun);
-    this.scene.add(new THREE.GridHelper(8000, 16, '#556', '#333a44'));
+    this.floor = new THREE.GridHelper(FLOOR_SIZE_MM, FLOOR_SIZE_MM / FLOOR_CELL_MM, '#556', '#333a44');
+    this.scene.add(this.floor);
     this.camera = new THREE.PerspectiveCamera(40, 1, 10, 50000);
     this.camera.position.set(2600, 1900, 4200);
     this.controls = new OrbitControls(this.camera, this.renderer.domElement);
     this.controls.target.set(0, 900, 0);
     this.controls.update();
+    // Where the camera follows to (x, z: the mean of the figures' roots) as
+    // far as it has got; what the user pans stays on top of it.
+    this.followed = { x: 0, z: 0 };
+    this.lastTick = null;
+    this.inset = document.createElement('canvas');
+    this.inset.id = 'root-inset';
+    this.inset.width = this.inset.height = 180;
+    this.inset.hidden = true;
+    container.append(this.inset);
 
     playButton.addEventListener('click', () => (this.playing ? this.pause() : this.play()));
     slider.addEventListener('input', () => {
@@ -98,21 +134,25 @@ export class SkeletonView {
     this.renderer.setAnimationLoop((time) => this.tick(time));
   }
 
-  // Replaces the figures: [{label, positions, parents, frameRate}], and
-  // plays; what listened to the frame of the figures before stops.
+  // Replaces the figures: [{label, positions, parents, frameRate, rootPath}]
+  // (rootPath optional), and plays; what listened to the frame of the
+  // figures before stops.
   show(figures) {
     this.frameListeners = [];
     this.figures.forEach((f) => f.dispose(this.scene));
     this.figures = figures.map((f, i) => new Figure(this.scene, { colour: FIGURE_COLOURS[i % FIGURE_COLOURS.length], ...f }));
+    this.inset.hidden = !this.figures.some((f) => f.rootPath);
     this.arrange();
     this.slider.max = String(Math.max(0, this.frameCount - 1));
     this.setFrame(0);
     this.play();
   }
 
-  // Gives figure `index` other positions (the interpolation slider), keeping the frame.
-  replacePositions(index, positions, label) {
-    this.figures[index].setPositions(positions, label);
+  // Gives figure `index` other positions and root path (the interpolation
+  // slider), keeping the frame.
+  replacePositions(index, positions, label, rootPath = null) {
+    this.figures[index].setPositions(positions, label, rootPath);
+    this.inset.hidden = !this.figures.some((f) => f.rootPath);
     this.renderLegend();
     this.setFrame(this.frame);
   }
@@ -123,7 +163,10 @@ export class SkeletonView {
   arrange() {
     const overlay = this.overlayBox.checked;
     const offset = (this.figures.length - 1) / 2;
-    this.figures.forEach((f, i) => (f.group.position.x = overlay ? 0 : (i - offset) * FIGURE_SPACING_MM));
+    this.figures.forEach((f, i) => {
+      f.laneX = overlay ? 0 : (i - offset) * FIGURE_SPACING_MM;
+      f.place();
+    });
     this.renderLegend();
   }
 
@@ -153,7 +196,36 @@ export class SkeletonView {
     this.figures.forEach((f) => f.pose(frame));
     this.slider.value = String(frame);
     this.frameLabel.textContent = `frame ${frame + 1} / ${this.frameCount} at ${this.frameRate} Hz`;
+    this.drawInset();
     this.frameListeners.forEach((listener) => listener(frame));
+  }
+
+  // The travelling figures' paths from above, from a common start whatever
+  // their lanes here; a standing figure's would be a dot at the origin.
+  drawInset() {
+    if (this.inset.hidden) return;
+    drawRootInset(this.inset, this.figures.filter((f) => f.rootPath)
+      .map((f) => ({ colour: f.colour, points: f.rootPath, frame: this.frame })));
+  }
+
+  // Moves the orbit target, and the camera with it (keeping the angle and
+  // distance the user chose), a step towards the mean of the figures' roots
+  // on the floor, and the floor after them: a figure standing at the origin
+  // counts as 0, so the view eases back when travelling figures give way to
+  // standing ones.
+  follow(seconds) {
+    if (!this.figures.length) return;
+    const mean = (axis) => this.figures.reduce((sum, f) => sum + f.root[axis], 0) / this.figures.length;
+    const ease = 1 - Math.exp(-seconds / FOLLOW_SECONDS);
+    const step = { x: (mean(0) - this.followed.x) * ease, z: (mean(2) - this.followed.z) * ease };
+    this.followed.x += step.x;
+    this.followed.z += step.z;
+    for (const point of [this.controls.target, this.camera.position]) {
+      point.x += step.x;
+      point.z += step.z;
+    }
+    const wholeCells = (mm) => Math.round(mm / FLOOR_CELL_MM) * FLOOR_CELL_MM;
+    this.floor.position.set(wholeCells(this.followed.x), 0, wholeCells(this.followed.z));
   }
 
   // Pauses and shows `frame` (a click on a take's strip or error plot).
@@ -163,12 +235,15 @@ export class SkeletonView {
   }
 
   tick(time) {
+    const seconds = this.lastTick === null ? 0 : (time - this.lastTick) / 1000;
+    this.lastTick = time;
     if (this.playing && this.frameCount > 0) {
       // Playback continues from the frame shown when play was pressed.
       if (this.playStart === null) this.playStart = time - (this.frame / this.frameRate) * 1000;
       const frame = Math.floor(((time - this.playStart) / 1000) * this.frameRate) % this.frameCount;
       if (frame !== this.frame) this.setFrame(frame);
     }
+    this.follow(seconds);
     this.controls.update();
     this.renderer.render(this.scene, this.camera);
   }
@@ -182,17 +257,22 @@ export class SkeletonView {
   }
 
   // What the view draws, for the browser test: each figure's label, joint
-  // count and frame count, and the joint positions (mm, relative to its
-  // hips) of the spheres as they stand now.
+  // count and frame count, the joint positions (mm, relative to its hips) of
+  // the spheres as they stand now, whether it travels (has a root path) and
+  // where its root is drawn now (mm, its lane's offset taken off; a standing
+  // figure's is STANDING_ROOT_MM); whether the inset shows.
   describe() {
     return {
       frame: this.frame,
       playing: this.playing,
+      insetShown: !this.inset.hidden,
       figures: this.figures.map((f) => ({
         label: f.label,
         joints: f.joints.length,
         frames: f.frameCount,
         drawnPositionsMm: f.joints.map((j) => [j.position.x, j.position.y, j.position.z]),
+        travels: Boolean(f.rootPath),
+        rootMm: [f.group.position.x - f.laneX, f.group.position.y, f.group.position.z],
       })),
     };
   }
