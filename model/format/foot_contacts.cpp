@@ -91,11 +91,24 @@ SkeletonFeet find_feet(const Skeleton& skeleton) {
   return feet;
 }
 
-std::vector<Vec3> pose_positions(const Skeleton& skeleton, const float* frame) {
+std::vector<bool> feet_and_legs(const Skeleton& skeleton, const SkeletonFeet& feet) {
+  std::vector<bool> needed(skeleton.joints.size(), false);
+  for (const auto& foot : feet.joints) {
+    for (int j : foot) {
+      for (int k = j; k >= 0 && !needed[static_cast<size_t>(k)]; k = skeleton.joints[static_cast<size_t>(k)].parent) {
+        needed[static_cast<size_t>(k)] = true;
+      }
+    }
+  }
+  return needed;
+}
+
+std::vector<Vec3> pose_positions(const Skeleton& skeleton, const float* frame, const std::vector<bool>* only) {
   const size_t count = skeleton.joints.size();
-  std::vector<Vec3> positions(count);
+  std::vector<Vec3> positions(count, Vec3{0, 0, 0});
   std::vector<Mat3> world(count);
   for (size_t j = 0; j < count; ++j) {
+    if (only && !(*only)[j]) continue;
     const Vec3 expmap{frame[3 + 3 * j], frame[4 + 3 * j], frame[5 + 3 * j]};
     const Mat3 local = expmap_to_matrix(expmap);
     const int parent = skeleton.joints[j].parent;
@@ -114,7 +127,7 @@ std::vector<Vec3> pose_positions(const Skeleton& skeleton, const float* frame) {
   return positions;
 }
 
-std::vector<Vec3> world_positions(const Skeleton& skeleton, const MotionFrames& motion) {
+std::vector<Vec3> world_positions(const Skeleton& skeleton, const MotionFrames& motion, const std::vector<bool>* only) {
   const int64_t frames = motion.frame_count();
   const size_t count = skeleton.joints.size();
   std::vector<Vec3> world;
@@ -123,7 +136,7 @@ std::vector<Vec3> world_positions(const Skeleton& skeleton, const MotionFrames& 
   for (int64_t f = 0; f < frames; ++f) {
     const float* frame = motion.frame(f);
     for (int a = 0; a < 3; ++a) root[static_cast<size_t>(a)] += frame[a];
-    for (const Vec3& p : pose_positions(skeleton, frame)) world.push_back({p[0] + root[0], p[1] + root[1], p[2] + root[2]});
+    for (const Vec3& p : pose_positions(skeleton, frame, only)) world.push_back({p[0] + root[0], p[1] + root[1], p[2] + root[2]});
   }
   return world;
 }
@@ -146,38 +159,42 @@ double floor_height(const Skeleton& skeleton, const SkeletonFeet& feet, const st
 namespace {
 
 // Empty feet for a skeleton without any or a motion of fewer than 2 frames.
-FeetOnTheFloor feet_on_the_floor(const Skeleton& skeleton, const MotionFrames& motion) {
+FeetOnTheFloor feet_on_the_floor(const Skeleton& skeleton, const std::vector<Vec3>& world, int64_t frames) {
   FeetOnTheFloor on;
-  const int64_t frames = motion.frame_count();
   on.feet = find_feet(skeleton);
   if (on.feet.empty() || frames < 2) return FeetOnTheFloor{};
-  const auto world = world_positions(skeleton, motion);
   on.floor = floor_height(skeleton, on.feet, world, frames);
   on.tracks = track_feet(on.feet, world, frames, skeleton.joint_count());
   return on;
+}
+
+FeetOnTheFloor feet_on_the_floor(const Skeleton& skeleton, const MotionFrames& motion) {
+  if (find_feet(skeleton).empty() || motion.frame_count() < 2) return FeetOnTheFloor{};
+  const auto legs = feet_and_legs(skeleton, find_feet(skeleton));
+  return feet_on_the_floor(skeleton, world_positions(skeleton, motion, &legs), motion.frame_count());
+}
+
+std::vector<uint8_t> planted_feet(const FeetOnTheFloor& on, int64_t frames, double rate_hz,
+                                  const FootContactThresholds& thresholds) {
+  std::vector<uint8_t> contacts(static_cast<size_t>(frames), 0);
+  const size_t foot_count = on.feet.joints.size();
+  const double planted_mm_per_frame = thresholds.planted_speed_mm_s / rate_hz;
+  for (int64_t f = 0; f < frames && foot_count > 0; ++f) {
+    for (size_t k = 0; k < foot_count && k < 8; ++k) {
+      const size_t at = static_cast<size_t>(f) * foot_count + k;
+      if (on.tracks.lowest[at] - on.floor <= thresholds.near_floor_mm && on.tracks.movement[at] < planted_mm_per_frame) {
+        contacts[static_cast<size_t>(f)] |= static_cast<uint8_t>(1u << k);
+      }
+    }
+  }
+  return contacts;
 }
 
 }  // namespace
 
 std::vector<uint8_t> foot_contacts(const Skeleton& skeleton, const MotionFrames& motion, double rate_hz,
                                    const FootContactThresholds& thresholds) {
-  const int64_t frames = motion.frame_count();
-  std::vector<uint8_t> contacts(static_cast<size_t>(frames), 0);
-  const FeetOnTheFloor on = feet_on_the_floor(skeleton, motion);
-  if (on.feet.empty()) return contacts;
-  const FootTracks& tracks = on.tracks;
-  const double floor = on.floor;
-  const size_t foot_count = on.feet.joints.size();
-  const double planted_mm_per_frame = thresholds.planted_speed_mm_s / rate_hz;
-  for (int64_t f = 0; f < frames; ++f) {
-    for (size_t k = 0; k < foot_count && k < 8; ++k) {
-      const size_t at = static_cast<size_t>(f) * foot_count + k;
-      if (tracks.lowest[at] - floor <= thresholds.near_floor_mm && tracks.movement[at] < planted_mm_per_frame) {
-        contacts[static_cast<size_t>(f)] |= static_cast<uint8_t>(1u << k);
-      }
-    }
-  }
-  return contacts;
+  return planted_feet(feet_on_the_floor(skeleton, motion), motion.frame_count(), rate_hz, thresholds);
 }
 
 SkatingCount skating_ratio(const Skeleton& skeleton, const MotionFrames& motion, double rate_hz,
@@ -205,10 +222,11 @@ SkatingCount skating_ratio(const Skeleton& skeleton, const MotionFrames& motion,
 double place_root_on_floor(const Skeleton& skeleton, MotionFrames& motion, double height_before) {
   const SkeletonFeet feet = find_feet(skeleton);
   if (feet.empty()) return height_before;
+  const auto legs = feet_and_legs(skeleton, feet);
   double previous = height_before;
   for (int64_t f = 0; f < motion.frame_count(); ++f) {
     float* frame = motion.frame(f);
-    const auto pose = pose_positions(skeleton, frame);
+    const auto pose = pose_positions(skeleton, frame, &legs);
     double lowest = std::numeric_limits<double>::infinity();
     for (const auto& foot : feet.joints) {
       for (int j : foot) lowest = std::min(lowest, pose[static_cast<size_t>(j)][1]);
@@ -224,7 +242,8 @@ void settle_on_floor(const Skeleton& skeleton, MotionFrames& motion, int window)
   const SkeletonFeet feet = find_feet(skeleton);
   const int64_t frames = motion.frame_count();
   if (feet.empty() || frames < 1) return;
-  const auto world = world_positions(skeleton, motion);
+  const auto legs = feet_and_legs(skeleton, feet);
+  const auto world = world_positions(skeleton, motion, &legs);
   const int joint_count = skeleton.joint_count();
   std::vector<double> lowest(static_cast<size_t>(frames));
   for (int64_t f = 0; f < frames; ++f) {
@@ -257,15 +276,26 @@ void settle_on_floor(const Skeleton& skeleton, MotionFrames& motion, int window)
 
 std::vector<uint8_t> plant_feet(const Skeleton& skeleton, MotionFrames& motion, double rate_hz,
                                 const FootContactThresholds& thresholds) {
-  const auto contacts = foot_contacts(skeleton, motion, rate_hz, thresholds);
   const SkeletonFeet feet = find_feet(skeleton);
   const int64_t frames = motion.frame_count();
-  if (feet.empty() || frames < 2) return contacts;
+  if (feet.empty() || frames < 2) return std::vector<uint8_t>(static_cast<size_t>(std::max<int64_t>(frames, 0)), 0);
+  // One pass of forward kinematics: the world positions (the heights, which
+  // the correction keeps), and each pose about its root from them.
   const int joint_count = skeleton.joint_count();
-  const auto world = world_positions(skeleton, motion);  // the heights, which the correction keeps
-  std::vector<std::vector<Vec3>> poses;
-  poses.reserve(static_cast<size_t>(frames));
-  for (int64_t f = 0; f < frames; ++f) poses.push_back(pose_positions(skeleton, motion.frame(f)));
+  const auto legs = feet_and_legs(skeleton, feet);
+  const auto world = world_positions(skeleton, motion, &legs);
+  const auto contacts = planted_feet(feet_on_the_floor(skeleton, world, frames), frames, rate_hz, thresholds);
+  std::vector<std::vector<Vec3>> poses(static_cast<size_t>(frames));
+  Vec3 root{0, 0, 0};
+  for (int64_t f = 0; f < frames; ++f) {
+    for (int a = 0; a < 3; ++a) root[static_cast<size_t>(a)] += motion.frame(f)[a];
+    auto& pose = poses[static_cast<size_t>(f)];
+    pose.reserve(static_cast<size_t>(joint_count));
+    for (int j = 0; j < joint_count; ++j) {
+      const Vec3& p = world[static_cast<size_t>(f * joint_count + j)];
+      pose.push_back({p[0] - root[0], p[1] - root[1], p[2] - root[2]});
+    }
+  }
   // Each planted frame's root change is chosen so that the point each
   // planted foot stands on (its lowest joint) lands, on average, where it
   // was in the frame before, on the path as corrected so far.

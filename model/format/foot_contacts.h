@@ -56,12 +56,21 @@ SkeletonFeet find_feet(const Skeleton& skeleton);
 
 // Joint positions (mm) of one frame's pose with the root at the origin:
 // joint_count() entries. `frame` holds skeleton_motion_columns(skeleton)
-// values; the root translation columns are ignored.
-std::vector<Vec3> pose_positions(const Skeleton& skeleton, const float* frame);
+// values; the root translation columns are ignored. With `only` (one flag
+// per joint, every joint's parent flagged with it), the other joints are
+// left at the origin and cost nothing.
+std::vector<Vec3> pose_positions(const Skeleton& skeleton, const float* frame,
+                                 const std::vector<bool>* only = nullptr);
 
 // Joint positions of every frame on the root's path (the running sum of
-// columns 0..2): frames x joint_count() positions, frame-major.
-std::vector<Vec3> world_positions(const Skeleton& skeleton, const MotionFrames& motion);
+// columns 0..2): frames x joint_count() positions, frame-major; `only` as
+// for pose_positions.
+std::vector<Vec3> world_positions(const Skeleton& skeleton, const MotionFrames& motion,
+                                  const std::vector<bool>* only = nullptr);
+
+// The flags of `only` for the feet and the joints above them: all that the
+// functions below read, a third of H3.6M's joints.
+std::vector<bool> feet_and_legs(const Skeleton& skeleton, const SkeletonFeet& feet);
 
 // The floor's height (mm) under a motion: the 5th percentile over frames of
 // the lowest foot joint's height on the root's path, robust to a frame or

@@ -127,8 +127,10 @@ void integrate_level_root_path(const Skeleton& skeleton, MotionFrames& motion, d
       frame[3 + a] = static_cast<float>(orientation[static_cast<size_t>(a)]);
     }
   }
-  const auto world = world_positions(skeleton, motion);
-  motion.frame(0)[1] -= static_cast<float>(floor_height(skeleton, find_feet(skeleton), world, frames));
+  const SkeletonFeet feet = find_feet(skeleton);
+  const auto legs = feet_and_legs(skeleton, feet);
+  const auto world = world_positions(skeleton, motion, &legs);
+  motion.frame(0)[1] -= static_cast<float>(floor_height(skeleton, feet, world, frames));
 }
 
 }  // namespace mm
