@@ -169,11 +169,11 @@ struct TakeProcessor::State {
   int64_t output_frames = 0;
   int windows = 0;
   double error_sum = 0, error_max = 0;
-  // The generated root: its path so far, and its height at the last frame
-  // answered (a take is not held whole, so each frame's lowest foot is put
-  // on the floor instead of levelling the whole path).
+  // The generated root: its path so far and the floor under it (a take is
+  // not held whole, so the floor follows the last 2 s of frames instead of
+  // levelling the whole path).
   std::optional<RootPathIntegrator> root_path;
-  double root_height = 0;
+  std::optional<StreamingFloor> floor;
   int64_t held_peak = 0;
   bool finished = false;
 };
@@ -352,8 +352,9 @@ void TakeProcessor::State::answer(MotionFrames& output) {
   if (options.root == TakeRoot::kGenerated) {
     const double rate = options.at_model_rate ? kTakeModelRate : options.frame_rate;
     if (!root_path) root_path.emplace(kRootRotationStepsPerFrame * kTakeModelRate / rate);
+    if (!floor) floor.emplace(model.skeleton(), static_cast<int>(std::lround(2 * rate)));
     root_path->integrate(output);
-    root_height = place_root_on_floor(model.skeleton(), output, root_height);
+    floor->settle(output);
   }
   if (sink.on_frames) sink.on_frames(output, errors);
 }
@@ -525,7 +526,7 @@ TakeSummary decode_code_track(const MotionManifold& model, const std::vector<Tak
   MotionResampler to_output(columns, kTakeModelRate, options.frame_rate);
   int64_t emitted = 0;
   RootPathIntegrator root_path(kRootRotationStepsPerFrame * kTakeModelRate / options.frame_rate);
-  double root_height = 0;
+  StreamingFloor floor(model.skeleton(), static_cast<int>(std::lround(2 * options.frame_rate)));
   auto hand_out = [&](MotionFrames& frames) {
     const int64_t count = std::min(frames.frame_count(), output_frames - emitted);
     if (count <= 0) return;
@@ -533,7 +534,7 @@ TakeSummary decode_code_track(const MotionManifold& model, const std::vector<Tak
     emitted += count;
     if (model.has_trajectory()) {
       root_path.integrate(frames);
-      root_height = place_root_on_floor(model.skeleton(), frames, root_height);
+      floor.settle(frames);
     }
     if (sink.on_frames) sink.on_frames(frames, {});
   };

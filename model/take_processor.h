@@ -51,7 +51,8 @@ const char* take_operation_name(TakeOperation operation);  // "encode" / "recons
 // Where a take's output root path comes from: the input's (the default:
 // a reconstruction of a recorded take keeps where it went), or the model's
 // trajectory network (root_trajectory.h) from the output's poses, with the
-// lowest foot on the floor.
+// floor followed under the last 2 s of frames (StreamingFloor: the take is
+// not held whole).
 enum class TakeRoot { kInput, kGenerated };
 const char* take_root_name(TakeRoot root);  // "input" / "generated"
 // InputError naming `field`, the value and the two names otherwise.
@@ -177,9 +178,10 @@ struct CodeTrackDecoding {
 // only start_seconds and code are read) into one continuous motion: every
 // code decoded to a window at its start (rounded to a 25 Hz frame), the
 // windows joined as a take's are, brought to the output rate. The root
-// travels as the model's trajectory network says (root_trajectory.h), with
-// the lowest foot on the floor; a model without one leaves it in place. Results go to sink.on_frames
-// with an empty error. InputError naming "windows[i].start_seconds" (the
+// travels as the model's trajectory network says (root_trajectory.h), in
+// world layout, the floor followed under the last 2 s of frames; a model
+// without one leaves it in place. Results go to sink.on_frames with an
+// empty error. InputError naming "windows[i].start_seconds" (the
 // first must be 0, each at or after the previous, none leaving a frame
 // uncovered), "windows[i].code" (latent finite floats), "frame_rate" or
 // "frames", or the length limit, before anything is decoded.

@@ -274,6 +274,38 @@ void settle_on_floor(const Skeleton& skeleton, MotionFrames& motion, int window)
   }
 }
 
+StreamingFloor::StreamingFloor(const Skeleton& skeleton, int window)
+    : skeleton_(skeleton), feet_(find_feet(skeleton)), legs_(feet_and_legs(skeleton_, feet_)), window_(std::max(1, window)) {}
+
+void StreamingFloor::settle(MotionFrames& frames) {
+  if (feet_.empty()) return;
+  const double smoothing = 2.0 / (window_ / 2.0 + 1.0);  // an exponential average over about window / 2 frames
+  for (int64_t f = 0; f < frames.frame_count(); ++f) {
+    float* frame = frames.frame(f);
+    for (int a = 0; a < 3; ++a) root_[static_cast<size_t>(a)] += frame[a];
+    const auto pose = pose_positions(skeleton_, frame, &legs_);
+    double lowest = std::numeric_limits<double>::infinity();
+    for (const auto& foot : feet_.joints) {
+      for (int j : foot) lowest = std::min(lowest, pose[static_cast<size_t>(j)][1]);
+    }
+    lowest += root_[1];
+    if (recent_.size() < static_cast<size_t>(window_)) {
+      recent_.push_back(lowest);
+    } else {
+      recent_[next_] = lowest;
+      next_ = (next_ + 1) % recent_.size();
+    }
+    std::vector<double> sorted = recent_;
+    const auto nth = sorted.begin() + static_cast<std::ptrdiff_t>(static_cast<double>(sorted.size() - 1) * 0.05);
+    std::nth_element(sorted.begin(), nth, sorted.end());
+    const double wanted = -*nth;
+    const double before = offset_;
+    offset_ = started_ ? offset_ + (wanted - offset_) * smoothing : wanted;
+    frame[1] += static_cast<float>(started_ ? offset_ - before : offset_);
+    started_ = true;
+  }
+}
+
 std::vector<uint8_t> plant_feet(const Skeleton& skeleton, MotionFrames& motion, double rate_hz,
                                 const FootContactThresholds& thresholds) {
   const SkeletonFeet feet = find_feet(skeleton);

@@ -118,6 +118,29 @@ double place_root_on_floor(const Skeleton& skeleton, MotionFrames& motion, doubl
 // nothing; columns 1 (the root's height changes) are rewritten.
 void settle_on_floor(const Skeleton& skeleton, MotionFrames& motion, int window = 25);
 
+// settle_on_floor for a stream that is never held whole (a take's reply):
+// the offset follows the 5th percentile of the lowest foot's height over
+// the last `window` frames, smoothed over about half as many, so that it
+// carries on from one part of the stream to the next without a step. The
+// first frame starts on the floor. Used by one thread at a time.
+class StreamingFloor {
+ public:
+  explicit StreamingFloor(const Skeleton& skeleton, int window = 50);
+  // Rewrites column 1 (the root's height changes) of the next frames.
+  void settle(MotionFrames& frames);
+
+ private:
+  Skeleton skeleton_;
+  SkeletonFeet feet_;
+  std::vector<bool> legs_;
+  int window_;
+  Vec3 root_{0, 0, 0};         // the root as given, before any offset
+  std::vector<double> recent_;  // the lowest foot's height, last `window_` frames (a ring)
+  size_t next_ = 0;
+  double offset_ = 0;
+  bool started_ = false;
+};
+
 // Removes the skating that remains in a motion's root path: in every frame
 // in which a foot is planted (foot_contacts() of the motion as given), the
 // root's horizontal change from the frame before is corrected by the mean

@@ -18,6 +18,7 @@
 #include "format/input_error.h"
 #include "latent_operations.h"
 #include "render/svg_document.h"
+#include "take_processor.h"
 #include "trajectory_evaluation.h"
 #include "trajectory_training.h"
 
@@ -247,6 +248,45 @@ int run_evaluate_trajectory(const EvaluateTrajectoryOptions& o) {
                   row["motions"].get<int>(), row["ratio"].get<double>(), row["ratio_feet_planted"].get<double>());
     }
   }
+  // Whole takes (trial 1 of every action) as the service's take operation
+  // gives them with a generated root, at 25 Hz: how far they travel against
+  // the recording, and how much their feet skate.
+  std::printf("\n| S5 take | minutes | recorded distance (m) | generated distance (m) | skating, recorded | "
+              "skating, generated |\n|---|---:|---:|---:|---:|---:|\n");
+  double recorded_total = 0, generated_total = 0;
+  SkatingCount recorded_skating, generated_skating;
+  for (const auto& sequence : sequences_keeping_root(o.data, {"S5"})) {
+    if (sequence.phase != 0 || sequence.take != 1) continue;
+    MotionFrames recorded = sequence.frames;
+    recorded.frame(0)[0] = recorded.frame(0)[1] = recorded.frame(0)[2] = 0.0f;
+    MotionFrames as_recorded = recorded;
+    integrate_level_root_path(skeleton, recorded, kRootRotationStepsPerFrame);
+    TakeOptions take;
+    take.frame_rate = kRate;
+    take.root = TakeRoot::kGenerated;
+    take.decoder = model.default_decoder();
+    const MotionFrames generated = process_take(model, as_recorded, take).frames;
+    auto travelled = [](const MotionFrames& m) {
+      double length = 0;
+      for (int64_t f = 1; f < m.frame_count(); ++f) length += std::hypot(m.frame(f)[0], m.frame(f)[2]);
+      return length;
+    };
+    const double a = travelled(recorded), b = travelled(generated);
+    const SkatingCount sa = skating_ratio(skeleton, recorded, kRate, o.thresholds);
+    const SkatingCount sb = skating_ratio(skeleton, generated, kRate, o.thresholds);
+    recorded_total += a, generated_total += b;
+    recorded_skating.skating += sa.skating, recorded_skating.frames += sa.frames;
+    generated_skating.skating += sb.skating, generated_skating.frames += sb.frames;
+    result["takes"][sequence.action] = {{"frames", recorded.frame_count()},
+                                        {"recorded_distance_m", a / 1000},
+                                        {"generated_distance_m", b / 1000},
+                                        {"skating_recorded", sa.ratio()},
+                                        {"skating_generated", sb.ratio()}};
+    std::printf("| %s_1 | %.1f | %.1f | %.1f | %.3f | %.3f |\n", sequence.action.c_str(),
+                static_cast<double>(recorded.frame_count()) / kRate / 60, a / 1000, b / 1000, sa.ratio(), sb.ratio());
+  }
+  std::printf("| all | | %.1f | %.1f | %.3f | %.3f |\n", recorded_total / 1000, generated_total / 1000,
+              recorded_skating.ratio(), generated_skating.ratio());
   if (!o.out.empty()) write_file_atomically(o.out, result.dump(1) + "\n");
   if (!o.svg.empty() && !walking_recorded.empty()) {
     std::vector<MotionFrames> shown_recorded, shown_decoded, shown_from_poses;
