@@ -86,7 +86,8 @@ void write_generated_root_changes(const MotionManifold& model, const at::Tensor&
 // model's layout, one per clip of `normalized`, (B, T, D) on the model's
 // device) and turns each into world layout (integrate_level_root_path):
 // columns 0..2 the root's move in world axes (frame 0: its start, (0,
-// height, 0)), columns 3..5 its world orientation, the floor at y = 0.
+// height, 0)), columns 3..5 its world orientation, settled on the floor at
+// y = 0 (settle_on_floor).
 // Requires model.has_trajectory().
 void write_generated_roots(const MotionManifold& model, const at::Tensor& normalized, const at::Tensor& codes,
                            std::vector<MotionFrames>& motions);

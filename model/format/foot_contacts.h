@@ -119,10 +119,11 @@ double place_root_on_floor(const Skeleton& skeleton, MotionFrames& motion, doubl
 void settle_on_floor(const Skeleton& skeleton, MotionFrames& motion, int window = 25);
 
 // settle_on_floor for a stream that is never held whole (a take's reply):
-// the offset follows the 5th percentile of the lowest foot's height over
-// the last `window` frames, smoothed over about half as many, so that it
-// carries on from one part of the stream to the next without a step. The
-// first frame starts on the floor. Used by one thread at a time.
+// the stream's vertical moves are dropped, and the root's height follows
+// the 5th percentile of the lowest foot's height over the last `window`
+// frames, smoothed over about half as many, so that it carries on from one
+// part of the stream to the next without a step. The first frame starts on
+// the floor. Used by one thread at a time.
 class StreamingFloor {
  public:
   explicit StreamingFloor(const Skeleton& skeleton, int window = 50);
@@ -137,6 +138,8 @@ class StreamingFloor {
   Vec3 root_{0, 0, 0};         // the root as given, before any offset
   std::vector<double> recent_;  // the lowest foot's height, last `window_` frames (a ring)
   size_t next_ = 0;
+  int64_t seen_ = 0;
+  double wanted_ = 0;  // the negated percentile, taken again every few frames
   double offset_ = 0;
   bool started_ = false;
 };

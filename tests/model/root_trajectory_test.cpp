@@ -209,6 +209,24 @@ TEST_F(RootTrajectoryTest, ATakeReconstructedWithAGeneratedRootTravelsLikeTheRec
     generated_length += std::hypot(generated.frames.frame(f)[0], generated.frames.frame(f)[2]);
   }
   EXPECT_NEAR(generated_length, recorded, 0.25 * recorded);
+  // The floor followed under the stream: the lowest foot stays near it in
+  // 90% of frames, and the feet skate rarely.
+  const auto world = world_positions(model_->skeleton(), generated.frames);
+  const SkeletonFeet feet = find_feet(model_->skeleton());
+  std::vector<double> lowest;
+  for (int64_t f = 0; f < generated.frames.frame_count(); ++f) {
+    double low = 1e9;
+    for (const auto& foot : feet.joints) {
+      for (int j : foot) low = std::min(low, world[static_cast<size_t>(f * 32 + j)][1]);
+    }
+    lowest.push_back(low);
+  }
+  std::sort(lowest.begin(), lowest.end());
+  std::printf("lowest foot: 5%% %.0f, median %.0f, 95%% %.0f mm\n", lowest[lowest.size() / 20], lowest[lowest.size() / 2],
+              lowest[lowest.size() * 19 / 20]);
+  EXPECT_GT(lowest[lowest.size() / 20], -50.0);      // mm
+  EXPECT_LT(lowest[lowest.size() * 19 / 20], 100.0);
+  EXPECT_LT(skating_ratio(model_->skeleton(), generated.frames, 50).ratio(), 0.10);
 }
 
 TEST(RootTrajectory, AModelWithoutOneStandsInPlaceAndTakesRefuseAGeneratedRoot) {
