@@ -216,6 +216,7 @@ int parse_server_config(int argc, char** argv, ServerConfig& config) {
   config.jobs.model_store = config.core.model_store;
   config.rest.watch_streams = config.grpc.watch_streams = config.core.watch_streams.max_streams;
   config.core.data_root = config.jobs.data_root;
+  config.core.job_store = config.jobs.job_store;
   // An installation without the source tree has no page unless it names one;
   // a --web-root given that is not a folder stops the server at start.
   if (web_root->count() == 0 && !std::filesystem::is_directory(config.rest.web_root)) config.rest.web_root.clear();

@@ -1,12 +1,18 @@
 #include "core/data_root_clips.h"
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
 #include <cctype>
+#include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <mutex>
@@ -16,11 +22,11 @@
 #include "api/data_root_path.h"
 #include "format/bvh_dataset.h"
 #include "format/bvh_file.h"
-#include "format/atomic_file.h"
 #include "format/input_error.h"
 #include "format/motion_text.h"
 #include "format/motion_text_rows.h"
 #include "format/skeleton_bvh.h"
+#include "jobs/upload_reservations.h"
 
 namespace mm::service {
 namespace {
@@ -336,21 +342,185 @@ void check_upload_size(const std::string& path, int64_t size, const DataRootQuot
   }
 }
 
-// What the root would hold with the upload, against the quota; each refusal
-// names the quota, the use and the option.
-void check_root_quota(const fs::path& root, const std::string& path, int64_t size, const DataRootQuota& quota) {
+// What the root would hold with the upload (and with what other replicas'
+// uploads in flight have reserved), against the quota; each refusal names
+// the quota, the use and the option.
+void check_root_quota(const fs::path& root, const std::string& path, int64_t size, const DataRootQuota& quota,
+                      const UploadReservations::Reserved& reserved = {}) {
   const DataRootUse use = data_root_use(root.string());
-  if (use.bytes + size > quota.max_root_bytes) {
-    throw over_quota(path + ": the data root holds " + std::to_string(use.bytes) + " bytes, and " +
+  const std::string in_flight =
+      reserved.files == 0 ? ""
+                          : " (and uploads in flight on the replicas " + std::to_string(reserved.bytes) + " more)";
+  if (use.bytes + reserved.bytes + size > quota.max_root_bytes) {
+    throw over_quota(path + ": the data root holds " + std::to_string(use.bytes) + " bytes" + in_flight + ", and " +
                      std::to_string(size) + " more would pass its quota of " + std::to_string(quota.max_root_bytes) +
                      " bytes (--max-data-root-bytes); delete uploads (DeleteClip) to make room");
   }
-  if (use.files + 1 > quota.max_root_files) {
-    throw over_quota(path + ": the data root holds " + std::to_string(use.files) +
-                     " files, its quota (--max-data-root-files " + std::to_string(quota.max_root_files) +
+  if (use.files + reserved.files + 1 > quota.max_root_files) {
+    throw over_quota(path + ": the data root holds " + std::to_string(use.files) + " files" +
+                     (reserved.files == 0 ? "" : " (and uploads in flight on the replicas " +
+                                                     std::to_string(reserved.files) + " more)") +
+                     ", its quota (--max-data-root-files " + std::to_string(quota.max_root_files) +
                      "); delete uploads (DeleteClip) to make room");
   }
 }
+
+// A reservation of quota.shared, given back when the upload ends, written
+// or not. A release that fails (the database gone) is only logged: the
+// reservation lapses by itself (UploadReservations::kReservationSeconds).
+class Reservation {
+ public:
+  Reservation() = default;
+  Reservation(std::shared_ptr<UploadReservations> shared, int64_t id) : shared_(std::move(shared)), id_(id) {}
+  Reservation(const Reservation&) = delete;
+  Reservation& operator=(Reservation&& other) noexcept {
+    std::swap(shared_, other.shared_);
+    std::swap(id_, other.id_);
+    return *this;
+  }
+  ~Reservation() {
+    if (!shared_) return;
+    try {
+      shared_->release(id_);
+    } catch (const std::exception& e) {
+      spdlog::warn("an upload's quota reservation {} was not given back ({}); it lapses in {} s", id_, e.what(),
+                   UploadReservations::kReservationSeconds);
+    }
+  }
+
+ private:
+  std::shared_ptr<UploadReservations> shared_;
+  int64_t id_ = 0;
+};
+
+// The temporary names of write_data_root_clip: ".<clip>.upload.<pid>.<n>",
+// and earlier versions' ".<clip>.upload.<pid>.<n>.tmp.<pid>.<n>" (theirs
+// went through write_file_atomically, which adds the second part).
+constexpr const char* kUploadInfix = ".upload.";
+constexpr const char* kLegacySuffix = ".tmp.";
+
+bool all_digits(const std::string& text) {
+  return !text.empty() && std::all_of(text.begin(), text.end(), [](char c) { return c >= '0' && c <= '9'; });
+}
+
+// "<digits>.<digits>" exactly.
+bool counted_pair(const std::string& text) {
+  const size_t dot = text.find('.');
+  return dot != std::string::npos && all_digits(text.substr(0, dot)) && all_digits(text.substr(dot + 1));
+}
+
+enum class TemporaryKind { kNone, kLocked, kLegacy };
+
+TemporaryKind upload_temporary_kind(const std::string& name) {
+  if (name.size() < 2 || name.front() != '.') return TemporaryKind::kNone;
+  const size_t infix = name.find(kUploadInfix, 1);
+  if (infix == std::string::npos || infix < 2) return TemporaryKind::kNone;
+  // The clip's own name: what an upload may name (no dot first, an extension).
+  const std::string clip = name.substr(1, infix - 1);
+  if (clip.front() == '.' || clip_format(fs::path(clip)).empty()) return TemporaryKind::kNone;
+  const std::string rest = name.substr(infix + std::strlen(kUploadInfix));
+  if (counted_pair(rest)) return TemporaryKind::kLocked;
+  const size_t legacy = rest.find(kLegacySuffix);
+  if (legacy != std::string::npos && counted_pair(rest.substr(0, legacy)) &&
+      counted_pair(rest.substr(legacy + std::strlen(kLegacySuffix)))) {
+    return TemporaryKind::kLegacy;
+  }
+  return TemporaryKind::kNone;
+}
+
+// Earlier versions' temporary files carry no lock: one unchanged this long
+// has no writer (an upload is written from memory in seconds).
+constexpr auto kLegacyLeftoverAge = std::chrono::minutes(10);
+
+// Removes `path` when no process holds its lock (see sweep_upload_leftovers)
+// or, for a legacy name, when it is old enough; adds its size to `bytes`.
+// The lock is taken on the file and the name is checked to still be that
+// file before the unlink, so a writer that creates its file between the two
+// (it locks it at once, and checks after locking that its file still has a
+// name) never loses it.
+bool remove_abandoned(const fs::path& path, TemporaryKind kind, int64_t& bytes) {
+  int fd = ::open(path.c_str(), O_RDWR | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0 && errno == EACCES) fd = ::open(path.c_str(), O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0) return false;
+  bool removed = false;
+  struct stat held {}, named {};
+  if (::flock(fd, LOCK_EX | LOCK_NB) == 0 && ::fstat(fd, &held) == 0 && ::lstat(path.c_str(), &named) == 0 &&
+      S_ISREG(named.st_mode) && held.st_dev == named.st_dev && held.st_ino == named.st_ino) {
+    const bool old_enough =
+        kind == TemporaryKind::kLocked ||
+        std::chrono::system_clock::now() - std::chrono::system_clock::from_time_t(named.st_mtime) > kLegacyLeftoverAge;
+    if (old_enough && ::unlink(path.c_str()) == 0) {
+      removed = true;
+      bytes += static_cast<int64_t>(named.st_size);
+    }
+  }
+  ::close(fd);  // drops the lock
+  return removed;
+}
+
+// The staged file of one upload, created and locked (exclusive flock, held
+// until close) before a byte is written: the lock is what tells the sweep
+// at a replica's start that a live process still writes it. Its own name
+// for each upload, so that two of the same path never share it.
+class StagedUpload {
+ public:
+  explicit StagedUpload(const fs::path& target) {
+    static std::atomic<uint64_t> uploads{0};
+    // A sweep elsewhere may take the lock in the instant between our
+    // create and our lock and unlink the file: it then has no name, and we
+    // start again under another.
+    for (int attempt = 0; attempt < 3 && fd_ < 0; ++attempt) {
+      path_ = target.parent_path() / ("." + target.filename().string() + kUploadInfix + std::to_string(::getpid()) +
+                                      "." + std::to_string(uploads++));
+      const int fd = ::open(path_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+      if (fd < 0) {
+        if (errno == EEXIST) continue;
+        throw std::runtime_error("cannot create " + path_.filename().string() + ": " + std::strerror(errno));
+      }
+      int locked;
+      do locked = ::flock(fd, LOCK_EX);
+      while (locked != 0 && errno == EINTR);
+      struct stat status {};
+      if (locked != 0 || ::fstat(fd, &status) != 0) {
+        const int saved = errno;
+        ::unlink(path_.c_str());
+        ::close(fd);
+        throw std::runtime_error("cannot lock " + path_.filename().string() + ": " + std::strerror(saved));
+      }
+      if (status.st_nlink == 0) {
+        ::close(fd);
+        continue;
+      }
+      fd_ = fd;
+    }
+    if (fd_ < 0) throw std::runtime_error("no temporary name could be created beside the file");
+  }
+  ~StagedUpload() {
+    // Whether linked into place or not, the temporary name goes; the lock
+    // is held until then, so a sweep never sees it unlocked.
+    ::unlink(path_.c_str());
+    ::close(fd_);
+  }
+  StagedUpload(const StagedUpload&) = delete;
+  StagedUpload& operator=(const StagedUpload&) = delete;
+
+  void write(const std::string& content) {
+    const char* data = content.data();
+    size_t left = content.size();
+    while (left > 0) {
+      const ssize_t written = ::write(fd_, data, left);
+      if (written < 0 && errno == EINTR) continue;
+      if (written <= 0) throw std::runtime_error(std::string("writing failed: ") + std::strerror(errno));
+      data += written;
+      left -= static_cast<size_t>(written);
+    }
+  }
+  const fs::path& path() const { return path_; }
+
+ private:
+  fs::path path_;
+  int fd_ = -1;
+};
 
 }  // namespace
 
@@ -364,6 +534,17 @@ DataRootUse data_root_use(const std::string& data_root) {
       continue;
     }
     if (!it->is_regular_file(ignored) || it->is_symlink(ignored)) continue;
+    // An upload's temporary file: one in flight is counted by its own size
+    // (or its reservation), one a crash left behind is not the root's content
+    // (and is swept at the next start). In a hidden folder, where uploads are
+    // never written, such a name is the operator's file and counts.
+    if (upload_temporary_kind(it->path().filename().string()) != TemporaryKind::kNone) {
+      const fs::path folder = it->path().parent_path().lexically_relative(data_root);
+      const bool in_hidden_folder = std::any_of(folder.begin(), folder.end(), [](const fs::path& part) {
+        return part.string().size() > 1 && part.string().front() == '.' && part != "..";
+      });
+      if (!in_hidden_folder) continue;
+    }
     ++use.files;
     use.bytes += static_cast<int64_t>(it->file_size(ignored));
   }
@@ -395,23 +576,39 @@ ClipFile write_data_root_clip(const std::string& data_root, const UploadClipRequ
   // which another upload must not change between the check and the write.
   static std::mutex one_upload;
   std::lock_guard<std::mutex> lock(one_upload);
-  check_root_quota(root, request.path, static_cast<int64_t>(request.content.size()), quota);
+  const int64_t size = static_cast<int64_t>(request.content.size());
+  Reservation reservation;
+  if (quota.shared) {
+    // Replicas sharing the root: checked under the deployment's lock
+    // against the root and the others' uploads in flight, and this one's
+    // bytes reserved before they are written (jobs/upload_reservations.h).
+    try {
+      const int64_t id = quota.shared->reserve(request.path, size, [&](const UploadReservations::Reserved& reserved) {
+        check_root_quota(root, request.path, size, quota, reserved);
+      });
+      reservation = Reservation(quota.shared, id);
+    } catch (const ApiError&) {
+      throw;
+    } catch (const std::exception& e) {
+      throw ApiError(ErrorCode::kUnavailable, "",
+                     request.path + ": the data root's quota cannot be checked in the shared job store: " + e.what());
+    }
+  } else {
+    check_root_quota(root, request.path, size, quota);
+  }
   fs::create_directories(target->parent_path(), error);
   if (error) fail("cannot create its folder", error);
-  // Written whole under a hidden name (ListClips skips it), then linked to
-  // its own: link() fails rather than replace a file that appeared meanwhile.
-  // Its own name for each upload, so that two of the same path never share it.
-  static std::atomic<uint64_t> uploads{0};
-  const fs::path staged = target->parent_path() / ("." + target->filename().string() + ".upload." +
-                                                   std::to_string(::getpid()) + "." + std::to_string(uploads++));
+  // Written whole under a hidden name (ListClips skips it, the quota does
+  // not count it), then linked to its own: link() fails rather than replace
+  // a file that appeared meanwhile.
   try {
-    write_file_atomically(staged.string(), request.content);
+    StagedUpload staged(*target);
+    staged.write(request.content);
+    fs::create_hard_link(staged.path(), *target, error);
   } catch (const std::exception& e) {
     throw ApiError(ErrorCode::kInternal, "path", request.path + ": cannot write the file: " + e.what());
   }
-  fs::create_hard_link(staged, *target, error);
   std::error_code ignored;
-  fs::remove(staged, ignored);
   if (error == std::errc::file_exists) {
     throw ApiError(ErrorCode::kFailedPrecondition, "path",
                    "path " + quoted(request.path) + " was written by another upload meanwhile; expected a new path");
@@ -434,6 +631,38 @@ ClipFile write_data_root_clip(const std::string& data_root, const UploadClipRequ
   clip.size_bytes = static_cast<int64_t>(request.content.size());
   clip.uploaded = true;
   return clip;
+}
+
+bool is_upload_temporary_name(const std::string& filename) {
+  return upload_temporary_kind(filename) != TemporaryKind::kNone;
+}
+
+SweptUploads sweep_upload_leftovers(const std::string& data_root) {
+  SweptUploads swept;
+  std::error_code error, ignored;
+  const fs::path root(data_root);
+  // Uploads are written in the folder of their path, whose components are
+  // never hidden: hidden folders (the marks, the operator's) are not entered.
+  fs::recursive_directory_iterator it(root, fs::directory_options::skip_permission_denied, error), end;
+  for (; !error && it != end; it.increment(error)) {
+    const std::string name = it->path().filename().string();
+    if (it->is_directory(ignored) && !it->is_symlink(ignored)) {
+      if (name.front() == '.') it.disable_recursion_pending();
+      continue;
+    }
+    const TemporaryKind kind = upload_temporary_kind(name);
+    if (kind == TemporaryKind::kNone || it->is_symlink(ignored) || !it->is_regular_file(ignored)) continue;
+    if (remove_abandoned(it->path(), kind, swept.bytes)) {
+      swept.paths.push_back(it->path().lexically_relative(root).generic_string());
+    }
+  }
+  if (!swept.paths.empty()) {
+    std::string paths;
+    for (const auto& path : swept.paths) paths += (paths.empty() ? "" : ", ") + path;
+    spdlog::info("data root: removed {} temporary file(s) of uploads a crash interrupted ({} bytes): {}",
+                 swept.paths.size(), swept.bytes, paths);
+  }
+  return swept;
 }
 
 ClipFile delete_data_root_clip(const std::string& data_root, const std::string& path) {

@@ -20,12 +20,17 @@
 // what was expected.
 #pragma once
 
+#include <cstdint>
+#include <memory>
 #include <string>
+#include <vector>
 
 #include "api/api_types.h"
 #include "core/motion_conversion.h"
 
 namespace mm::service {
+
+class UploadReservations;  // jobs/upload_reservations.h
 
 // The formats ListClips and ReadClip name.
 constexpr const char* kH36mTextFormat = "h36m-text";
@@ -58,11 +63,18 @@ struct DataRootQuota {
   int64_t max_upload_bytes = int64_t{64} << 20;       // one uploaded file
   int64_t max_root_bytes = int64_t{16} << 30;         // every file under the root together
   int64_t max_root_files = 100000;                    // files under the root, hidden ones included
+  // Replicas sharing the data root and a PostgreSQL job store: every upload
+  // in flight on any of them, reserved in that database before a byte is
+  // written, counts against the quota too. Null (one server, the SQLite
+  // default): this server's uploads are checked one at a time.
+  std::shared_ptr<UploadReservations> shared;
 };
 
 // What the data root holds: its regular files (links not followed, hidden
-// files included, the upload marks of write_data_root_clip left out),
-// counted on every upload (one stat a file under the root).
+// files included, the upload marks of write_data_root_clip and its
+// temporary files left out: an upload in flight is counted by its own size,
+// and one a crash left behind is swept at the next start), counted on every
+// upload (one stat a file under the root).
 struct DataRootUse {
   int64_t bytes = 0;
   int64_t files = 0;
@@ -80,7 +92,8 @@ constexpr size_t kMaxUploadedNameBytes = 128;
 // marked as uploaded (an empty file of the same relative path under the
 // root's hidden folder ".uploads"), which is what lets DeleteClip remove it.
 // Uploads of one server are written one at a time, so that two cannot both
-// pass the quota. FAILED_PRECONDITION without a data root;
+// pass the quota; with quota.shared, those of every replica are checked one
+// at a time against the root and what the others have reserved. FAILED_PRECONDITION without a data root;
 // INVALID_ARGUMENT "path" for a path that is empty, absolute, has an empty
 // component, one starting with '.' or one over kMaxUploadedNameBytes,
 // holds a control character, has another extension, or leads out of the
@@ -92,6 +105,31 @@ constexpr size_t kMaxUploadedNameBytes = 128;
 // INTERNAL when the file system refuses the write.
 ClipFile write_data_root_clip(const std::string& data_root, const UploadClipRequest& request,
                               const DataRootQuota& quota);
+
+// Whether `filename` is a temporary file of write_data_root_clip
+// (".<name>.upload.<pid>.<n>" for a clip <name>, or that followed by
+// ".tmp.<pid>.<n>", as earlier versions wrote them): the only names
+// sweep_upload_leftovers removes.
+bool is_upload_temporary_name(const std::string& filename);
+
+// What a sweep removed: paths relative to the root, and their bytes.
+struct SweptUploads {
+  std::vector<std::string> paths;
+  int64_t bytes = 0;
+};
+// At start: removes the temporary files of uploads whose writer died (a
+// crash mid-write), which nothing else would ever remove. A writer holds an
+// exclusive flock(2) on its temporary file from its creation until it is
+// linked into place and unlinked, and the kernel drops the lock when the
+// process dies, so a file whose lock can be taken has no live writer; one
+// still locked belongs to an upload in flight (another replica sharing the
+// data root) and is left alone. The earlier versions' names, whose writers
+// took no lock, are removed only when unchanged for 10 minutes (their
+// writes took seconds). Only names is_upload_temporary_name
+// accepts, only regular files (never a link), under the root's non-hidden
+// folders (where uploads are written). Logs what it removed. Never throws
+// (what it cannot read it leaves).
+SweptUploads sweep_upload_leftovers(const std::string& data_root);
 
 // Removes a file that UploadClip wrote under the data root (found by the
 // one containment check, api/data_root_path.h) and returns it as it was listed.

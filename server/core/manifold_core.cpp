@@ -16,6 +16,7 @@
 #include "core/model_store.h"
 #include "core/motion_conversion.h"
 #include "core/service_metrics.h"
+#include "core/shared_deployment.h"
 #include "core/take_operations.h"
 #include "format/foot_contacts.h"
 #include "format/input_error.h"
@@ -107,6 +108,9 @@ struct ManifoldCore::State {
   // Keeps the job gauges current without the metrics knowing the jobs.
   std::atomic<bool> stopping{false};
   std::thread job_gauges;
+
+  // Last, so destroyed first: its thread follows the shared record into `store`.
+  std::unique_ptr<SharedDeployment> deployment;
 
   DecoderKind decoder_for(const LoadedModel& model, const std::string& name) const {
     DecoderKind kind;
@@ -300,9 +304,12 @@ void ManifoldCore::start() {
     }
   }
   state_->store.remove_deleted_leftovers();
+  // What uploads a crash interrupted left: nothing else would ever remove it.
+  if (!state_->config.data_root.empty()) sweep_upload_leftovers(state_->config.data_root);
   const auto model = state_->store.activate(name);
   state_->default_model = name;
   spdlog::info("model {} (version {}) active, loaded in {:.2f} s", model->name, model->version, model->load_seconds);
+  state_->deployment = join_deployment(state_->config.job_store, state_->store, state_->config.data_root_quota);
   state_->accepting = true;
   if (state_->jobs) {
     state_->job_gauges = std::thread([state = state_.get()] {

@@ -63,6 +63,10 @@ struct CoreConfig {
   std::string data_root;
   int max_listed_clips = 10000;  // ListClips lists the first ones by path and says it truncated
   DataRootQuota data_root_quota;  // what uploads may add to the data root
+  // The training jobs' store (--job-store): a PostgreSQL one makes the
+  // replicas sharing it one deployment, with one active model and one quota
+  // of the data root (core/shared_deployment.h); "" or SQLite: one server.
+  std::string job_store;
   int max_loaded_models = 4;  // models kept in memory, the active one included
   ModelPrecisions precisions;  // the number format of each model's inference weights
   Limits limits;

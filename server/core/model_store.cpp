@@ -14,6 +14,7 @@
 #include <spdlog/spdlog.h>
 
 #include "core/service_metrics.h"
+#include "jobs/active_model_record.h"
 #include "format/foot_contacts.h"
 #include "format/input_error.h"
 
@@ -164,6 +165,16 @@ void ModelStore::touch(const std::shared_ptr<const LoadedModel>& model) {
 
 std::shared_ptr<const LoadedModel> ModelStore::load(const std::string& name, bool make_active) {
   std::lock_guard<std::mutex> one_load(load_mutex_);
+  auto model = load_locked(name);
+  if (make_active) {
+    set_active(model);
+  } else {
+    remember(model);
+  }
+  return model;
+}
+
+std::shared_ptr<const LoadedModel> ModelStore::load_locked(const std::string& name) {
   const std::string dir = folder(name);
   const std::string version = version_of(dir);
   std::shared_ptr<const LoadedModel> model = cached(name, version);
@@ -192,12 +203,15 @@ std::shared_ptr<const LoadedModel> ModelStore::load(const std::string& name, boo
       throw not_loadable(name, reason);
     }
   }
-  if (make_active) {
+  return model;
+}
+
+void ModelStore::set_active(const std::shared_ptr<const LoadedModel>& model) {
+  {
     std::lock_guard<std::mutex> lock(mutex_);
     active_ = model;
   }
   remember(model);
-  return model;
 }
 
 std::shared_ptr<const LoadedModel> ModelStore::get(const std::string& name) {
@@ -221,7 +235,44 @@ std::shared_ptr<const LoadedModel> ModelStore::get(const std::string& name) {
   return load(name, false);
 }
 
-std::shared_ptr<const LoadedModel> ModelStore::activate(const std::string& name) { return load(name, true); }
+std::shared_ptr<const LoadedModel> ModelStore::activate(const std::string& name) {
+  std::lock_guard<std::mutex> one_change(load_mutex_);
+  auto model = load_locked(name);
+  if (shared_) {
+    // Loaded first: a model this replica cannot load is never written as
+    // the deployment's. Written before it is made active here, so that a
+    // failed write leaves this replica as the others.
+    try {
+      followed_generation_ = shared_->write(name).generation;
+    } catch (const std::exception& e) {
+      remember(model);
+      throw ApiError(ErrorCode::kUnavailable, "model",
+                     "model \"" + name + "\" cannot be made the deployment's active model: the shared job store "
+                     "refused the write (" + e.what() + "); the active model stays");
+    }
+  }
+  set_active(model);
+  return model;
+}
+
+void ModelStore::share_active_model(std::shared_ptr<ActiveModelRecord> record) {
+  std::lock_guard<std::mutex> one_change(load_mutex_);
+  shared_ = std::move(record);
+}
+
+bool ModelStore::follow(const std::string& name, int64_t generation) {
+  std::lock_guard<std::mutex> one_change(load_mutex_);
+  // An activation here wrote this generation, or a later one, already.
+  if (generation <= followed_generation_) return false;
+  followed_generation_ = generation;
+  auto model = load_locked(name);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (active_ == model) return false;
+  }
+  set_active(model);
+  return true;
+}
 
 ModelInfo ModelStore::remove(const std::string& name) {
   static std::atomic<uint64_t> deletions{0};
@@ -237,6 +288,23 @@ ModelInfo ModelStore::remove(const std::string& name) {
       if (active_ && active_->name == name) {
         throw ApiError(ErrorCode::kFailedPrecondition, "model",
                        "model \"" + name + "\" is the active model; activate another one before deleting it");
+      }
+    }
+    // Another replica may have made it the deployment's a moment ago, which
+    // this one follows only at its next look at the record.
+    if (shared_) {
+      std::optional<ActiveModelRecord::Entry> entry;
+      try {
+        entry = shared_->read();
+      } catch (const std::exception& e) {
+        throw ApiError(ErrorCode::kUnavailable, "model",
+                       "model \"" + name + "\" cannot be deleted now: the shared job store cannot say whether it is "
+                       "the deployment's active model (" + e.what() + ")");
+      }
+      if (entry && entry->model == name) {
+        throw ApiError(ErrorCode::kFailedPrecondition, "model",
+                       "model \"" + name + "\" is the deployment's active model; activate another one before "
+                       "deleting it");
       }
     }
     std::error_code error;
@@ -259,11 +327,34 @@ ModelInfo ModelStore::remove(const std::string& name) {
 }
 
 void ModelStore::remove_deleted_leftovers() {
+  // Only remove()'s own names, ".deleted-<name>-<pid>-<n>": the rest of the
+  // store is models and the jobs' staging folders (recovered by the jobs,
+  // which know whether their job still runs). A folder another replica is
+  // removing right now is out of every listing already; removing it here
+  // too only races its removal to the same end.
+  std::vector<std::string> removed;
   std::error_code error;
   for (const auto& entry : fs::directory_iterator(root_, error)) {
-    if (entry.path().filename().string().rfind(kDeletedPrefix, 0) != 0) continue;
+    const std::string name = entry.path().filename().string();
+    if (name.rfind(kDeletedPrefix, 0) != 0) continue;
+    const size_t counter = name.rfind('-');
+    const size_t pid = counter == std::string::npos || counter == 0 ? std::string::npos : name.rfind('-', counter - 1);
+    const auto digits = [&](size_t from, size_t to) {
+      return to > from && std::all_of(name.begin() + static_cast<std::ptrdiff_t>(from),
+                                       name.begin() + static_cast<std::ptrdiff_t>(to),
+                                       [](char c) { return c >= '0' && c <= '9'; });
+    };
+    if (pid == std::string::npos || pid < std::string(kDeletedPrefix).size() || !digits(pid + 1, counter) ||
+        !digits(counter + 1, name.size())) {
+      continue;
+    }
     std::error_code ignored;
-    fs::remove_all(entry.path(), ignored);
+    if (fs::remove_all(entry.path(), ignored) > 0 && !ignored) removed.push_back(name);
+  }
+  if (!removed.empty()) {
+    std::string names;
+    for (const auto& name : removed) names += (names.empty() ? "" : ", ") + name;
+    spdlog::info("model store: removed {} folder(s) of deletions a crash interrupted: {}", removed.size(), names);
   }
 }
 

@@ -9,6 +9,10 @@
 // models are activated. A model whose files changed on disk (another
 // version) is loaded afresh on its next activation.
 //
+// With replicas sharing a PostgreSQL job store, the active model is the
+// deployment's (share_active_model): an activation writes the shared record
+// and every replica follows it (core/shared_deployment.h).
+//
 // Thread safety: every method may be called concurrently.
 #pragma once
 
@@ -25,6 +29,7 @@
 
 namespace mm::service {
 
+class ActiveModelRecord;  // jobs/active_model_record.h
 class ServiceMetrics;
 
 struct LoadedModel {
@@ -54,8 +59,23 @@ class ModelStore {
   // replica sharing the store deleted it).
   std::shared_ptr<const LoadedModel> get(const std::string& name);
   // Loads `name` if needed (or if its files changed) and makes it active;
-  // on failure the active model stays.
+  // on failure the active model stays. With a shared record, the model is
+  // loaded here first, then written as the deployment's, then made active
+  // here (UNAVAILABLE, the active model staying, when the record cannot be
+  // written): a model no replica could load is never the deployment's.
   std::shared_ptr<const LoadedModel> activate(const std::string& name);
+
+  // From now on activate() writes `record`, and follow() reads what other
+  // replicas wrote there. Called once, after the model of the start is
+  // active and before calls are served.
+  void share_active_model(std::shared_ptr<ActiveModelRecord> record);
+  // Makes the record's model (written as generation `generation`) active
+  // here, unless this store already follows that generation or a later
+  // one; writes nothing. Returns whether it changed the active model.
+  // ApiError as activate() for a model that cannot be loaded here (the
+  // active model stays, and the generation counts as followed: it is not
+  // tried again until the record changes).
+  bool follow(const std::string& name, int64_t generation);
 
   // Takes model `name` out of the store and returns its description as it
   // was. Its folder is renamed to a hidden name first (".deleted-<name>-..."),
@@ -79,6 +99,8 @@ class ModelStore {
   // Loads `name` if it is not loaded in its current version, remembers it
   // and, with `make_active`, makes it active; under load_mutex_.
   std::shared_ptr<const LoadedModel> load(const std::string& name, bool make_active);
+  std::shared_ptr<const LoadedModel> load_locked(const std::string& name);  // load_mutex_ held, nothing made active
+  void set_active(const std::shared_ptr<const LoadedModel>& model);  // and remembered
   std::shared_ptr<const LoadedModel> cached(const std::string& name, const std::string& version) const;
   void remember(std::shared_ptr<const LoadedModel> model);
   void touch(const std::shared_ptr<const LoadedModel>& model);  // most recently used, if still remembered
@@ -94,6 +116,8 @@ class ModelStore {
   const ModelPrecisions precisions_;
   mutable std::mutex mutex_;
   std::shared_ptr<const LoadedModel> active_;
+  std::shared_ptr<ActiveModelRecord> shared_;  // set once before serving; null without replicas
+  int64_t followed_generation_ = 0;  // of the shared record, under load_mutex_
   std::vector<std::shared_ptr<const LoadedModel>> loaded_;  // most recently used last
   std::mutex load_mutex_;  // one load, activation or deletion at a time: loads are large
   mutable std::mutex versions_mutex_;

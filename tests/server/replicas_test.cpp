@@ -3,15 +3,25 @@
 // submitted jobs run exactly once whichever replica took them, a replica
 // SIGKILLed mid-job has its job taken over by the other once the lease
 // expires, resumed from its checkpoint into the uninterrupted run's weights,
-// and a cancel sent to one replica stops the job running on the other.
+// and a cancel sent to one replica stops the job running on the other. The
+// replicas act as one deployment: a model activated on one answers on every
+// other within the stated bound (the poll period plus the model's load), a
+// replica started later starts with it, and an upload in flight on one
+// counts against the data root's quota on another, its temporary file
+// surviving another replica's start.
 #include <gtest/gtest.h>
 #include <httplib.h>
 
+#include <signal.h>
+
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <iostream>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <thread>
 
 #include "postgres_cluster.h"
@@ -95,11 +105,13 @@ class ReplicasTest : public ::testing::Test {
     cluster_.reset();
     if (!shared_.empty()) fs::remove_all(shared_);
   }
-  ServerProcess& start_replica() {
-    replicas_.push_back(std::make_unique<ServerProcess>(std::vector<std::string>{
+  ServerProcess& start_replica(const std::vector<std::string>& more = {}) {
+    std::vector<std::string> args = {
         "--job-store", uri_, "--job-lease-seconds", "3", "--state-dir", (shared_ / "state").string(),
         "--data-root", (shared_ / "data").string(), "--model-store", (shared_ / "models").string(),
-        "--checkpoint-every", "5", "--auth-token", kToken}));
+        "--checkpoint-every", "5", "--auth-token", kToken};
+    args.insert(args.end(), more.begin(), more.end());
+    replicas_.push_back(std::make_unique<ServerProcess>(args));
     return *replicas_.back();
   }
   fs::path job_dir(const std::string& id) const { return shared_ / "state" / "jobs" / id; }
@@ -184,6 +196,133 @@ TEST_F(ReplicasTest, ACancelSentToOneReplicaStopsTheJobRunningOnAnother) {
   EXPECT_TRUE(stopped) << a.log();
   EXPECT_EQ(call(a, "GET", "/v1/jobs/" + id)["state"], "cancelled");
   EXPECT_FALSE(fs::exists(model_dir("cancelled")));
+}
+
+// The model a Sample without a model answers with on `server`.
+std::string sampling_model(const ServerProcess& server) {
+  return call(server, "POST", "/v1/sample", json{{"count", 1}, {"seed", 1}})["answered_by"]["model"];
+}
+
+// Polls GetModelInfo of `model` on `server` (cheap: no inference on the
+// clock) until it says active, then checks that a Sample answers with it;
+// returns the seconds from `since` until it was active, and its load time there.
+std::pair<double, double> seconds_until_active(const ServerProcess& server, const std::string& model,
+                                               std::chrono::steady_clock::time_point since) {
+  const auto start = since;
+  for (int i = 0; i < 3000; ++i) {
+    const json described = call(server, "GET", "/v1/models/" + model);
+    if (described.value("active", false)) {
+      const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      EXPECT_EQ(sampling_model(server), model);
+      return {seconds, described.value("load_seconds", 0.0)};
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ADD_FAILURE() << model << " never became active:\n" << server.log();
+  return {1e9, 0};
+}
+
+TEST_F(ReplicasTest, AModelActivatedOnOneReplicaAnswersOnEveryReplicaWithinASecondAndItsLoad) {
+  ServerProcess& a = start_replica();
+  ServerProcess& b = start_replica();
+  ServerProcess& c = start_replica();
+  for (const ServerProcess* replica : {&a, &b, &c}) EXPECT_EQ(sampling_model(*replica), "h36m-dkgm-h100");
+
+  // README, "Several replicas": the others follow within 1 s (their poll of
+  // the shared record) plus the model's load there; 0.5 s more for a reply
+  // on a machine busy with other tests.
+  std::chrono::steady_clock::time_point replied;
+  const auto expect_followed = [&](const ServerProcess& replica, const std::string& model, const char* name) {
+    const auto [seconds, load_seconds] = seconds_until_active(replica, model, replied);
+    std::cout << "replica " << name << " answered with " << model << " " << seconds << " s after the activation's reply"
+              << " (its load: " << load_seconds << " s)\n";
+    EXPECT_LE(seconds, 1.0 + load_seconds + 0.5) << name;
+  };
+  EXPECT_EQ(call(a, "POST", "/v1/models/h36m-dkgm-cpu:activate")["active"], true);
+  replied = std::chrono::steady_clock::now();
+  expect_followed(b, "h36m-dkgm-cpu", "b");
+  expect_followed(c, "h36m-dkgm-cpu", "c");
+  EXPECT_EQ(sampling_model(a), "h36m-dkgm-cpu");
+
+  // Back, from another replica: a model already loaded everywhere.
+  EXPECT_EQ(call(c, "POST", "/v1/models/h36m-dkgm-h100:activate")["active"], true);
+  replied = std::chrono::steady_clock::now();
+  expect_followed(a, "h36m-dkgm-h100", "a");
+  expect_followed(b, "h36m-dkgm-h100", "b");
+
+  // A replica started later serves the deployment's model from its first
+  // call, not its --default-model, and refuses to delete it.
+  EXPECT_EQ(call(b, "POST", "/v1/models/h36m-dkgm-cpu:activate")["active"], true);
+  ServerProcess& d = start_replica({"--default-model", "h36m-dkgm-h100"});
+  EXPECT_EQ(sampling_model(d), "h36m-dkgm-cpu") << d.log();
+  EXPECT_EQ(call(d, "GET", "/v1/models/h36m-dkgm-cpu")["active"], true);
+  call(d, "DELETE", "/v1/models/h36m-dkgm-cpu", json(), 409);
+}
+
+// A valid H3.6M text file of at least `bytes` bytes: S5 walking, repeated.
+std::string walking_text(size_t bytes) {
+  const std::string walking = file_text(h36m_dataset_dir() / "S5" / "walking_1.txt");
+  std::string text;
+  while (text.size() < bytes) text += walking;
+  return text;
+}
+
+// The temporary file of an upload of `name` in `folder`, if there is one.
+std::optional<fs::path> temporary_of(const fs::path& folder, const std::string& name) {
+  std::error_code error;
+  for (const auto& entry : fs::directory_iterator(folder, error)) {
+    if (entry.path().filename().string().rfind("." + name + ".upload.", 0) == 0) return entry.path();
+  }
+  return std::nullopt;
+}
+
+test::Reply upload(const ServerProcess& server, const std::string& path, const std::string& content) {
+  return test::post(server.rest_port(), "/v1/clips:upload?path=" + path, content, test::bearer(kToken),
+                    "application/octet-stream");
+}
+
+TEST_F(ReplicasTest, AnUploadInFlightOnOneReplicaCountsAgainstTheQuotaOnAnotherAndSurvivesItsStart) {
+  const std::string content = walking_text(30'000'000);
+  const int64_t size = static_cast<int64_t>(content.size());
+  fs::create_directories(shared_ / "data" / "mine");
+  int64_t visible = 0;  // the links to H3.6M are not counted
+  // Room for one upload and half of another.
+  const std::vector<std::string> quota = {"--max-data-root-bytes", std::to_string(visible + size + size / 2)};
+  ServerProcess& a = start_replica(quota);
+  ServerProcess& b = start_replica(quota);
+  ServerProcess& c = start_replica(quota);
+
+  // c's upload is stopped (SIGSTOP: the replica lives, its write in flight)
+  // as soon as its temporary file appears, so that the bytes on disk are
+  // fewer than the room left: only its reservation can tell a.
+  test::Reply first;
+  std::thread in_flight([&] { first = upload(c, "mine/first.txt", content); });
+  std::optional<fs::path> temporary;
+  for (int i = 0; i < 2'000'000 && !temporary; ++i) temporary = temporary_of(shared_ / "data" / "mine", "first.txt");
+  ASSERT_TRUE(temporary) << "c never wrote a temporary file:\n" << c.log();
+  ::kill(c.pid(), SIGSTOP);
+  const auto written = static_cast<int64_t>(fs::file_size(*temporary));
+  std::cout << "c stopped with " << written << " of " << size << " bytes written\n";
+
+  const test::Reply second = upload(a, "mine/second.txt", content);
+  // b starts again meanwhile: its sweep must leave c's file, whose writer lives.
+  EXPECT_EQ(b.terminate(), 0);
+  b.restart();
+  const bool survived = fs::exists(*temporary);
+  ::kill(c.pid(), SIGCONT);
+  in_flight.join();
+
+  ASSERT_LT(written, size / 2) << "stopped too late for the quota to tell";
+  EXPECT_EQ(second.status, 413) << second.body;
+  EXPECT_NE(second.body.find("uploads in flight on the replicas"), std::string::npos) << second.body;
+  EXPECT_TRUE(survived) << "b's start swept c's upload in flight:\n" << b.log();
+  EXPECT_EQ(first.status, 200) << first.body;
+  EXPECT_EQ(fs::file_size(shared_ / "data" / "mine" / "first.txt"), content.size());
+
+  // c's reservation was given back: once its file is deleted, a's upload fits.
+  call(b, "DELETE", "/v1/clips?path=mine/first.txt");
+  const test::Reply again = upload(a, "mine/second.txt", content);
+  EXPECT_EQ(again.status, 200) << again.body;
 }
 
 }  // namespace
