@@ -310,5 +310,58 @@ TEST(BoundedWorkLimits, AChunkedJsonBodyIsCutAtTheJsonLimitAndABvhBodyIsNot) {
   EXPECT_EQ(test::post(server.rest_port(), "/v1/sample", json{{"count", 1}, {"seed", 3}}).status, 200);
 }
 
+// Each limit holds at its exact value: the limit itself is answered, one
+// past it refused naming the field and the limit (an off-by-one in either
+// direction fails here, where requests far over the limit would not see it).
+TEST(BoundedWorkLimits, EveryLimitHoldsAtItsExactBoundary) {
+  // Denoising rounds at a small limit of their own: 32 rounds of the
+  // default would cost 10 s here, and the check is the same.
+  test::ServerProcess server({"--max-json-bytes", "100000", "--max-denoise-iterations", "3"});
+  const int port = server.rest_port();
+  const auto expect_refused = [&](const std::string& target, const json& body, const std::string& field,
+                                  const std::string& limit) {
+    const test::Reply reply = test::post(port, target, body);
+    EXPECT_EQ(reply.status, 413) << target << " " << field << ": " << reply.body;
+    EXPECT_EQ(reply.error()["code"], "RESOURCE_EXHAUSTED") << reply.body;
+    EXPECT_EQ(reply.field(), field) << reply.body;
+    EXPECT_NE(reply.body.find(limit), std::string::npos) << target << ": " << reply.body;
+  };
+  EXPECT_EQ(test::post(port, "/v1/sample", json{{"count", 64}, {"seed", 1}}).status, 200);
+  expect_refused("/v1/sample", json{{"count", 65}, {"seed", 1}}, "count", "at most 64 allowed");
+
+  const std::vector<float> code(64, 0.1f);
+  EXPECT_EQ(test::post(port, "/v1/decode", json{{"codes", std::vector<std::vector<float>>(64, code)}}).status, 200);
+  expect_refused("/v1/decode", json{{"codes", std::vector<std::vector<float>>(65, code)}}, "codes", "at most 64 allowed");
+
+  const json ends = {{"from", {{"code", code}}}, {"to", {{"code", std::vector<float>(64, -0.1f)}}}};
+  json steps = ends;
+  steps["steps"] = 64;
+  EXPECT_EQ(test::post(port, "/v1/interpolate", steps).status, 200);
+  steps["steps"] = 65;
+  expect_refused("/v1/interpolate", steps, "steps", "at most 64 allowed");
+
+  MotionFrames still;
+  still.values.assign(150 * static_cast<size_t>(kH36mColumns), 0.0f);
+  for (int f = 0; f < 150; ++f)
+    for (int c = 3; c < kH36mColumns; ++c) still.frame(f)[c] = 0.125f * static_cast<float>((f + c) % 7);
+  // Binary fractions print short, so a motion's JSON fits the small limit.
+  const json motion = {{"columns", kH36mColumns}, {"frames", 150},          {"frame_rate", 25},
+                       {"layout", "h36m-expmap-99"}, {"values", still.values}};
+  EXPECT_EQ(test::post(port, "/v1/denoise", json{{"motions", {motion}}, {"iterations", 3}}).status, 200);
+  expect_refused("/v1/denoise", json{{"motions", {motion}}, {"iterations", 4}}, "iterations", "at most 3 allowed");
+
+  // A JSON body of exactly --max-json-bytes is read; one byte more is not.
+  // (Encode's limit: Sample's body of parameters has its own 1 MiB.)
+  const std::string encode_body = json{{"motions", {motion}}}.dump();
+  ASSERT_LT(encode_body.size(), 100000u);
+  const std::string at_limit = encode_body + std::string(100000 - encode_body.size(), ' ');
+  test::Reply reply = test::post(port, "/v1/encode", at_limit, {}, "application/json");
+  EXPECT_EQ(reply.status, 200) << reply.body.substr(0, 300);
+  reply = test::post(port, "/v1/encode", at_limit + " ", {}, "application/json");
+  EXPECT_EQ(reply.status, 413) << reply.body.substr(0, 300);
+  EXPECT_NE(reply.body.find("100001 bytes (Content-Length) exceeds the limit of 100000 bytes"), std::string::npos)
+      << reply.body;
+}
+
 }  // namespace
 }  // namespace mm

@@ -206,6 +206,13 @@ TEST_F(ClipsService, ABvhOfTheModelsSkeletonIsReadInTheModelsLayoutAndEncodes) {
 
 TEST_F(ClipsService, RefusalsNameTheFieldOverBothProtocols) {
   const int64_t rows = read_motion_text((data_root() / kText).string()).frame_count();
+  // A readable clip in a sibling folder whose name begins with the data
+  // root's: a containment check that compares strings, not path elements,
+  // would serve it.
+  const fs::path sibling = data_root().parent_path() / (data_root().filename().string() + "-sibling");
+  fs::create_directories(sibling);
+  fs::copy_file(data_root() / kText, sibling / "walking.txt", fs::copy_options::overwrite_existing);
+  const std::string sibling_name = sibling.filename().string();
   struct Case {
     std::string path;
     int64_t start;
@@ -219,6 +226,10 @@ TEST_F(ClipsService, RefusalsNameTheFieldOverBothProtocols) {
       {kText, -1, grpc::StatusCode::INVALID_ARGUMENT, 400, "start", "is negative"},
       {"../outside.txt", 0, grpc::StatusCode::INVALID_ARGUMENT, 400, "path", "outside the data root"},
       {(data_root().parent_path() / "elsewhere.txt").string(), 0, grpc::StatusCode::INVALID_ARGUMENT, 400, "path",
+       "outside the data root"},
+      {"../" + sibling_name + "/walking.txt", 0, grpc::StatusCode::INVALID_ARGUMENT, 400, "path",
+       "outside the data root"},
+      {(sibling / "walking.txt").string(), 0, grpc::StatusCode::INVALID_ARGUMENT, 400, "path",
        "outside the data root"},
       {"h36m/S5/walking_9.txt", 0, grpc::StatusCode::NOT_FOUND, 404, "path", "names no file"},
   };

@@ -17,6 +17,7 @@
 
 #include "cmu_dance.h"
 #include "command_run.h"
+#include "joined_threads.h"
 #include "api/data_root_path.h"
 #include "core/manifold_core.h"
 #include "core/model_store.h"
@@ -142,16 +143,16 @@ TEST_F(CoreTest, ConcurrentDecodesEqualTheLibraryAndRunInBatches) {
   start(config);
   const auto codes = sample_codes(shipped_model(), 16, 3);
   std::vector<std::vector<float>> answers(16);
-  std::vector<std::thread> threads;
+  mm::test::JoinedThreads threads;
   for (int i = 0; i < 16; ++i) {
-    threads.emplace_back([&, i] {
+    threads.start([&, i] {
       const auto row = codes[i].contiguous();
       DecodeRequest request;
       request.codes = {Code(row.data_ptr<float>(), row.data_ptr<float>() + 64)};
       answers[static_cast<size_t>(i)] = core_->decode({"test", ""}, request).motions.at(0).values;
     });
   }
-  for (auto& t : threads) t.join();
+  threads.join();
   const auto expected = decode_codes(shipped_model(), codes, DecoderKind::kRotation);
   // Relative to the value: the root's path is in mm, hundreds of them.
   for (int i = 0; i < 16; ++i) {
@@ -166,6 +167,45 @@ TEST_F(CoreTest, ConcurrentDecodesEqualTheLibraryAndRunInBatches) {
   EXPECT_EQ(metric(text, "mm_batch_clips_sum{operation=\"decode\"}"), 16);
   EXPECT_LT(metric(text, "mm_batch_clips_count{operation=\"decode\"}"), 16) << "no two decodes were batched";
   EXPECT_EQ(metric(text, "mm_requests_total{code=\"OK\",operation=\"decode\",protocol=\"test\"}"), 16);
+}
+
+// Calls that differ only in their decoder arrive together: each is answered
+// by the decoder it asked for, never by its batch neighbour's.
+TEST_F(CoreTest, ConcurrentDecodesOfEitherDecoderEachGetTheirOwnDecoder) {
+  CoreConfig config;
+  config.batching.max_queue_delay_us = 20000;
+  start(config);
+  const auto codes = sample_codes(shipped_model(), 16, 5);
+  std::vector<std::vector<float>> answers(16);
+  auto decoder_of = [](int i) { return i % 2 == 0 ? std::string("rotation") : std::string("velocity"); };
+  mm::test::JoinedThreads threads;
+  for (int i = 0; i < 16; ++i) {
+    threads.start([&, i] {
+      const auto row = codes[i].contiguous();
+      DecodeRequest request;
+      request.codes = {Code(row.data_ptr<float>(), row.data_ptr<float>() + 64)};
+      request.decoder = decoder_of(i);
+      answers[static_cast<size_t>(i)] = core_->decode({"test", ""}, request).motions.at(0).values;
+    });
+  }
+  threads.join();
+  const auto by_rotation = decode_codes(shipped_model(), codes, DecoderKind::kRotation);
+  const auto by_velocity = decode_codes(shipped_model(), codes, DecoderKind::kVelocity);
+  auto largest_difference = [](const std::vector<float>& a, const std::vector<float>& b) {
+    double largest = 0;
+    for (size_t v = 0; v < b.size(); ++v) largest = std::max(largest, std::fabs(a[v] - b[v]) / (1.0 + std::fabs(b[v])));
+    return largest;
+  };
+  for (int i = 0; i < 16; ++i) {
+    const auto& answer = answers[static_cast<size_t>(i)];
+    const auto& own = (i % 2 == 0 ? by_rotation : by_velocity)[static_cast<size_t>(i)].values;
+    const auto& other = (i % 2 == 0 ? by_velocity : by_rotation)[static_cast<size_t>(i)].values;
+    ASSERT_EQ(answer.size(), own.size());
+    EXPECT_LT(largest_difference(answer, own), 1e-4) << i << " (" << decoder_of(i) << ")";
+    // The two decoders differ far beyond that tolerance, so the check above
+    // tells them apart.
+    EXPECT_GT(largest_difference(other, own), 1e-2) << i;
+  }
 }
 
 TEST_F(CoreTest, SampleIsReproducibleBySeedAndEqualsTheLibrary) {
@@ -276,9 +316,9 @@ TEST_F(CoreTest, ActivationWhileServingLetsEveryCallFinish) {
   std::atomic<int> calls{0}, failures{0};
   std::set<std::string> answered;
   std::mutex answered_mutex;
-  std::vector<std::thread> clients;
+  mm::test::JoinedThreads clients([&] { done = true; });
   for (int t = 0; t < 4; ++t) {
-    clients.emplace_back([&] {
+    clients.start([&] {
       while (!done) {
         try {
           const auto reply = core_->sample(kCall, {"", 1, 1, ""});
@@ -297,8 +337,7 @@ TEST_F(CoreTest, ActivationWhileServingLetsEveryCallFinish) {
     EXPECT_TRUE(core_->activate_model(call, name).active);
     EXPECT_EQ(core_->sample(call, {"", 1, 1, ""}).answered_by.model, name);
   }
-  done = true;
-  for (auto& c : clients) c.join();
+  clients.join();
   EXPECT_EQ(failures.load(), 0);
   EXPECT_GT(calls.load(), 6);
   EXPECT_EQ(answered.size(), 2u);
@@ -385,9 +424,9 @@ TEST_F(CoreTest, AFullQueueRefusesWithResourceExhausted) {
   config.batching.max_queue_length = 1;
   start(config);
   std::atomic<int> refused{0}, answered{0};
-  std::vector<std::thread> threads;
+  mm::test::JoinedThreads threads;
   for (int i = 0; i < 12; ++i) {
-    threads.emplace_back([&] {
+    threads.start([&] {
       try {
         core_->sample(kCall, {"", 4, 0, ""});
         ++answered;
@@ -396,7 +435,7 @@ TEST_F(CoreTest, AFullQueueRefusesWithResourceExhausted) {
       }
     });
   }
-  for (auto& t : threads) t.join();
+  threads.join();
   EXPECT_GT(refused.load(), 0);
   EXPECT_GT(answered.load(), 0);
   EXPECT_EQ(refused.load() + answered.load(), 12);

@@ -317,7 +317,21 @@ TEST(CallerAddress, AnIpv4MappedAddressIsItsIpv4Address) {
 TEST_F(ExposedServer, BothFrontendsReadTheAuthorizationHeaderAlike) {
   const auto server = test::ServerProcess({"--auth-token", kToken});
   Caller local("127.0.0.1", server);
+  // Tokens one byte off the right one, at its first, middle and last byte,
+  // and one byte short or long: a comparison that stops early or checks a
+  // prefix lets one of them in.
+  const std::string token(kToken);
+  auto one_byte_off = [&](size_t at) {
+    std::string off = token;
+    off[at] = off[at] == 'x' ? 'y' : 'x';
+    return "Bearer " + off;
+  };
   const std::vector<std::vector<std::string>> table = {
+      {one_byte_off(0)},
+      {one_byte_off(token.size() / 2)},
+      {one_byte_off(token.size() - 1)},
+      {"Bearer " + token.substr(0, token.size() - 1)},
+      {"Bearer " + token + "x"},
       {},
       {""},
       {"Bearer"},

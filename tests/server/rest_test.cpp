@@ -482,6 +482,32 @@ TEST_F(RestApi, AFieldOfTheWrongJsonTypeIsRefusedNamingItsPathAndType) {
   expect_still_serving(port());
 }
 
+// Inside nested objects too: a member no message has is refused naming its
+// whole path, never dropped (a misspelt "frame_rate" in the second motion
+// would otherwise be read as the default rate).
+TEST_F(RestApi, AnUnknownMemberInsideANestedObjectIsRefusedNamingItsPath) {
+  const json walk = motion_json(at_25hz(s5_file("walking_1.txt")), 25);
+  json motion = walk;
+  motion["framerate"] = 50;
+  Reply reply = post(port(), "/v1/encode", json{{"motions", {walk, motion}}});
+  expect_error(reply, 400, "INVALID_ARGUMENT", "motions[1].framerate");
+  EXPECT_NE(reply.error()["message"].get<std::string>().find("unknown field"), std::string::npos) << reply.body;
+
+  const std::vector<float> code(64, 0.f);
+  expect_error(post(port(), "/v1/interpolate", json{{"from", {{"code", code}, {"weight", 1}}}, {"to", {{"code", code}}}}),
+               400, "INVALID_ARGUMENT", "from.weight");
+  json from_motion = walk;
+  from_motion["root_mode"] = "input";
+  expect_error(post(port(), "/v1/interpolate", json{{"from", {{"motion", from_motion}}}, {"to", {{"code", code}}}}),
+               400, "INVALID_ARGUMENT", "from.motion.root_mode");
+  expect_error(post(port(), "/v1/analogy", json{{"a", {{"code", code}}}, {"b", {{"code", code}}},
+                                                {"c", {{"code", code}, {"motion ", walk}}}}),
+               400, "INVALID_ARGUMENT", "c.motion ");
+  // The same body without the stray member is answered.
+  EXPECT_EQ(post(port(), "/v1/encode", json{{"motions", {walk, walk}}}).status, 200);
+  expect_still_serving(port());
+}
+
 TEST_F(RestApi, AnUnknownRouteIsAJsonNotFound) {
   Reply reply = post(port(), "/v1/encodee", json::object());
   expect_error(reply, 404, "NOT_FOUND", "");

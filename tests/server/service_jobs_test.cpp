@@ -89,6 +89,15 @@ TEST(ServiceJobs, AJobSurvivesAKilledServerAndPublishesTheUninterruptedModel) {
   // The same job, with the server killed once it has checkpointed.
   const auto job = service.call("POST", "/v1/jobs", small_job("small-resumed"));
   const std::string id = job["id"];
+  // What was sent is what runs: the spec and the configuration it resolved
+  // to both carry the request's batch, hidden size, iterations and seed.
+  for (const auto& [field, value] : std::vector<std::pair<std::string, int>>{
+           {"batch", 4}, {"iterations", 200}, {"seed", 5}}) {
+    EXPECT_EQ(job["spec"][field], value) << field << " in " << job.dump();
+    EXPECT_EQ(job["resolved_config"][field], value) << field << " in " << job.dump();
+  }
+  EXPECT_EQ(job["spec"]["hidden"], 16) << job.dump();
+  EXPECT_EQ(job["resolved_config"]["model"]["hidden"], 16) << job.dump();
   const auto running = service.wait_for(id, [](const json& j) { return j["progress"].value("iteration", 0) >= 12; });
   ASSERT_EQ(running["state"], "running") << running.dump();
   server.kill();
