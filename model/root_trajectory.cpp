@@ -70,11 +70,14 @@ void write_generated_root_changes(const MotionManifold& model, const at::Tensor&
       model.trajectory()->forward(normalized.to(at::kFloat), codes.to(normalized.device()).to(at::kFloat)).cpu().contiguous();
   const int64_t clips = changes.size(0), frames = changes.size(1);
   const float* change = changes.data_ptr<float>();
+  // A rig's orientation is the decoded one (root_path.h, kHeadingMoves):
+  // only the move is the network's.
+  const int written = trajectory_frame_of(model.skeleton()) == TrajectoryFrame::kRootChanges ? 6 : 3;
   for (int64_t c = 0; c < clips; ++c) {
     for (int64_t f = 0; f < frames; ++f) {
       float* frame = raw + (c * frames + f) * columns;
       const float* before = change + (c * frames + f - 1) * 6;
-      for (int a = 0; a < 6; ++a) frame[a] = f == 0 ? 0.0f : before[a];
+      for (int a = 0; a < written; ++a) frame[a] = f == 0 ? 0.0f : before[a];
     }
   }
 }
@@ -84,12 +87,17 @@ void write_generated_roots(const MotionManifold& model, const at::Tensor& normal
   const int64_t columns = model.normalization().input_columns(), frames = normalized.size(1);
   std::vector<float> raw(static_cast<size_t>(normalized.size(0) * frames * columns));
   write_generated_root_changes(model, normalized, codes, raw.data(), columns);
+  const TrajectoryFrame kind = trajectory_frame_of(model.skeleton());
   for (size_t i = 0; i < motions.size(); ++i) {
     MotionFrames& motion = motions[i];
     for (int64_t f = 0; f < motion.frame_count() && f < frames; ++f) {
       std::memcpy(motion.frame(f), raw.data() + (static_cast<int64_t>(i) * frames + f) * columns, 3 * sizeof(float));
     }
-    integrate_level_root_path(model.skeleton(), motion, kRootRotationStepsPerFrame);
+    if (kind == TrajectoryFrame::kRootChanges) {
+      integrate_level_root_path(model.skeleton(), motion, kRootRotationStepsPerFrame);
+    } else {
+      RootPathIntegrator(kRootRotationStepsPerFrame, kind).integrate(motion);
+    }
     // The integrated vertical moves' errors add up: a sample's lowest foot
     // strayed more than 60 mm from the floor in up to 60% of its frames.
     settle_on_floor(model.skeleton(), motion);

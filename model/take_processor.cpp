@@ -351,7 +351,7 @@ void TakeProcessor::State::answer(MotionFrames& output) {
   reference.drop_before(output_frames);
   if (options.root == TakeRoot::kGenerated) {
     const double rate = options.at_model_rate ? kTakeModelRate : options.frame_rate;
-    if (!root_path) root_path.emplace(kRootRotationStepsPerFrame * kTakeModelRate / rate);
+    if (!root_path) root_path.emplace(kRootRotationStepsPerFrame * kTakeModelRate / rate, trajectory_frame_of(model.skeleton()));
     if (!floor) floor.emplace(model.skeleton(), static_cast<int>(std::lround(2 * rate)));
     root_path->integrate(output);
     floor->settle(output);
@@ -525,7 +525,8 @@ TakeSummary decode_code_track(const MotionManifold& model, const std::vector<Tak
   TakeAssembler assembler(columns, options.blend);
   MotionResampler to_output(columns, kTakeModelRate, options.frame_rate);
   int64_t emitted = 0;
-  RootPathIntegrator root_path(kRootRotationStepsPerFrame * kTakeModelRate / options.frame_rate);
+  RootPathIntegrator root_path(kRootRotationStepsPerFrame * kTakeModelRate / options.frame_rate,
+                               trajectory_frame_of(model.skeleton()));
   StreamingFloor floor(model.skeleton(), static_cast<int>(std::lround(2 * options.frame_rate)));
   auto hand_out = [&](MotionFrames& frames) {
     const int64_t count = std::min(frames.frame_count(), output_frames - emitted);

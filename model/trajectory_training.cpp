@@ -4,12 +4,14 @@
 #include <c10/core/InferenceMode.h>
 #include <torch/optim/adam.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstring>
 #include <nlohmann/json.hpp>
 #include <random>
 
 #include "format/input_error.h"
+#include "format/root_path.h"
 
 namespace mm {
 namespace {
@@ -37,13 +39,34 @@ at::Tensor gather_windows(const std::vector<MotionFrames>& motions, const std::v
   return raw;
 }
 
-// Inputs (B, T, D) normalised and targets (B, T, 3): the root's move from
-// each frame to the next in the root's axes.
-std::pair<at::Tensor, at::Tensor> inputs_and_targets(const MotionManifold& model, const at::Tensor& raw) {
+// What the network learns to write into columns 0..5 (root_path.h): the
+// recorded root changes for kRootChanges; for kHeadingMoves the moves in
+// the previous frame's heading axes and no turn (the orientation is the
+// decoded pose's).
+std::vector<MotionFrames> root_targets(const Skeleton& skeleton, const std::vector<MotionFrames>& motions) {
+  std::vector<MotionFrames> targets;
+  for (const MotionFrames& motion : motions) {
+    MotionFrames target;
+    target.columns = 6;
+    target.values.reserve(static_cast<size_t>(motion.frame_count()) * 6);
+    MotionFrames moves = motion;
+    if (trajectory_frame_of(skeleton) == TrajectoryFrame::kHeadingMoves) {
+      heading_moves_from_world(moves);
+      for (int64_t f = 0; f < moves.frame_count(); ++f) std::fill(moves.frame(f) + 3, moves.frame(f) + 6, 0.0f);
+    }
+    for (int64_t f = 0; f < moves.frame_count(); ++f) target.values.insert(target.values.end(), moves.frame(f), moves.frame(f) + 6);
+    targets.push_back(std::move(target));
+  }
+  return targets;
+}
+
+// Inputs (B, T, D) normalised and targets (B, T, 6): the root's change from
+// each frame to the next.
+std::pair<at::Tensor, at::Tensor> inputs_and_targets(const MotionManifold& model, const at::Tensor& raw,
+                                                     const at::Tensor& raw_targets) {
   const int64_t frames = raw.size(1) - 1;
   auto poses = model.to_normalized(raw.narrow(1, 0, frames).to(model.device()));
-  auto next = raw.narrow(1, 1, frames);
-  auto targets = next.narrow(2, 0, 6).to(model.device());
+  auto targets = raw_targets.narrow(1, 1, frames).to(model.device());
   return {poses, targets};
 }
 
@@ -66,10 +89,12 @@ TrajectoryTrainingReport train_root_trajectory(MotionManifold& model, const std:
   }
   std::mt19937_64 random(options.seed);
   std::uniform_int_distribution<size_t> pick(0, picker.starts.size() - 1);
+  const std::vector<MotionFrames> targets_of_motions = root_targets(model.skeleton(), motions);
   auto draw = [&](int count) {
     std::vector<std::pair<size_t, int64_t>> picks;
     for (int i = 0; i < count; ++i) picks.push_back(picker.starts[pick(random)]);
-    return gather_windows(motions, picks, length, columns);
+    return std::make_pair(gather_windows(motions, picks, length, columns),
+                          gather_windows(targets_of_motions, picks, length, 6));
   };
 
   // A pool of windows, each as recorded and as the manifold reconstructs it,
@@ -79,7 +104,8 @@ TrajectoryTrainingReport train_root_trajectory(MotionManifold& model, const std:
   std::vector<at::Tensor> recorded_parts, reconstructed_parts, code_parts, target_parts;
   for (int done = 0; done < options.windows; done += options.batch) {
     const int count = std::min(options.batch, options.windows - done);
-    auto [input, target] = inputs_and_targets(model, draw(count));
+    const auto [raw, raw_targets] = draw(count);
+    auto [input, target] = inputs_and_targets(model, raw, raw_targets);
     c10::InferenceMode inference;
     auto code = model.encode(input);
     reconstructed_parts.push_back(model.decode(code, model.default_decoder()).clone());

@@ -43,8 +43,10 @@ struct TrajectoryTrainingReport {
   int64_t windows_available = 0;  // distinct window starts in the motions
 };
 
-// Trains a fresh network on `motions` (25 Hz, the model's layout, columns
-// 0..5 the root's true changes per frame: split_phases_keeping_root_path)
+// Trains a fresh network on `motions` (25 Hz, the model's layout: for
+// H3.6M columns 0..5 the root's true changes per frame,
+// split_phases_keeping_root_path; for a rig read from BVH its world layout
+// as skeleton_motion_from_bvh gives it, root_path.h's kHeadingMoves)
 // and installs it in `model` with its training recorded in the manifest.
 // InputError when no motion holds a window of config().frames + 1 frames.
 TrajectoryTrainingReport train_root_trajectory(MotionManifold& model, const std::vector<MotionFrames>& motions,

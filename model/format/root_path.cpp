@@ -40,12 +40,54 @@ Mat3 rotation_to_up(const Vec3& from) {
   return transpose(expmap_to_matrix(scaled(normalized(axis), angle)));
 }
 
+// `v` turned by `radians` about +y (column vectors: x towards -z).
+Vec3 turned_about_up(const Vec3& v, double radians) {
+  const double c = std::cos(radians), s = std::sin(radians);
+  return {c * v[0] + s * v[2], v[1], -s * v[0] + c * v[2]};
+}
+
 }  // namespace
 
-RootPathIntegrator::RootPathIntegrator(double rotation_steps)
-    : rotation_steps_(rotation_steps), orientation_(identity_matrix()) {}
+TrajectoryFrame trajectory_frame_of(const Skeleton& skeleton) {
+  return skeleton.bvh ? TrajectoryFrame::kHeadingMoves : TrajectoryFrame::kRootChanges;
+}
+
+double heading_radians(const float* orientation) {
+  // The row-vector matrix R is the column-vector M = R^T; the turn about y
+  // closest to M in its x-z block has angle atan2(M02 - M20, M00 + M22).
+  const Mat3 r = expmap_to_matrix({orientation[0], orientation[1], orientation[2]});
+  return std::atan2(r[2][0] - r[0][2], r[0][0] + r[2][2]);
+}
+
+void heading_moves_from_world(MotionFrames& motion) {
+  double before = 0;
+  for (int64_t f = 0; f < motion.frame_count(); ++f) {
+    float* frame = motion.frame(f);
+    const double heading = heading_radians(frame + 3);
+    const Vec3 local = turned_about_up({frame[0], frame[1], frame[2]}, -(f == 0 ? heading : before));
+    for (int a = 0; a < 3; ++a) frame[a] = static_cast<float>(local[static_cast<size_t>(a)]);
+    before = heading;
+  }
+}
+
+void model_root_from_world(const Skeleton& skeleton, MotionFrames& motion, double rotation_steps) {
+  if (trajectory_frame_of(skeleton) == TrajectoryFrame::kRootChanges) root_changes_from_world(motion, rotation_steps);
+}
+
+RootPathIntegrator::RootPathIntegrator(double rotation_steps, TrajectoryFrame frame)
+    : rotation_steps_(rotation_steps), frame_(frame), orientation_(identity_matrix()) {}
 
 void RootPathIntegrator::integrate(MotionFrames& motion) {
+  if (frame_ == TrajectoryFrame::kHeadingMoves) {
+    for (int64_t f = 0; f < motion.frame_count(); ++f) {
+      float* frame = motion.frame(f);
+      const Vec3 world = started_ ? turned_about_up({frame[0], frame[1], frame[2]}, heading_) : Vec3{0, 0, 0};
+      for (int a = 0; a < 3; ++a) frame[a] = static_cast<float>(world[static_cast<size_t>(a)]);
+      heading_ = heading_radians(frame + 3);
+      started_ = true;
+    }
+    return;
+  }
   for (int64_t f = 0; f < motion.frame_count(); ++f) {
     float* frame = motion.frame(f);
     const Vec3 move{frame[0], frame[1], frame[2]};

@@ -27,17 +27,46 @@
 
 namespace mm {
 
-// Integrates a stream of frames in root-change layout into world layout, in
-// place, continuing from the orientation the previous call ended at (the
-// first frame's starts from the identity).
+// What a generated root is made of, chosen by how a skeleton's recordings
+// hold their root:
+// - kRootChanges: H3.6M's text files hold changes in the root's own frame
+//   (above): the trajectory network predicts each frame's move and turn,
+//   and they are integrated into world layout.
+// - kHeadingMoves: a rig read from BVH (Skeleton::bvh set, bvh_skeleton())
+//   holds its root in world layout from the start, its orientation a joint
+//   rotation that the manifold models with the pose. The network predicts
+//   the move alone, in the axes of the previous frame's heading (the turn
+//   about +y, BVH's up, closest to the root's orientation), so that a step
+//   forward reads the same whichever way the body faces; the orientation
+//   stays the decoded one.
+enum class TrajectoryFrame { kRootChanges, kHeadingMoves };
+TrajectoryFrame trajectory_frame_of(const Skeleton& skeleton);
+
+// The heading of a root orientation (an exponential map, row vectors, world
+// layout): the angle in radians of the turn about +y closest to it.
+double heading_radians(const float* orientation);
+
+// World layout's moves to heading moves, in place: each frame's columns
+// 0..2 turned by minus the previous frame's heading about +y (frame 0's
+// by its own); columns 3.. unchanged. What the network learns for
+// kHeadingMoves; RootPathIntegrator undoes it.
+void heading_moves_from_world(MotionFrames& motion);
+
+// Integrates a stream of frames into world layout, in place, continuing
+// from where the previous call ended. kRootChanges: from root-change layout
+// (the first frame's orientation starts from the identity). kHeadingMoves:
+// from heading moves, each turned by the previous frame's heading, columns
+// 3..5 left as they are. The first frame of the stream moves nowhere.
 class RootPathIntegrator {
  public:
-  explicit RootPathIntegrator(double rotation_steps);
+  explicit RootPathIntegrator(double rotation_steps, TrajectoryFrame frame = TrajectoryFrame::kRootChanges);
   void integrate(MotionFrames& motion);
 
  private:
   double rotation_steps_;
+  TrajectoryFrame frame_;
   Mat3 orientation_;
+  double heading_ = 0;
   bool started_ = false;
 };
 
@@ -48,6 +77,11 @@ class RootPathIntegrator {
 // (where the root started is not a change) and its orientation as its
 // rotation change.
 void root_changes_from_world(MotionFrames& motion, double rotation_steps);
+
+// A motion in world layout (a generated one sent back) as the model of
+// `skeleton` reads it: root_changes_from_world for kRootChanges; a rig's
+// world layout is already its model's, and stays as it is.
+void model_root_from_world(const Skeleton& skeleton, MotionFrames& motion, double rotation_steps);
 
 // A whole clip to world layout, levelled and on the floor: integrated as
 // above, then turned about the origin so that its up is +y, and raised so

@@ -89,7 +89,7 @@ struct MotionInputs {
     for (size_t i = 0; i < motions.size(); ++i) {
       result.push_back(motion_window(motions[i].text, input_name(motions[i].path), model.config().frames,
                                      motions[i].start, rate(i), model.skeleton()));
-      if (generated) root_changes_from_world(result.back(), kRootRotationStepsPerFrame);
+      if (generated) model_root_from_world(model.skeleton(), result.back(), kRootRotationStepsPerFrame);
     }
     return result;
   }

@@ -78,9 +78,9 @@ MotionFrames to_model_frames(const Motion& motion, const ModelShape& shape, cons
     const float* row = motion.values.data() + static_cast<size_t>(f) * motion.columns;
     frames.values.insert(frames.values.end(), row, row + motion.columns);
   }
-  // A motion a reply gave in world layout goes back to the root changes
-  // the model reads (the H3.6M layout's: two 50 Hz steps a 25 Hz frame).
-  if (motion.root == "generated") root_changes_from_world(frames, 2.0);
+  // A motion a reply gave in world layout goes back to the root the model
+  // reads (the H3.6M layout's changes: two 50 Hz steps a 25 Hz frame).
+  if (motion.root == "generated") model_root_from_world(shape.skeleton, frames, 2.0);
   return frames;
 }
 

@@ -11,7 +11,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -80,6 +82,29 @@ void expect_cmu_rig(const std::string& text, const BvhFile& rig) {
   EXPECT_EQ(file.frame_count(), 150);
   EXPECT_NEAR(file.frame_time_s, 0.04, 1e-9);
   for (double value : file.values) ASSERT_TRUE(std::isfinite(value));
+}
+
+// The root's horizontal path length and mean height over a BVH's frames, in
+// the file's unit, from its root position channels.
+struct RootTravel {
+  double path_length = 0, mean_height = 0;
+};
+RootTravel root_travel(const BvhFile& file) {
+  const auto& channels = file.joints.at(0).channels;
+  auto index = [&](BvhChannel channel) {
+    const auto at = std::find(channels.begin(), channels.end(), channel);
+    EXPECT_NE(at, channels.end()) << bvh_channel_name(channel);
+    return static_cast<int>(at - channels.begin());
+  };
+  const int x = index(BvhChannel::kXposition), y = index(BvhChannel::kYposition), z = index(BvhChannel::kZposition);
+  RootTravel travel;
+  const int stride = file.channel_count();
+  for (int64_t f = 0; f < file.frame_count(); ++f) {
+    const double* frame = file.values.data() + f * stride;
+    travel.mean_height += frame[y] / static_cast<double>(file.frame_count());
+    if (f > 0) travel.path_length += std::hypot(frame[x] - frame[x - stride], frame[z] - frame[z - stride]);
+  }
+  return travel;
 }
 
 // Three CMU dances in `folder`: indian/04.bvh, indian/06.bvh, martial/03.bvh.
@@ -163,6 +188,20 @@ TEST(SkeletonService, AJobOnABvhFolderPublishesAModelThatSpeaksBvhOfThatSkeleton
   ASSERT_NE(sampled.status, 0);
   ASSERT_EQ(sampled.status, 200) << sampled.body;
   expect_cmu_rig(sampled.body, rig);
+
+  // The job trained the rig's root path too: what the model makes travels,
+  // its root in the rig's own channels and unit (cm: the hips stand about
+  // as high as in the recording, not ten times higher).
+  EXPECT_EQ(activated["trajectory"], true) << activated.dump();
+  const RootTravel recorded = root_travel(parse_bvh_text(six_seconds("martial/03.bvh"), "martial/03.bvh"));
+  for (const std::string& reply : {decoded.body, sampled.body}) {
+    const RootTravel generated = root_travel(parse_bvh_text(reply, "reply.bvh"));
+    std::printf("root path over 6 s: %.1f cm generated (hips %.1f cm high), %.1f cm recorded (hips %.1f cm)\n",
+                generated.path_length, generated.mean_height, recorded.path_length, recorded.mean_height);
+    EXPECT_GT(generated.path_length, 10.0) << "the generated dance stands in place";
+    EXPECT_GT(generated.mean_height, 0.5 * recorded.mean_height);
+    EXPECT_LT(generated.mean_height, 2.0 * recorded.mean_height);
+  }
   // A decoded BVH encodes again: the reply is a valid motion of the skeleton.
   auto again = rest.post("/v1/encode", decoded.body, "application/x-bvh");
   ASSERT_NE(again.status, 0);
