@@ -97,6 +97,28 @@ int parse_server_config(int argc, char** argv, ServerConfig& config) {
   app.add_option("--rest-threads", config.rest.threads,
                  "REST worker threads: keep-alive connections served at once")
       ->envname("MM_REST_THREADS")->capture_default_str()->check(CLI::Range(1, 4096));
+  // REST's limits on each connection (RestOptions says why each default).
+  app.add_option("--rest-header-timeout-seconds", config.rest.header_timeout_seconds,
+                 "a REST request's whole head (request line and headers) must arrive within this, from its "
+                 "connection's start or the previous reply; else 408 and the connection is closed")
+      ->envname("MM_REST_HEADER_TIMEOUT_SECONDS")->capture_default_str()->check(CLI::Range(0.1, 3600.0));
+  app.add_option("--rest-body-timeout-seconds", config.rest.body_timeout_seconds,
+                 "a REST request's whole body must arrive within this, from the end of its head; else 408 and the "
+                 "connection is closed")
+      ->envname("MM_REST_BODY_TIMEOUT_SECONDS")->capture_default_str()->check(CLI::Range(0.1, 86400.0));
+  app.add_option("--rest-max-connections-per-client", config.rest.max_connections_per_client,
+                 "REST connections open at once from one client address; more are answered 429 and closed (behind "
+                 "a proxy every client has the proxy's address)")
+      ->envname("MM_REST_MAX_CONNECTIONS_PER_CLIENT")->capture_default_str()->check(CLI::Range(1, 65536));
+  app.add_option("--rest-max-line-bytes", config.rest.max_line_bytes,
+                 "longest REST request line (else 414) or header line (else 431), without its CRLF")
+      ->envname("MM_REST_MAX_LINE_BYTES")->capture_default_str()->check(CLI::Range(size_t{256}, size_t{8190}));
+  app.add_option("--rest-max-headers", config.rest.max_headers, "most header fields of a REST request (else 431)")
+      ->envname("MM_REST_MAX_HEADERS")->capture_default_str()->check(CLI::Range(size_t{8}, size_t{10000}));
+  app.add_option("--rest-max-header-bytes", config.rest.max_header_bytes,
+                 "largest REST request head, request line and header fields together (else 431)")
+      ->envname("MM_REST_MAX_HEADER_BYTES")->capture_default_str()
+      ->check(CLI::Range(size_t{1024}, size_t{1} << 20));
   auto* web_root = app.add_option("--web-root", config.rest.web_root,
                  "folder of the web page served at / over REST (empty: no page)")
       ->envname("MM_WEB_ROOT")->capture_default_str();

@@ -7,6 +7,8 @@
 #include <atomic>
 #include <cctype>
 #include <chrono>
+#include <cmath>
+#include <functional>
 #include <condition_variable>
 #include <mutex>
 #include <optional>
@@ -17,6 +19,8 @@
 #include "core/caller_identity.h"
 #include "rest/body_limits.h"
 #include "rest/bvh_translation.h"
+#include "rest/connection_stream.h"
+#include "rest/guarded_http_server.h"
 #include "rest/http_errors.h"
 #include "rest/json_translation.h"
 #include "rest/openapi_document.h"
@@ -39,6 +43,9 @@ constexpr auto kKeepAliveInterval = std::chrono::seconds(2);
 // How much of a body past the limit is read and dropped at most (or the
 // limit itself, if larger) before the connection is given up on.
 constexpr size_t kMaxBytesDroppedPastTheLimit = 16u << 20;
+// The least listen backlog: a burst of connections waits there only until
+// the accepting thread takes it (it hands each to the workers' queue at once).
+constexpr size_t kMinListenBacklog = 128;
 
 // The caller as the core sees it: its Authorization headers parsed
 // (core/caller_identity.h) and its IP address.
@@ -248,6 +255,18 @@ bool RestFrontend::State::read_body(RouteId route, const httplib::Request& reque
   if (too_large) {
     return refuse(ApiError(ErrorCode::kResourceExhausted, "", "the request body exceeds " + limit_text,
                            /*too_large=*/true));
+  }
+  const rest::ConnectionStream* stream = rest::ConnectionStream::current();
+  if (stream != nullptr && stream->body_timed_out()) {
+    // 408 has no ApiError code of its own; the connection ends with it.
+    response.status = 408;
+    response.set_header("Connection", "close");
+    response.set_content(rest::error_body(rest::error_code_name_for_status(408), "",
+                                          "the request body did not arrive whole within " +
+                                              std::to_string(static_cast<int>(options.body_timeout_seconds)) +
+                                              " s (--rest-body-timeout-seconds)"),
+                         kJsonType);
+    return false;
   }
   return refuse(ApiError(ErrorCode::kInvalidArgument, "", "the request body could not be read"));
 }
@@ -482,17 +501,29 @@ void RestFrontend::start() {
   State& s = *state_;
   if (s.server) throw std::runtime_error("the REST frontend is already started");
   const bool tls = !s.options.tls_cert_file.empty() || !s.options.tls_key_file.empty();
+  rest::ConnectionLimits limits;
+  limits.head.max_line_bytes = s.options.max_line_bytes;
+  limits.head.max_fields = s.options.max_headers;
+  limits.head.max_head_bytes = s.options.max_header_bytes;
+  limits.header_timeout = std::chrono::milliseconds(std::llround(s.options.header_timeout_seconds * 1000));
+  limits.body_timeout = std::chrono::milliseconds(std::llround(s.options.body_timeout_seconds * 1000));
+  limits.max_connections_per_client = static_cast<size_t>(std::max(1, s.options.max_connections_per_client));
+  // Listens again with a backlog for a burst of connections as large as the
+  // workers: httplib's compiled-in 5 overflowed under 300 connections.
+  std::function<bool(int)> set_backlog;
   if (tls) {
     if (s.options.tls_cert_file.empty() || s.options.tls_key_file.empty())
       throw std::runtime_error("REST TLS needs both a certificate and a key (--tls-cert and --tls-key)");
-    auto server =
-        std::make_unique<httplib::SSLServer>(s.options.tls_cert_file.c_str(), s.options.tls_key_file.c_str());
+    auto server = std::make_unique<rest::GuardedHttpsServer>(s.options.tls_cert_file, s.options.tls_key_file, limits);
     if (!server->is_valid())
       throw std::runtime_error("cannot use the TLS certificate " + s.options.tls_cert_file + " with the key " +
                                s.options.tls_key_file + " for the REST frontend");
+    set_backlog = [server = server.get()](int backlog) { return server->set_listen_backlog(backlog); };
     s.server = std::move(server);
   } else {
-    s.server = std::make_unique<httplib::Server>();
+    auto server = std::make_unique<rest::GuardedHttpServer>(limits);
+    set_backlog = [server = server.get()](int backlog) { return server->set_listen_backlog(backlog); };
+    s.server = std::move(server);
   }
   httplib::Server& server = *s.server;
   const size_t threads = static_cast<size_t>(std::max(1, s.options.threads) + std::max(0, s.options.watch_streams));
@@ -580,6 +611,10 @@ void RestFrontend::start() {
   if (port < 0) {
     s.server.reset();
     throw std::runtime_error("the REST frontend cannot listen on " + where + " (address in use or not available)");
+  }
+  if (!set_backlog(static_cast<int>(std::max<size_t>(threads, kMinListenBacklog)))) {
+    s.server.reset();
+    throw std::runtime_error("the REST frontend cannot listen on " + where);
   }
   s.port = port;
   s.serve_thread = std::thread([&server] { server.listen_after_bind(); });

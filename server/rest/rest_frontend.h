@@ -46,6 +46,32 @@ struct RestOptions {
   // calls. A stream refused by the cap is answered at once and its
   // connection closed.
   int watch_streams = 64;
+  // Each connection's limits (guarded_http_server.h), which httplib 0.11
+  // lacks: it times out one read at a time (5 s), so 300 clients sending a
+  // byte every 3 s held every worker, and it reads a line of any length.
+  // A request's whole head (request line and header fields), from the
+  // connection's start or the previous reply: a head is a few hundred bytes,
+  // sent in one packet; 10 s leaves a slow mobile link several
+  // retransmissions, and bounds how long a slow client holds a worker.
+  double header_timeout_seconds = 10;
+  // A request's whole body, from the end of its head: the largest take
+  // (--max-take-bytes, 512 MiB) needs 14 Mbit/s to arrive in 300 s, a
+  // 64 MiB upload 1.8 Mbit/s; a slower link needs it raised.
+  double body_timeout_seconds = 300;
+  // Connections open at once from one client address: a quarter of the
+  // workers (threads + watch_streams), so that one address that opens
+  // connections and sends slowly leaves the other three quarters serving.
+  // Behind a proxy every client has the proxy's address: raise it there
+  // (to threads + watch_streams) and let the proxy cap each client.
+  int max_connections_per_client = 32;
+  // A request's head: RFC 9112 sets no limit; Apache and nginx take 8 kB
+  // lines, and httplib refuses lines over 8192 bytes with their CRLF, so a
+  // line (without its CRLF) may have 8190. A bearer token of 4096 bytes
+  // fits. 200 header fields and 64 KiB in all are several times what
+  // browsers and proxies send.
+  size_t max_line_bytes = 8190;
+  size_t max_headers = 200;
+  size_t max_header_bytes = 64 << 10;
   // Folder served as static files at "/" (the web page, web/); empty: none.
   // GET requests look here before the routes, so it must hold no "v1" folder.
   std::string web_root;
