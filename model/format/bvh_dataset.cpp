@@ -132,6 +132,7 @@ PreparedDataset prepare_bvh_folder(const std::string& folder, const BvhFolderOpt
   const std::string first_path = (fs::path(folder) / files.front()).string();
 
   PreparedDataset data;
+  data.bvh_folder = fs::absolute(folder).lexically_normal().string();
   data.train_subjects = {"train"};
   data.test_subjects = {"test"};
   data.frame_rate = static_cast<int>(kBvhImportRate);
@@ -169,6 +170,24 @@ PreparedDataset prepare_bvh_folder(const std::string& folder, const BvhFolderOpt
     data.sequences.push_back(std::move(sequence));
   }
   return data;
+}
+
+std::vector<MotionFrames> read_bvh_training_motions(const PreparedDataset& data) {
+  if (data.bvh_folder.empty()) throw InputError("the dataset was not prepared from a BVH folder");
+  std::vector<MotionFrames> motions;
+  const std::vector<std::string> files = list_bvh_files(data.bvh_folder);
+  for (const PreparedSequence* sequence : data.subset(data.train_subjects)) {
+    const auto file = std::find_if(files.begin(), files.end(), [&](const std::string& relative) {
+      return without_bvh_extension(relative) == sequence->action;
+    });
+    const std::string path = (fs::path(data.bvh_folder) / (sequence->action + ".bvh")).string();
+    if (file == files.end()) {
+      throw InputError(path + ": the dataset's training file is no longer in the folder it was prepared from");
+    }
+    const std::string found = (fs::path(data.bvh_folder) / *file).string();
+    motions.push_back(skeleton_motion_from_bvh(data.skeleton, read_bvh_file(found), found));
+  }
+  return motions;
 }
 
 }  // namespace mm

@@ -57,4 +57,11 @@ double detect_bvh_millimetres_per_unit(const BvhFile& file, const std::string& s
 // that cannot be detected.
 PreparedDataset prepare_bvh_folder(const std::string& folder, const BvhFolderOptions& options);
 
+// The training files of a dataset prepare_bvh_folder made, read again from
+// its bvh_folder in the skeleton's world layout at 25 Hz with their root
+// (skeleton_motion_from_bvh): what a rig's root trajectory network learns
+// from. Throws InputError for a dataset of no BVH folder, or naming a
+// training file no longer there.
+std::vector<MotionFrames> read_bvh_training_motions(const PreparedDataset& data);
+
 }  // namespace mm

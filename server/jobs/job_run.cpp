@@ -2,7 +2,6 @@
 // train (or resume from the job's checkpoint), and the publication of the
 // model it made. Each step's child process is supervised by run_child
 // (child_supervision.cpp).
-#include <algorithm>
 #include <filesystem>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -88,20 +87,6 @@ RunEnd TrainingJobs::State::run_job(JobInfo& job) {
   }
   const RunEnd end = run_child(job, argv, argv[1]);
   if (end != RunEnd::kSucceeded) return end;
-  if (dataset.bvh_folder) {
-    // A model of one's own rig learns where its root goes from the same BVH
-    // files (model/root_trajectory.h), so that what it generates travels:
-    // as many iterations as the manifold's, 100 to 3000 (the default
-    // model's took 3000, 100 s on 2 cores). A resumed job trains it again.
-    const auto resolved = nlohmann::json::parse(job.resolved_config_json.empty() ? resolved_job_config_json(job.spec)
-                                                                                 : job.resolved_config_json);
-    const int iterations = std::clamp(resolved.value("iterations", 3000), 100, 3000);
-    const RunEnd trajectory =
-        run_child(job, {config.tool_path, "train-trajectory", "--model", (run / "model").string(), "--bvh",
-                        dataset.path.string(), "--iterations", std::to_string(iterations), "--windows", "1024"},
-                  "train-trajectory");
-    if (trajectory != RunEnd::kSucceeded) return trajectory;
-  }
 
   {
     std::lock_guard<std::mutex> lock(mutex);
