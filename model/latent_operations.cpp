@@ -1,12 +1,14 @@
 #include "latent_operations.h"
 
 #include <ATen/CPUGeneratorImpl.h>
+#include <ATen/Parallel.h>
 #include <c10/core/InferenceMode.h>
 
 #include <cmath>
 #include <cstring>
 #include <random>
 
+#include "format/foot_contacts.h"
 #include "format/input_error.h"
 
 namespace mm {
@@ -193,6 +195,12 @@ MotionFrames corrupt_motion(const MotionFrames& motion, const PoseNormalization&
     }
   }
   return corrupted;
+}
+
+void plant_feet_of_each(const Skeleton& skeleton, std::vector<MotionFrames>& motions, double rate_hz) {
+  at::parallel_for(0, static_cast<int64_t>(motions.size()), 1, [&](int64_t begin, int64_t end) {
+    for (int64_t i = begin; i < end; ++i) plant_feet(skeleton, motions[static_cast<size_t>(i)], rate_hz);
+  });
 }
 
 }  // namespace mm

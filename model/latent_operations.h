@@ -33,6 +33,12 @@ at::Tensor encode_motions(const MotionManifold& model, const std::vector<MotionF
 std::vector<MotionFrames> decode_codes(const MotionManifold& model, const at::Tensor& codes, DecoderKind kind,
                                        const std::vector<MotionFrames>* translation_from = nullptr);
 
+// plant_feet (format/foot_contacts.h) on each of `motions` (world layout at
+// `rate_hz`), the motions spread over LibTorch's threads, so that a batch's
+// correction costs about what one core's share of it does. Safe to call
+// from several threads at once.
+void plant_feet_of_each(const Skeleton& skeleton, std::vector<MotionFrames>& motions, double rate_hz);
+
 // n codes drawn from the prior N(0, prior_variance I), reproducible by seed.
 at::Tensor sample_codes(const MotionManifold& model, int n, uint64_t seed, double prior_variance = 1.0);
 

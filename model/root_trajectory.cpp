@@ -1,5 +1,6 @@
 #include "root_trajectory.h"
 
+#include <ATen/Parallel.h>
 #include <c10/core/InferenceMode.h>
 #include <torch/nn/functional/activation.h>
 #include <torch/nn/modules/conv.h>
@@ -88,10 +89,13 @@ void write_generated_roots(const MotionManifold& model, const at::Tensor& normal
   std::vector<float> raw(static_cast<size_t>(normalized.size(0) * frames * columns));
   write_generated_root_changes(model, normalized, codes, raw.data(), columns);
   const TrajectoryFrame kind = trajectory_frame_of(model.skeleton());
-  for (size_t i = 0; i < motions.size(); ++i) {
-    MotionFrames& motion = motions[i];
+  // Each motion's path on a thread of LibTorch's: a batch of 30 costs a
+  // core's share of it.
+  at::parallel_for(0, static_cast<int64_t>(motions.size()), 1, [&](int64_t begin, int64_t end) {
+  for (int64_t i = begin; i < end; ++i) {
+    MotionFrames& motion = motions[static_cast<size_t>(i)];
     for (int64_t f = 0; f < motion.frame_count() && f < frames; ++f) {
-      std::memcpy(motion.frame(f), raw.data() + (static_cast<int64_t>(i) * frames + f) * columns, 3 * sizeof(float));
+      std::memcpy(motion.frame(f), raw.data() + (i * frames + f) * columns, 3 * sizeof(float));
     }
     if (kind == TrajectoryFrame::kRootChanges) {
       integrate_level_root_path(model.skeleton(), motion, kRootRotationStepsPerFrame);
@@ -102,6 +106,7 @@ void write_generated_roots(const MotionManifold& model, const at::Tensor& normal
     // strayed more than 60 mm from the floor in up to 60% of its frames.
     settle_on_floor(model.skeleton(), motion);
   }
+  });
 }
 
 }  // namespace mm

@@ -124,6 +124,35 @@ int parse_server_config(int argc, char** argv, ServerConfig& config) {
       ->envname("MM_WEB_ROOT")->capture_default_str();
   app.add_option("--grpc-threads", config.grpc.max_threads, "gRPC threads: calls served at once")
       ->envname("MM_GRPC_THREADS")->capture_default_str()->check(CLI::Range(2, 4096));
+  // gRPC's limits on one connection (GrpcOptions says why each is set).
+  app.add_option("--grpc-max-streams-per-connection", config.grpc.max_streams_per_connection,
+                 "gRPC calls and streams one connection may have open at once (HTTP/2 "
+                 "MAX_CONCURRENT_STREAMS); fewer than --grpc-threads, so that one client cannot take every thread")
+      ->envname("MM_GRPC_MAX_STREAMS_PER_CONNECTION")->capture_default_str()->check(CLI::Range(1, 4095));
+  app.add_option("--grpc-keepalive-seconds", config.grpc.keepalive_seconds,
+                 "the server pings a gRPC connection quiet this long (0: never)")
+      ->envname("MM_GRPC_KEEPALIVE_SECONDS")->capture_default_str()->check(CLI::Range(0, 86400));
+  app.add_option("--grpc-keepalive-timeout-seconds", config.grpc.keepalive_timeout_seconds,
+                 "a gRPC connection whose peer does not answer the server's ping in this long is closed")
+      ->envname("MM_GRPC_KEEPALIVE_TIMEOUT_SECONDS")->capture_default_str()->check(CLI::Range(1, 3600));
+  app.add_option("--grpc-min-ping-interval-seconds", config.grpc.min_client_ping_interval_seconds,
+                 "a gRPC client pinging more often than this without calls gets GOAWAY after two warnings")
+      ->envname("MM_GRPC_MIN_PING_INTERVAL_SECONDS")->capture_default_str()->check(CLI::Range(1, 86400));
+  app.add_option("--grpc-max-connection-idle-seconds", config.grpc.max_connection_idle_seconds,
+                 "a gRPC connection without a call this long is closed (0: never)")
+      ->envname("MM_GRPC_MAX_CONNECTION_IDLE_SECONDS")->capture_default_str()->check(CLI::Range(0, 2000000));
+  app.add_option("--grpc-max-connection-age-seconds", config.grpc.max_connection_age_seconds,
+                 "a gRPC connection this old is sent GOAWAY: the client reconnects (0: never)")
+      ->envname("MM_GRPC_MAX_CONNECTION_AGE_SECONDS")->capture_default_str()->check(CLI::Range(0, 2000000));
+  app.add_option("--grpc-max-connection-age-grace-seconds", config.grpc.max_connection_age_grace_seconds,
+                 "calls on a gRPC connection past its age may go on this long before they are cancelled (0: "
+                 "until they end)")
+      ->envname("MM_GRPC_MAX_CONNECTION_AGE_GRACE_SECONDS")->capture_default_str()->check(CLI::Range(0, 2000000));
+  app.add_flag("--grpc-accept-compression", config.grpc.accept_compressed_messages,
+               "take gzip- and deflate-compressed gRPC requests (default: refused from their headers); gRPC 1.51 "
+               "inflates a message whole before checking --max-message-bytes, so a few MB sent can cost GBs: "
+               "trusted clients only")
+      ->envname("MM_GRPC_ACCEPT_COMPRESSION");
   app.add_option("--max-watch-streams", config.core.watch_streams.max_streams,
                  "job watch streams (REST events, gRPC WatchJob) open at once, both protocols together; more are "
                  "refused (429, RESOURCE_EXHAUSTED), and each frontend keeps this many workers for them besides "
@@ -219,6 +248,12 @@ int parse_server_config(int argc, char** argv, ServerConfig& config) {
   }
   if (config.grpc.tls_cert_file.empty() != config.grpc.tls_key_file.empty()) {
     std::cerr << "--tls-cert and --tls-key go together\n";
+    return 2;
+  }
+  if (config.grpc.max_streams_per_connection >= config.grpc.max_threads) {
+    std::cerr << "--grpc-max-streams-per-connection (" << config.grpc.max_streams_per_connection
+              << ") must be fewer than --grpc-threads (" << config.grpc.max_threads
+              << "): one connection could otherwise take every gRPC thread\n";
     return 2;
   }
   if (!token_file.empty()) {

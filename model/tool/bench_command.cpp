@@ -161,7 +161,8 @@ void bench_device(const BenchOptions& o, const PreparedDataset& data, c10::Devic
     out.push_back(measure("decode to motions, root path (packed fp32)", batch, device, repeats,
                           [&] { decode_codes(model, codes, DecoderKind::kRotation); }));
     out.push_back(measure("decode to motions, root path, feet planted (packed fp32)", batch, device, repeats, [&] {
-      for (auto& motion : decode_codes(model, codes, DecoderKind::kRotation)) plant_feet(model.skeleton(), motion, 25);
+      auto motions = decode_codes(model, codes, DecoderKind::kRotation);
+      plant_feet_of_each(model.skeleton(), motions, 25);
     }));
   }
   model.set_trajectory(RootTrajectory(nullptr));

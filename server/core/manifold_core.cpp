@@ -215,10 +215,9 @@ struct ManifoldCore::State {
     MotionsReply reply;
     reply.answered_by = {model->name, model->version};
     const std::string root = model->model.has_trajectory() ? "generated" : "none";
-    for (auto& motion : executor.decode(model, codes, kind)) {
-      if (plant_feet_too) plant_feet(model->shape.skeleton, motion, 25);
-      reply.motions.push_back(to_wire_motion(motion, model->shape, root));
-    }
+    auto motions = executor.decode(model, codes, kind);
+    if (plant_feet_too) plant_feet_of_each(model->shape.skeleton, motions, 25);
+    for (const auto& motion : motions) reply.motions.push_back(to_wire_motion(motion, model->shape, root));
     if (with_codes) reply.codes = to_codes(codes);
     return reply;
   }

@@ -1,6 +1,7 @@
 #include "grpc/grpc_frontend.h"
 
 #include <algorithm>
+#include <climits>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
@@ -9,6 +10,7 @@
 #include <grpcpp/grpcpp.h>
 #include <grpcpp/health_check_service_interface.h>
 #include <grpcpp/resource_quota.h>
+#include <spdlog/spdlog.h>
 
 #include "grpc/manifold_service.h"
 
@@ -45,6 +47,54 @@ std::string listen_address(const GrpcOptions& options) {
   return (ipv6 ? "[" + options.address + "]" : options.address) + ":" + std::to_string(options.port);
 }
 
+// gRPC's arguments in milliseconds, with 0 (off) as gRPC's "unlimited".
+int milliseconds_or_unlimited(int seconds) {
+  if (seconds <= 0 || seconds > INT_MAX / 1000) return INT_MAX;
+  return seconds * 1000;
+}
+
+// The per-connection limits of GrpcOptions as gRPC's channel arguments.
+void apply_connection_limits(const GrpcOptions& options, grpc::ServerBuilder& builder) {
+  if (options.max_streams_per_connection < 1 || options.max_streams_per_connection >= options.max_threads) {
+    // One connection could otherwise hold every thread, and calls from
+    // every other client would be refused while it does.
+    throw std::runtime_error("gRPC streams per connection (--grpc-max-streams-per-connection " +
+                             std::to_string(options.max_streams_per_connection) +
+                             ") must be at least 1 and fewer than the gRPC threads (--grpc-threads " +
+                             std::to_string(options.max_threads) + ")");
+  }
+  // Announced in the connection's SETTINGS; a stream opened beyond it is
+  // reset with REFUSED_STREAM by the transport, before a call or a thread
+  // exists for it. gRPC clients queue their calls until a stream frees.
+  builder.AddChannelArgument(GRPC_ARG_MAX_CONCURRENT_STREAMS, options.max_streams_per_connection);
+
+  // The server's own pings find peers that went away without closing.
+  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIME_MS, milliseconds_or_unlimited(options.keepalive_seconds));
+  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIMEOUT_MS,
+                             milliseconds_or_unlimited(options.keepalive_timeout_seconds));
+  // Enforcement of the client's pings: a ping that comes sooner than this
+  // after the last one, with no data between, is a strike; the third gets
+  // GOAWAY (ENHANCE_YOUR_CALM "too_many_pings"). Pings on a connection
+  // without calls count as strikes too (KEEPALIVE_PERMIT_WITHOUT_CALLS 0).
+  builder.AddChannelArgument(GRPC_ARG_HTTP2_MIN_RECV_PING_INTERVAL_WITHOUT_DATA_MS,
+                             milliseconds_or_unlimited(options.min_client_ping_interval_seconds));
+  builder.AddChannelArgument(GRPC_ARG_HTTP2_MAX_PING_STRIKES, 2);
+  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_PERMIT_WITHOUT_CALLS, 0);
+
+  builder.AddChannelArgument(GRPC_ARG_MAX_CONNECTION_IDLE_MS,
+                             milliseconds_or_unlimited(options.max_connection_idle_seconds));
+  builder.AddChannelArgument(GRPC_ARG_MAX_CONNECTION_AGE_MS,
+                             milliseconds_or_unlimited(options.max_connection_age_seconds));
+  builder.AddChannelArgument(GRPC_ARG_MAX_CONNECTION_AGE_GRACE_MS,
+                             milliseconds_or_unlimited(options.max_connection_age_grace_seconds));
+
+  // A request naming an algorithm that is not enabled is failed from its
+  // headers (grpc-encoding), before its message is read, let alone
+  // inflated. Replies are never compressed either way.
+  builder.SetCompressionAlgorithmSupportStatus(GRPC_COMPRESS_DEFLATE, options.accept_compressed_messages);
+  builder.SetCompressionAlgorithmSupportStatus(GRPC_COMPRESS_GZIP, options.accept_compressed_messages);
+}
+
 }  // namespace
 
 GrpcFrontend::GrpcFrontend(ManifoldCore& core, GrpcOptions options) : core_(core), options_(std::move(options)) {}
@@ -69,6 +119,7 @@ void GrpcFrontend::start() {
   builder.RegisterService(service_.get());
   builder.SetMaxReceiveMessageSize(options_.max_message_bytes);
   builder.SetMaxSendMessageSize(options_.max_message_bytes);
+  apply_connection_limits(options_, builder);
   // The synchronous server takes one thread from this quota for each of its
   // pollers and each call it serves, a WatchJob stream's for the stream's
   // life; a call that finds no thread free and no poller idle is refused
@@ -92,6 +143,16 @@ void GrpcFrontend::start() {
     throw std::runtime_error("gRPC cannot listen on " + address + " (address in use or not available)");
   }
   set_serving(serving_);
+  // gRPC refuses a compressed request with its own words ("Compression
+  // algorithm 'gzip' is disabled"), which cannot name the option: the
+  // operator finds it here.
+  spdlog::info("gRPC: at most {} streams a connection, keepalive ping after {} s quiet, connections closed after {} s "
+               "idle or {} s old (+{} s grace); compressed requests {}",
+               options_.max_streams_per_connection, options_.keepalive_seconds, options_.max_connection_idle_seconds,
+               options_.max_connection_age_seconds, options_.max_connection_age_grace_seconds,
+               options_.accept_compressed_messages
+                   ? "taken (--grpc-accept-compression: gRPC inflates each whole before checking its size)"
+                   : "refused before they are inflated (--grpc-accept-compression takes them)");
 }
 
 int GrpcFrontend::port() const { return port_; }

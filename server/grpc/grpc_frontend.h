@@ -45,6 +45,37 @@ struct GrpcOptions {
   // whole life; the core refuses streams beyond the cap before they hold one
   // for long, so streams never take the threads of calls.
   int watch_streams = 64;
+
+  // Limits on what one connection may hold, and for how long (seconds; 0
+  // turns a time limit off).
+  //
+  // Streams one connection may have open at once (HTTP/2's
+  // SETTINGS_MAX_CONCURRENT_STREAMS): well below max_threads, so that one
+  // client's burst waits on its own connection instead of taking every
+  // thread; gRPC clients queue calls beyond it themselves.
+  int max_streams_per_connection = 16;
+  // The server pings a connection quiet for this long and closes it when
+  // the ping is not answered in keepalive_timeout_seconds: a peer that
+  // vanished without a FIN stops holding its streams.
+  int keepalive_seconds = 60;
+  int keepalive_timeout_seconds = 20;
+  // A client pinging more often than this without sending calls is warned
+  // twice, then sent GOAWAY (keepalive enforcement): pings cost the server
+  // a write each.
+  int min_client_ping_interval_seconds = 30;
+  // A connection without a call for this long is closed (GOAWAY).
+  int max_connection_idle_seconds = 600;
+  // A connection older than this is sent GOAWAY and may finish its calls
+  // for max_connection_age_grace_seconds more: no connection holds its
+  // share of the server for ever, and clients spread over replicas again.
+  int max_connection_age_seconds = 3600;
+  int max_connection_age_grace_seconds = 300;
+  // Compressed request messages (gzip, deflate). Off: refused from their
+  // headers, before a byte of them is inflated. On: gRPC 1.51 inflates a
+  // message whole before it compares it with max_message_bytes, so one
+  // message of a few MB on the wire can cost GBs of memory; only for
+  // trusted clients.
+  bool accept_compressed_messages = false;
 };
 
 class GrpcFrontend {
