@@ -119,6 +119,25 @@ class CoreTest : public ::testing::Test {
     ADD_FAILURE() << "expected an ApiError";
     return ApiError(ErrorCode::kInternal, "", "none");
   }
+  // Each row of `codes` decoded by a call of its own with the decoder
+  // `decoder_of(row)` ("" the model's default), all calls at once.
+  std::vector<std::vector<float>> decode_rows_at_once(const at::Tensor& codes,
+                                                      const std::function<std::string(int)>& decoder_of) {
+    const int rows = static_cast<int>(codes.size(0));
+    std::vector<std::vector<float>> answers(static_cast<size_t>(rows));
+    mm::test::JoinedThreads threads;
+    for (int i = 0; i < rows; ++i) {
+      threads.start([&, i] {
+        const auto row = codes[i].contiguous();
+        DecodeRequest request;
+        request.codes = {Code(row.data_ptr<float>(), row.data_ptr<float>() + 64)};
+        request.decoder = decoder_of(i);
+        answers[static_cast<size_t>(i)] = core_->decode({"test", ""}, request).motions.at(0).values;
+      });
+    }
+    threads.join();
+    return answers;
+  }
 
   Store store_;
   ServiceMetrics metrics_;
@@ -142,17 +161,7 @@ TEST_F(CoreTest, ConcurrentDecodesEqualTheLibraryAndRunInBatches) {
   config.batching.max_queue_delay_us = 20000;
   start(config);
   const auto codes = sample_codes(shipped_model(), 16, 3);
-  std::vector<std::vector<float>> answers(16);
-  mm::test::JoinedThreads threads;
-  for (int i = 0; i < 16; ++i) {
-    threads.start([&, i] {
-      const auto row = codes[i].contiguous();
-      DecodeRequest request;
-      request.codes = {Code(row.data_ptr<float>(), row.data_ptr<float>() + 64)};
-      answers[static_cast<size_t>(i)] = core_->decode({"test", ""}, request).motions.at(0).values;
-    });
-  }
-  threads.join();
+  const auto answers = decode_rows_at_once(codes, [](int) { return std::string(); });
   const auto expected = decode_codes(shipped_model(), codes, DecoderKind::kRotation);
   // Relative to the value: the root's path is in mm, hundreds of them.
   for (int i = 0; i < 16; ++i) {
@@ -176,19 +185,8 @@ TEST_F(CoreTest, ConcurrentDecodesOfEitherDecoderEachGetTheirOwnDecoder) {
   config.batching.max_queue_delay_us = 20000;
   start(config);
   const auto codes = sample_codes(shipped_model(), 16, 5);
-  std::vector<std::vector<float>> answers(16);
   auto decoder_of = [](int i) { return i % 2 == 0 ? std::string("rotation") : std::string("velocity"); };
-  mm::test::JoinedThreads threads;
-  for (int i = 0; i < 16; ++i) {
-    threads.start([&, i] {
-      const auto row = codes[i].contiguous();
-      DecodeRequest request;
-      request.codes = {Code(row.data_ptr<float>(), row.data_ptr<float>() + 64)};
-      request.decoder = decoder_of(i);
-      answers[static_cast<size_t>(i)] = core_->decode({"test", ""}, request).motions.at(0).values;
-    });
-  }
-  threads.join();
+  const auto answers = decode_rows_at_once(codes, decoder_of);
   const auto by_rotation = decode_codes(shipped_model(), codes, DecoderKind::kRotation);
   const auto by_velocity = decode_codes(shipped_model(), codes, DecoderKind::kVelocity);
   auto largest_difference = [](const std::vector<float>& a, const std::vector<float>& b) {
