@@ -15,6 +15,7 @@
 
 #include "format/input_error.h"
 #include "format/motion_resampling.h"
+#include "take_gap_filler.h"
 
 namespace mm {
 namespace {
@@ -130,6 +131,9 @@ struct TakeProcessor::State {
         model_frames(columns),
         reference(columns) {
     if (answers() && !options.at_model_rate) to_output.emplace(columns, kTakeModelRate, options.frame_rate);
+    if (denoises() && options.denoise.keep_observed) {
+      gap_filler.emplace(columns, options.gap_fill, options.at_model_rate ? kTakeModelRate : options.frame_rate);
+    }
   }
 
   bool answers() const { return options.operation != TakeOperation::kEncode; }
@@ -144,7 +148,7 @@ struct TakeProcessor::State {
   void run_ready_windows(size_t at_least);
   void run_batch(const std::vector<int64_t>& starts);
   void hand_out_assembled(const MotionFrames& final_frames, bool last);
-  void answer(MotionFrames& output);
+  void answer(MotionFrames& output, bool last);
   void note_held(int64_t extra = 0) {
     const int64_t held = model_frames.size() + reference.size() + (assembler.assembled_frames() - assembled_out) + extra;
     held_peak = std::max(held_peak, held);
@@ -174,6 +178,8 @@ struct TakeProcessor::State {
   // levelling the whole path).
   std::optional<RootPathIntegrator> root_path;
   std::optional<StreamingFloor> floor;
+  // Denoise with keep_observed: the frames of gaps not yet final.
+  std::optional<TakeGapFiller> gap_filler;
   int64_t held_peak = 0;
   bool finished = false;
 };
@@ -319,36 +325,51 @@ void TakeProcessor::State::hand_out_assembled(const MotionFrames& final_frames, 
     if (last) to_output->finish(output, input_frames);
   }
   // The batch's final frames, their reply and its copy for the error.
-  note_held(final_frames.frame_count() + 2 * output.frame_count());
-  answer(output);
+  note_held(final_frames.frame_count() + 2 * output.frame_count() +
+            (gap_filler ? 2 * gap_filler->held_frames() : 0));
+  answer(output, last);
 }
 
-void TakeProcessor::State::answer(MotionFrames& output) {
+void TakeProcessor::State::answer(MotionFrames& output, bool last) {
   const int64_t count = std::min(output.frame_count(), reference.end() - output_frames);
-  if (count <= 0) return;
-  output.values.resize(static_cast<size_t>(count * columns));
-  // The reference with its missing values taken from the output: the error
-  // counts only observed rotations.
-  MotionFrames filled = output;
-  const bool keep_observed = denoises() && options.denoise.keep_observed;
+  if (count <= 0 && !(last && gap_filler)) return;
+  output.values.resize(static_cast<size_t>(std::max<int64_t>(count, 0) * columns));
   for (int64_t f = 0; f < count; ++f) {
-    const float* given = reference.frame(output_frames + f);
-    float* out = output.frame(f);
-    float* ref = filled.frame(f);
-    if (options.root == TakeRoot::kInput) std::memcpy(out, given, kRootTranslationValues * sizeof(float));
-    for (int c = 0; c < columns; ++c) {
-      if (std::isnan(given[c])) continue;
-      ref[c] = given[c];
-      if (keep_observed) out[c] = given[c];
+    if (options.root == TakeRoot::kInput) {
+      std::memcpy(output.frame(f), reference.frame(output_frames + f), kRootTranslationValues * sizeof(float));
     }
   }
+  // The reference with its missing values taken from the output: the error
+  // counts only observed rotations.
+  MotionFrames filled;
+  if (gap_filler) {
+    // keep_observed: the observed values as given, each gap filled to meet
+    // them (take_gap_filler.h); frames of a gap still open wait for it to close.
+    MotionFrames given, final_frames;
+    given.columns = final_frames.columns = columns;
+    if (count > 0) given.values.assign(reference.frame(output_frames), reference.frame(output_frames) + count * columns);
+    gap_filler->push(given, output, final_frames);
+    if (last) gap_filler->finish(final_frames);
+    output = std::move(final_frames);
+    filled = output;
+  } else {
+    filled = output;
+    for (int64_t f = 0; f < count; ++f) {
+      const float* given = reference.frame(output_frames + f);
+      float* ref = filled.frame(f);
+      for (int c = 0; c < columns; ++c) {
+        if (!std::isnan(given[c])) ref[c] = given[c];
+      }
+    }
+  }
+  output_frames += std::max<int64_t>(count, 0);
+  reference.drop_before(output_frames);
+  if (output.frame_count() == 0) return;
   const auto errors = frame_errors_mm(model, output, filled, run);
   for (float e : errors) {
     error_sum += e;
     error_max = std::max(error_max, static_cast<double>(e));
   }
-  output_frames += count;
-  reference.drop_before(output_frames);
   if (options.root == TakeRoot::kGenerated) {
     const double rate = options.at_model_rate ? kTakeModelRate : options.frame_rate;
     if (!root_path) root_path.emplace(kRootRotationStepsPerFrame * kTakeModelRate / rate, trajectory_frame_of(model.skeleton()));

@@ -38,6 +38,7 @@
 #include <vector>
 
 #include "format/motion_text.h"
+#include "gap_interpolation.h"
 #include "latent_operations.h"
 #include "motion_manifold.h"
 #include "take_assembly.h"
@@ -74,6 +75,14 @@ struct TakeOptions {
   // gaps, and whether the observed values are returned as given
   // (keep_observed needs neither zeros nor means: NaN are missing anyway).
   DenoiseOptions denoise;
+  // Denoise with keep_observed: how each joint's gap (a run of frames where
+  // it is NaN) is filled, at the output's rate (gap_interpolation.h). The
+  // default, kMatched, meets the observed frames at both borders: the cubic
+  // across the gap for short gaps, the manifold's movement laid over it for
+  // long ones; kManifold is the manifold's output as it is. The frames of a
+  // gap are handed out once the frame after it has arrived
+  // (take_gap_filler.h).
+  GapFillOptions gap_fill;
   int batch_windows = 32;  // windows run through the model at once
   // The longest take accepted, seconds (0: no limit), and the name a refusal
   // gives that limit (e.g. "--max-take-seconds").

@@ -40,5 +40,7 @@ void add_take_commands(CLI::App& app, Action& action);
 void add_take_seams_command(CLI::App& app, Action& action);
 // train-trajectory and evaluate-trajectory: the root path of generated motion.
 void add_trajectory_commands(CLI::App& app, Action& action);
+// evaluate-gaps: gaps in recorded takes filled and measured (model/gap_evaluation.h).
+void add_gap_commands(CLI::App& app, Action& action);
 
 }  // namespace mm::tool

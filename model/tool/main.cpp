@@ -55,6 +55,7 @@ int run(int argc, char** argv) {
   add_render_commands(app, action);
   add_take_commands(app, action);
   add_take_seams_command(app, action);
+  add_gap_commands(app, action);
   add_trajectory_commands(app, action);
   try {
     app.parse(argc, argv);

@@ -1,0 +1,347 @@
+#include "gap_evaluation.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <set>
+
+#include "format/foot_contacts.h"
+#include "format/input_error.h"
+#include "take_processor.h"
+#include "take_windows.h"
+
+namespace mm {
+namespace {
+
+constexpr double kRate = kTakeModelRate;
+constexpr int kMethods = 6;
+const char* const kMethodNames[kMethods] = {"hold", "slerp", "cubic", "manifold", "matched_full", "matched"};
+
+struct Config {
+  double seconds = 0;
+  int joints = 0;  // 0: every joint
+};
+
+std::string config_joints_name(int joints) { return joints == 0 ? "every joint" : std::to_string(joints) + (joints == 1 ? " joint" : " joints"); }
+
+struct PlacedGap {
+  size_t config = 0;
+  std::vector<int> joints;
+  int64_t first = 0, last = 0;
+};
+
+// Sums of one method's measures over gaps, pooled as each measure needs.
+struct Sums {
+  int64_t gaps = 0;
+  double mpjpe = 0, angle = 0, jump_ratio = 0, jump_mm = 0, median_move = 0;
+  int64_t over_limit = 0;       // gaps whose border jump exceeds 1.5x the median move
+  double moved = 0, moved_recorded = 0;  // mm over the gap's transitions
+  SkatingCount skating, skating_recorded;
+  void add(const Sums& o) {
+    gaps += o.gaps;
+    mpjpe += o.mpjpe;
+    angle += o.angle;
+    jump_ratio += o.jump_ratio;
+    jump_mm += o.jump_mm;
+    median_move += o.median_move;
+    over_limit += o.over_limit;
+    moved += o.moved;
+    moved_recorded += o.moved_recorded;
+    skating.skating += o.skating.skating;
+    skating.frames += o.skating.frames;
+    skating_recorded.skating += o.skating_recorded.skating;
+    skating_recorded.frames += o.skating_recorded.frames;
+  }
+  nlohmann::json json() const {
+    const double n = std::max<double>(1, static_cast<double>(gaps));
+    return {{"gaps", gaps},
+            {"mpjpe_mm", mpjpe / n},
+            {"angle_error_deg", angle / n},
+            {"border_jump_mm", jump_mm / n},
+            {"median_move_mm", median_move / n},
+            {"border_jump_ratio", jump_ratio / n},
+            {"border_jump_over_1_5_share", static_cast<double>(over_limit) / n},
+            {"speed_ratio", moved_recorded > 0 ? moved / moved_recorded : 0.0},
+            {"skating_ratio", skating.ratio()},
+            {"recorded_skating_ratio", skating_recorded.ratio()}};
+  }
+};
+
+double distance(const Vec3& a, const Vec3& b) {
+  return std::sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]));
+}
+
+// Joint positions of frames [first, last] (frame-major, joint_count each).
+std::vector<Vec3> positions_of(const Skeleton& skeleton, const MotionFrames& motion, int64_t first, int64_t last) {
+  std::vector<Vec3> positions;
+  positions.reserve(static_cast<size_t>((last - first + 1) * skeleton.joint_count()));
+  for (int64_t f = first; f <= last; ++f) {
+    const auto pose = pose_positions(skeleton, motion.frame(f));
+    positions.insert(positions.end(), pose.begin(), pose.end());
+  }
+  return positions;
+}
+
+// Mean over `joints` of the move between two frames' positions.
+double mean_move(const std::vector<Vec3>& p, int joint_count, int64_t a, int64_t b, const std::vector<int>& joints) {
+  double sum = 0;
+  for (int j : joints) sum += distance(p[static_cast<size_t>(a * joint_count + j)], p[static_cast<size_t>(b * joint_count + j)]);
+  return sum / static_cast<double>(std::max<size_t>(1, joints.size()));
+}
+
+MotionFrames slice(const MotionFrames& motion, int64_t first, int64_t last) {
+  MotionFrames part;
+  part.columns = motion.columns;
+  part.values.assign(motion.frame(first), motion.frame(last) + motion.columns);
+  return part;
+}
+
+std::string number(double value, const char* format = "%.1f") {
+  char text[32];
+  std::snprintf(text, sizeof text, format, value);
+  return text;
+}
+
+}  // namespace
+
+GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vector<GapBenchmarkTake>& takes,
+                                     const GapBenchmarkOptions& options) {
+  const Skeleton& skeleton = model.skeleton();
+  const int joint_count = skeleton.joint_count();
+  std::vector<Config> configs;
+  for (int joints : options.joint_counts) {
+    for (double seconds : options.gap_seconds) configs.push_back({seconds, joints});
+  }
+  // Joints a gap of a few joints may take: animated (a kept column), not
+  // the root, and moving some joint below them.
+  std::set<int> animated;
+  for (int c : model.normalization().kept_columns) {
+    if (c >= kRootTranslationValues) animated.insert((c - kRootTranslationValues) / 3);
+  }
+  std::vector<std::vector<int>> descendants(static_cast<size_t>(joint_count));
+  for (int j = joint_count - 1; j > 0; --j) {
+    const int parent = skeleton.joints[static_cast<size_t>(j)].parent;
+    const auto& o = skeleton.joints[static_cast<size_t>(j)].offset_mm;
+    if (o[0] != 0 || o[1] != 0 || o[2] != 0) descendants[static_cast<size_t>(parent)].push_back(j);
+    for (int d : descendants[static_cast<size_t>(j)]) descendants[static_cast<size_t>(parent)].push_back(d);
+  }
+  std::vector<int> candidates;
+  for (int j : animated) {
+    if (j > 0 && !descendants[static_cast<size_t>(j)].empty()) candidates.push_back(j);
+  }
+  std::vector<int> every_joint(static_cast<size_t>(joint_count));
+  for (int j = 0; j < joint_count; ++j) every_joint[static_cast<size_t>(j)] = j;
+  std::vector<int> moved_by_every;
+  for (int j = 1; j < joint_count; ++j) moved_by_every.push_back(j);
+
+  std::mt19937_64 engine(options.seed);
+  std::vector<size_t> deck;
+  size_t deck_next = 0;
+  auto next_config = [&] {
+    if (deck_next == deck.size()) {
+      deck.resize(configs.size());
+      for (size_t i = 0; i < deck.size(); ++i) deck[i] = i;
+      std::shuffle(deck.begin(), deck.end(), engine);
+      deck_next = 0;
+    }
+    return deck[deck_next++];
+  };
+
+  // [config][method] overall and per action.
+  std::vector<std::array<Sums, kMethods>> overall(configs.size());
+  std::map<std::string, std::vector<std::array<Sums, kMethods>>> per_action;
+  int64_t total_gaps = 0;
+  const auto spacing = static_cast<int64_t>(std::lround(options.spacing_seconds * kRate));
+  const int64_t margin = static_cast<int64_t>(kRate);  // 1 s of recording before the first gap and after the last
+
+  for (const auto& take : takes) {
+    if (per_action.find(take.action) == per_action.end()) per_action[take.action].resize(configs.size());
+    const int64_t frames = take.frames.frame_count();
+    const auto recorded_positions = positions_of(skeleton, take.frames, 0, frames - 1);
+    for (int round = 0; round < options.rounds; ++round) {
+      // Place this run's gaps.
+      std::vector<PlacedGap> gaps;
+      MotionFrames corrupted = take.frames;
+      std::uniform_int_distribution<int64_t> jitter(0, static_cast<int64_t>(2 * kRate));
+      int64_t at = margin + jitter(engine);
+      while (true) {
+        const size_t config = next_config();
+        const auto length = std::max<int64_t>(1, std::lround(configs[config].seconds * kRate));
+        if (at + length + margin > frames) break;
+        PlacedGap gap{config, {}, at, at + length - 1};
+        if (configs[config].joints == 0) {
+          gap.joints = every_joint;
+        } else {
+          std::vector<int> pool = candidates;
+          std::shuffle(pool.begin(), pool.end(), engine);
+          pool.resize(std::min<size_t>(pool.size(), static_cast<size_t>(configs[config].joints)));
+          std::sort(pool.begin(), pool.end());
+          gap.joints = pool;
+        }
+        for (int64_t f = gap.first; f <= gap.last; ++f) {
+          for (int j : gap.joints) {
+            std::fill_n(corrupted.frame(f) + kRootTranslationValues + 3 * j, 3, std::numeric_limits<float>::quiet_NaN());
+          }
+        }
+        gaps.push_back(gap);
+        at = gap.last + 1 + spacing + jitter(engine);
+      }
+      if (gaps.empty()) continue;
+      // The manifold's output for the whole run (keep_observed off: the
+      // decoded frames everywhere, which the matched fills read at the borders).
+      TakeOptions take_options;
+      take_options.operation = TakeOperation::kDenoise;
+      take_options.frame_rate = kRate;
+      take_options.at_model_rate = true;
+      take_options.decoder = options.decoder;
+      const TakeResult decoded = process_take(model, corrupted, take_options);
+      GapFillOptions method_options[kMethods];
+      for (auto& o : method_options) o.max_tangent_seconds = options.fill.max_tangent_seconds;
+      method_options[0].method = GapMethod::kHold;
+      method_options[1].method = GapMethod::kSlerp;
+      method_options[2].method = GapMethod::kCubic;
+      method_options[3].method = GapMethod::kManifold;
+      method_options[4].method = GapMethod::kMatched;
+      method_options[4].interpolate_below_seconds = method_options[4].full_detail_seconds = 0;
+      method_options[4].full_detail = 1;
+      method_options[5] = options.fill;
+      method_options[5].method = GapMethod::kMatched;
+      MotionFrames filled[kMethods];
+      for (int m = 0; m < kMethods; ++m) filled[m] = fill_gaps(corrupted, &decoded.frames, method_options[m], kRate);
+
+      for (const PlacedGap& gap : gaps) {
+        ++total_gaps;
+        const bool every = configs[gap.config].joints == 0;
+        std::vector<int> moved_joints;
+        if (every) {
+          moved_joints = moved_by_every;
+        } else {
+          std::set<int> set;
+          for (int j : gap.joints) set.insert(descendants[static_cast<size_t>(j)].begin(), descendants[static_cast<size_t>(j)].end());
+          moved_joints.assign(set.begin(), set.end());
+        }
+        // The take's median move of these joints, per frame.
+        std::vector<double> moves;
+        for (int64_t f = 1; f < frames; ++f) moves.push_back(mean_move(recorded_positions, joint_count, f - 1, f, moved_joints));
+        std::nth_element(moves.begin(), moves.begin() + static_cast<std::ptrdiff_t>(moves.size() / 2), moves.end());
+        const double median_move = moves[moves.size() / 2];
+        const int64_t left = gap.first - 1, right = gap.last + 1;
+        const int64_t context_first = std::max<int64_t>(0, left - static_cast<int64_t>(kRate));
+        const int64_t context_last = std::min<int64_t>(frames - 1, right + static_cast<int64_t>(kRate));
+        const SkatingCount recorded_skating = skating_ratio(skeleton, slice(take.frames, context_first, context_last), kRate);
+        double recorded_moved = 0;
+        for (int64_t f = left; f < right; ++f) recorded_moved += mean_move(recorded_positions, joint_count, f, f + 1, moved_joints);
+        for (int m = 0; m < kMethods; ++m) {
+          const auto p = positions_of(skeleton, filled[m], left, right);  // frame 0 is `left`
+          Sums s;
+          s.gaps = 1;
+          double error = 0, angle = 0;
+          for (int64_t f = gap.first; f <= gap.last; ++f) {
+            for (int j : moved_joints) {
+              error += distance(p[static_cast<size_t>((f - left) * joint_count + j)],
+                                recorded_positions[static_cast<size_t>(f * joint_count + j)]);
+            }
+            for (int j : gap.joints) {
+              const int column = kRootTranslationValues + 3 * j;
+              angle += expmap_angle_between(filled[m].frame(f) + column, take.frames.frame(f) + column);
+            }
+          }
+          const double gap_frames = static_cast<double>(gap.last - gap.first + 1);
+          s.mpjpe = error / (gap_frames * static_cast<double>(moved_joints.size()));
+          s.angle = angle / (gap_frames * static_cast<double>(gap.joints.size())) * 180.0 / M_PI;
+          const double jump_in = mean_move(p, joint_count, 0, 1, moved_joints);
+          const double jump_out = mean_move(p, joint_count, right - left - 1, right - left, moved_joints);
+          s.jump_mm = std::max(jump_in, jump_out);
+          s.median_move = median_move;
+          s.jump_ratio = s.jump_mm / std::max(median_move, 1e-6);
+          s.over_limit = s.jump_ratio > 1.5 ? 1 : 0;
+          for (int64_t f = 0; f < right - left; ++f) s.moved += mean_move(p, joint_count, f, f + 1, moved_joints);
+          s.moved_recorded = recorded_moved;
+          s.skating = skating_ratio(skeleton, slice(filled[m], context_first, context_last), kRate);
+          s.skating_recorded = recorded_skating;
+          overall[gap.config][static_cast<size_t>(m)].add(s);
+          per_action[take.action][gap.config][static_cast<size_t>(m)].add(s);
+        }
+      }
+    }
+  }
+  if (total_gaps == 0) throw InputError("takes: none is long enough to hold a gap with 1 s of recording on each side");
+
+  // JSON: every configuration's methods, overall and per action.
+  nlohmann::json config_rows = nlohmann::json::array();
+  for (size_t c = 0; c < configs.size(); ++c) {
+    nlohmann::json methods = nlohmann::json::object(), actions = nlohmann::json::object();
+    for (int m = 0; m < kMethods; ++m) methods[kMethodNames[m]] = overall[c][static_cast<size_t>(m)].json();
+    for (const auto& [action, sums] : per_action) {
+      nlohmann::json a = nlohmann::json::object();
+      for (int m = 0; m < kMethods; ++m) a[kMethodNames[m]] = sums[c][static_cast<size_t>(m)].json();
+      actions[action] = a;
+    }
+    config_rows.push_back({{"gap_seconds", configs[c].seconds},
+                           {"joints", configs[c].joints == 0 ? nlohmann::json("every") : nlohmann::json(configs[c].joints)},
+                           {"methods", methods},
+                           {"actions", actions}});
+  }
+  nlohmann::json document = {
+      {"takes", takes.size()},
+      {"rounds", options.rounds},
+      {"seed", options.seed},
+      {"spacing_seconds", options.spacing_seconds},
+      {"gaps", total_gaps},
+      {"rate_hz", kRate},
+      {"decoder", decoder_name(options.decoder)},
+      {"matched_fill",
+       {{"interpolate_below_seconds", options.fill.interpolate_below_seconds},
+        {"full_detail_seconds", options.fill.full_detail_seconds},
+        {"full_detail", options.fill.full_detail}}},
+      {"configurations", config_rows}};
+
+  // Markdown: one table per measure, configurations by method, then the
+  // every-joint gaps per action.
+  std::string md;
+  auto table = [&](const char* title, const char* key, const char* format) {
+    md += std::string("\n") + title + "\n\n| joints | gap (s) | gaps |";
+    for (const char* name : kMethodNames) md += std::string(" ") + name + " |";
+    md += "\n|---|---:|---:|";
+    for (int m = 0; m < kMethods; ++m) md += "---:|";
+    md += "\n";
+    for (size_t c = 0; c < configs.size(); ++c) {
+      md += "| " + config_joints_name(configs[c].joints) + " | " + number(configs[c].seconds) + " | " +
+            std::to_string(overall[c][0].gaps) + " |";
+      for (int m = 0; m < kMethods; ++m) md += " " + number(overall[c][static_cast<size_t>(m)].json()[key].get<double>(), format) + " |";
+      md += "\n";
+    }
+  };
+  table("MPJPE on the gap frames (mm, joints the missing rotations move):", "mpjpe_mm", "%.1f");
+  table("Joint-angle error of the missing joints (degrees):", "angle_error_deg", "%.1f");
+  table("Border jump, the larger of into and out of the gap, over the take's median move of the same joints:",
+        "border_jump_ratio", "%.2f");
+  table("Share of gaps whose border jump exceeds 1.5x the take's median move:", "border_jump_over_1_5_share", "%.2f");
+  table("Speed ratio: the joints' movement across the gap over the recording's:", "speed_ratio", "%.2f");
+  table("Foot-skating ratio of the gap with 1 s each side (the recording's beside it in the JSON):", "skating_ratio",
+        "%.3f");
+  for (size_t c = 0; c < configs.size(); ++c) {
+    if (configs[c].joints != 0 || configs[c].seconds < 2.0) continue;
+    md += "\nEvery joint missing for " + number(configs[c].seconds) + " s, per action: MPJPE (mm) / speed ratio\n\n| action | gaps |";
+    for (const char* name : kMethodNames) md += std::string(" ") + name + " |";
+    md += "\n|---|---:|";
+    for (int m = 0; m < kMethods; ++m) md += "---|";
+    md += "\n";
+    for (const auto& [action, sums] : per_action) {
+      md += "| " + action + " | " + std::to_string(sums[c][0].gaps) + " |";
+      for (int m = 0; m < kMethods; ++m) {
+        const auto j = sums[c][static_cast<size_t>(m)].json();
+        md += " " + number(j["mpjpe_mm"].get<double>()) + " / " + number(j["speed_ratio"].get<double>(), "%.2f") + " |";
+      }
+      md += "\n";
+    }
+  }
+  return {document.dump(2) + "\n", md};
+}
+
+}  // namespace mm

@@ -1,0 +1,63 @@
+// The gap benchmark (docs/RESULTS.md, "Gaps"): recorded takes with joints
+// made missing for a while at seeded places, filled through the take
+// denoise path and by interpolation, measured against the recording.
+//
+// Each take is run through the model (denoise, 25 Hz, the missing values
+// NaN) once per round with its own gaps, at least `spacing_seconds` apart so
+// that no window of the model holds two (a window is 6 s); the gaps of a
+// round cycle through every length x joint count in a seeded order, so
+// every configuration gets about the same number of places. Every method
+// fills the same gaps of the same run: hold, slerp, cubic (gap_interpolation.h),
+// the manifold's fill as keep_observed gave it before ("manifold"), the
+// manifold made to meet the borders with its full detail in every gap
+// ("matched_full"), and the take path's fill today ("matched", options.fill).
+//
+// Measures on the gap frames, at 25 Hz, positions by forward kinematics
+// with the root at the origin (as Table 1's): MPJPE over the joints a
+// missing rotation moves (the missing joints' descendants; every joint but
+// the root when every joint is missing), mm; the angle between filled and
+// recorded rotations of the missing joints, degrees; the border jump, the
+// larger of the moves into and out of the gap (mean over the same joints,
+// mm/frame) against the take's median move of those joints; the speed
+// ratio, the joints' movement across the gap over the recording's; and the
+// foot-skating ratio (foot_contacts.h) of the gap with 1 s on each side.
+//
+// Thread safety: reads the model only.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "format/motion_text.h"
+#include "gap_interpolation.h"
+#include "motion_manifold.h"
+
+namespace mm {
+
+struct GapBenchmarkTake {
+  std::string name;    // e.g. "walking_1"
+  std::string action;  // e.g. "walking"
+  MotionFrames frames; // at 25 Hz
+};
+
+struct GapBenchmarkOptions {
+  std::vector<double> gap_seconds = {0.2, 0.5, 1.0, 2.0, 4.0};
+  std::vector<int> joint_counts = {1, 5, 0};  // 0: every joint
+  int rounds = 2;                // runs of each take, each with its own gaps
+  double spacing_seconds = 6.5;  // at least this between gaps of one run
+  uint64_t seed = 0;
+  DecoderKind decoder = DecoderKind::kRotation;
+  GapFillOptions fill;  // the "matched" method's
+};
+
+struct GapBenchmarkResult {
+  std::string json;      // every configuration, method and action
+  std::string markdown;  // the tables docs/RESULTS.md shows
+};
+
+// InputError when no take is long enough to hold a gap.
+GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vector<GapBenchmarkTake>& takes,
+                                     const GapBenchmarkOptions& options);
+
+}  // namespace mm

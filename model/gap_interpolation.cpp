@@ -1,0 +1,232 @@
+#include "gap_interpolation.h"
+
+#include <algorithm>
+#include <cmath>
+#include <optional>
+#include <stdexcept>
+
+namespace mm {
+namespace {
+
+struct Quaternion {
+  double w = 1, x = 0, y = 0, z = 0;
+};
+
+struct Vector {
+  double x = 0, y = 0, z = 0;
+};
+
+Quaternion multiply(const Quaternion& a, const Quaternion& b) {
+  return {a.w * b.w - a.x * b.x - a.y * b.y - a.z * b.z, a.w * b.x + a.x * b.w + a.y * b.z - a.z * b.y,
+          a.w * b.y - a.x * b.z + a.y * b.w + a.z * b.x, a.w * b.z + a.x * b.y - a.y * b.x + a.z * b.w};
+}
+
+Quaternion inverse(const Quaternion& q) { return {q.w, -q.x, -q.y, -q.z}; }
+
+// The rotation vector (axis times angle, the angle in [0, pi]) of a unit
+// quaternion: q and -q are one rotation, and the shorter turn is taken.
+Vector log_of(Quaternion q) {
+  if (q.w < 0) q = {-q.w, -q.x, -q.y, -q.z};
+  const double s = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z);
+  // 2 atan2(s, w) / s, by its series 2 / w near s = 0.
+  const double scale = s < 1e-12 ? 2.0 / std::max(q.w, 1e-12) : 2.0 * std::atan2(s, q.w) / s;
+  return {q.x * scale, q.y * scale, q.z * scale};
+}
+
+Quaternion exp_of(const Vector& v) {
+  const double angle = std::sqrt(v.x * v.x + v.y * v.y + v.z * v.z);
+  const double half_sinc = angle < 1e-6 ? 0.5 - angle * angle / 48.0 : std::sin(angle / 2) / angle;
+  return {std::cos(angle / 2), v.x * half_sinc, v.y * half_sinc, v.z * half_sinc};
+}
+
+Vector scaled(const Vector& v, double s) { return {v.x * s, v.y * s, v.z * s}; }
+
+Quaternion quaternion_of(const float* expmap) { return exp_of({expmap[0], expmap[1], expmap[2]}); }
+
+// The exponential map of q nearest `reference` (one of angle + 2 pi k
+// along the axis), so that a joint's maps stay continuous from frame to frame.
+void write_expmap(const Quaternion& q, const double* reference, float* out) {
+  const Vector v = log_of(q);
+  const double angle = std::sqrt(v.x * v.x + v.y * v.y + v.z * v.z);
+  if (angle < 1e-12) {
+    const double reference_norm =
+        std::sqrt(reference[0] * reference[0] + reference[1] * reference[1] + reference[2] * reference[2]);
+    const double turns = std::round(reference_norm / (2 * M_PI));
+    for (int i = 0; i < 3; ++i) {
+      out[i] = reference_norm > 0 ? static_cast<float>(reference[i] / reference_norm * turns * 2 * M_PI) : 0.0f;
+    }
+    return;
+  }
+  const double axis[3] = {v.x / angle, v.y / angle, v.z / angle};
+  const double along = axis[0] * reference[0] + axis[1] * reference[1] + axis[2] * reference[2];
+  const double chosen = angle + 2 * M_PI * std::round((along - angle) / (2 * M_PI));
+  for (int i = 0; i < 3; ++i) out[i] = static_cast<float>(axis[i] * chosen);
+}
+
+// The angular velocity (rotation vector per frame, in the joint's own
+// axes: q(to) = q(from) exp(v)) between two frames, or zero when either
+// is missing or outside the motion.
+Vector velocity(const MotionFrames& motion, int column, int64_t from, int64_t to) {
+  if (from < 0 || to < 0 || from >= motion.frame_count() || to >= motion.frame_count()) return {};
+  const float* a = motion.frame(from) + column;
+  const float* b = motion.frame(to) + column;
+  for (int i = 0; i < 3; ++i) {
+    if (std::isnan(a[i]) || std::isnan(b[i])) return {};
+  }
+  return log_of(multiply(inverse(quaternion_of(a)), quaternion_of(b)));
+}
+
+// A rotation path across a gap from frame `left` to frame `right`: the
+// cubic on quaternions with the given end velocities (Kim, Kim and Shin's
+// cumulative Bezier form, which meets both ends and their velocities
+// exactly), or the slerp when no velocities are used.
+class BorderPath {
+ public:
+  BorderPath(const Quaternion& left, const Quaternion& right, const Vector& left_velocity,
+             const Vector& right_velocity, double tangent_frames, bool cubic)
+      : start_(left), cubic_(cubic) {
+    if (!cubic_) {
+      arc_ = log_of(multiply(inverse(left), right));
+      return;
+    }
+    // Bezier control points `tangent_frames` along each end's velocity (a
+    // third of the span gives the Hermite cubic).
+    const Quaternion q1 = multiply(left, exp_of(scaled(left_velocity, tangent_frames)));
+    const Quaternion q2 = multiply(right, exp_of(scaled(right_velocity, -tangent_frames)));
+    w1_ = log_of(multiply(inverse(left), q1));
+    w2_ = log_of(multiply(inverse(q1), q2));
+    w3_ = log_of(multiply(inverse(q2), right));
+  }
+  // u in 0..1 across the gap.
+  Quaternion at(double u) const {
+    if (!cubic_) return multiply(start_, exp_of(scaled(arc_, u)));
+    const double b1 = 1 - (1 - u) * (1 - u) * (1 - u), b2 = 3 * u * u - 2 * u * u * u, b3 = u * u * u;
+    return multiply(multiply(multiply(start_, exp_of(scaled(w1_, b1))), exp_of(scaled(w2_, b2))),
+                    exp_of(scaled(w3_, b3)));
+  }
+
+ private:
+  Quaternion start_;
+  bool cubic_;
+  Vector arc_, w1_, w2_, w3_;
+};
+
+}  // namespace
+
+const char* gap_method_name(GapMethod method) {
+  switch (method) {
+    case GapMethod::kHold: return "hold";
+    case GapMethod::kSlerp: return "slerp";
+    case GapMethod::kCubic: return "cubic";
+    case GapMethod::kManifold: return "manifold";
+    case GapMethod::kMatched: return "matched";
+  }
+  return "?";
+}
+
+std::vector<JointGap> find_joint_gaps(const MotionFrames& motion) {
+  std::vector<JointGap> gaps;
+  const int joints = (motion.columns - kRootTranslationValues) / 3;
+  const int64_t frames = motion.frame_count();
+  for (int j = 0; j < joints; ++j) {
+    const int column = kRootTranslationValues + 3 * j;
+    int64_t start = -1;
+    for (int64_t f = 0; f <= frames; ++f) {
+      bool missing = false;
+      if (f < frames) {
+        const float* v = motion.frame(f) + column;
+        missing = std::isnan(v[0]) || std::isnan(v[1]) || std::isnan(v[2]);
+      }
+      if (missing && start < 0) start = f;
+      if (!missing && start >= 0) {
+        gaps.push_back({j, start, f - 1});
+        start = -1;
+      }
+    }
+  }
+  return gaps;
+}
+
+double detail_weight(const GapFillOptions& options, double seconds) {
+  const double span = options.full_detail_seconds - options.interpolate_below_seconds;
+  if (seconds <= options.interpolate_below_seconds) return 0.0;
+  if (span <= 0 || seconds >= options.full_detail_seconds) return options.full_detail;
+  return options.full_detail * (seconds - options.interpolate_below_seconds) / span;
+}
+
+void fill_gap(const MotionFrames& observed, const MotionFrames* manifold, const JointGap& gap,
+              const GapFillOptions& options, double rate_hz, MotionFrames& out) {
+  const int column = kRootTranslationValues + 3 * gap.joint;
+  const int64_t frames = observed.frame_count();
+  const int64_t left = gap.first - 1, right = gap.last + 1;
+  const bool has_left = left >= 0, has_right = right < frames;
+  const bool uses_manifold = options.method == GapMethod::kManifold || options.method == GapMethod::kMatched;
+  if (uses_manifold && (!manifold || manifold->columns != observed.columns || manifold->frame_count() != frames)) {
+    throw std::invalid_argument("fill_gap: the manifold's frames are needed, of the observed motion's shape");
+  }
+  if (options.method == GapMethod::kManifold || (!has_left && !has_right && uses_manifold)) {
+    for (int64_t f = gap.first; f <= gap.last; ++f) std::copy_n(manifold->frame(f) + column, 3, out.frame(f) + column);
+    return;
+  }
+  if (!has_left && !has_right) {
+    // Nothing observed to interpolate from: the joint stays at rest.
+    for (int64_t f = gap.first; f <= gap.last; ++f) std::fill_n(out.frame(f) + column, 3, 0.0f);
+    return;
+  }
+  // The observed borders; a gap at either end of the motion has only one,
+  // and is held there.
+  const float* left_value = observed.frame(has_left ? left : right) + column;
+  const float* right_value = observed.frame(has_right ? right : left) + column;
+  const bool one_border = !has_left || !has_right;
+  const double span = static_cast<double>(right - left);
+  const double tangent_frames = std::min(span / 3, options.max_tangent_seconds * rate_hz);
+  const bool cubic = !one_border && options.method != GapMethod::kSlerp;
+  const bool hold = options.method == GapMethod::kHold || one_border;
+
+  const Quaternion observed_left = quaternion_of(left_value), observed_right = quaternion_of(right_value);
+  BorderPath observed_path(observed_left, observed_right, velocity(observed, column, left - 1, left),
+                           velocity(observed, column, right, right + 1), tangent_frames, cubic);
+  double weight = 0;
+  std::optional<BorderPath> manifold_path;
+  if (options.method == GapMethod::kMatched) {
+    weight = detail_weight(options, static_cast<double>(gap.last - gap.first + 1) / rate_hz);
+    const float* m_left = manifold->frame(has_left ? left : right) + column;
+    const float* m_right = manifold->frame(has_right ? right : left) + column;
+    manifold_path.emplace(quaternion_of(m_left), quaternion_of(m_right), velocity(*manifold, column, left - 1, left),
+                          velocity(*manifold, column, right, right + 1), tangent_frames, cubic);
+  }
+  for (int64_t f = gap.first; f <= gap.last; ++f) {
+    const double u = one_border ? (has_left ? 0.0 : 1.0) : static_cast<double>(f - left) / span;
+    Quaternion q;
+    if (options.method == GapMethod::kHold) {
+      q = has_left ? observed_left : observed_right;
+    } else {
+      q = hold ? (has_left ? observed_left : observed_right) : observed_path.at(u);
+    }
+    if (manifold_path && weight > 0) {
+      // The manifold's detail: its rotation relative to its own path
+      // across the gap, identity at both borders, scaled by the weight.
+      const Quaternion detail =
+          multiply(inverse(manifold_path->at(u)), quaternion_of(manifold->frame(f) + column));
+      q = multiply(q, exp_of(scaled(log_of(detail), weight)));
+    }
+    double reference[3];
+    const double t = one_border ? 0.0 : u;
+    for (int i = 0; i < 3; ++i) reference[i] = (1 - t) * left_value[i] + t * right_value[i];
+    write_expmap(q, reference, out.frame(f) + column);
+  }
+}
+
+MotionFrames fill_gaps(const MotionFrames& observed, const MotionFrames* manifold, const GapFillOptions& options,
+                       double rate_hz) {
+  MotionFrames out = observed;
+  for (const JointGap& gap : find_joint_gaps(observed)) fill_gap(observed, manifold, gap, options, rate_hz, out);
+  return out;
+}
+
+double expmap_angle_between(const float* a, const float* b) {
+  const Quaternion d = multiply(inverse(quaternion_of(a)), quaternion_of(b));
+  return 2 * std::atan2(std::sqrt(d.x * d.x + d.y * d.y + d.z * d.z), std::fabs(d.w));
+}
+
+}  // namespace mm

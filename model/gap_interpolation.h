@@ -1,0 +1,87 @@
+// Gaps in a motion and the ways to fill them: where a joint is missing
+// (NaN) for a run of frames, filled by interpolating what was observed on
+// either side, or by the manifold's fill made to meet the observed frames.
+//
+// Motions are MotionFrames in the exponential-map layout (columns 0..2 the
+// root translation, then 3 values per joint, radians); joint j's rotation is
+// columns 3 + 3j .. 5 + 3j. A joint is missing in a frame when any of its
+// three values is NaN. Rotations are interpolated on unit quaternions, and
+// written back as the exponential map nearest the linear blend of the
+// gap's observed borders (so a motion's maps stay continuous across pi).
+//
+// Why the border-matched fill: the manifold's fill of a gap carries the
+// model's whole reconstruction error (about 80 mm on H3.6M), while
+// interpolation is exact at the gap's borders; the manifold's fill taken
+// relative to its own interpolation across the gap (its "detail": how it
+// moves inside the gap) and laid over the observed interpolation meets the
+// observed frames exactly and keeps the manifold's movement.
+//
+// Torch-free and reentrant: pure functions over value types.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "format/motion_text.h"
+
+namespace mm {
+
+// One joint's run of missing frames, first..last inclusive (a maximal run:
+// frames first - 1 and last + 1, where they exist, are observed).
+struct JointGap {
+  int joint = 0;
+  int64_t first = 0, last = 0;
+};
+
+// Every joint's gaps, by joint then frame.
+std::vector<JointGap> find_joint_gaps(const MotionFrames& motion);
+
+enum class GapMethod {
+  kHold,      // the last observed rotation (the next one for a gap at the start)
+  kSlerp,     // per joint, slerp from the rotation before the gap to the one after
+  kCubic,     // cubic Hermite on quaternions with the border frames' angular velocities
+  kManifold,  // the manifold's fill as it is (what keep_observed did before)
+  kMatched,   // the manifold's detail over the cubic, scaled by detail_weight()
+};
+const char* gap_method_name(GapMethod method);  // "hold", "slerp", "cubic", "manifold", "matched"
+
+// How much of the manifold's detail the matched fill keeps, by the gap's
+// length and the share of the joints missing with it (chosen on the S5
+// benchmark, docs/RESULTS.md "Gaps"): interpolation for short gaps, where it
+// is better than any model fill, and the manifold's movement for long ones,
+// where interpolation freezes.
+struct GapFillOptions {
+  GapMethod method = GapMethod::kMatched;
+  // The detail weight rises linearly from 0 at `interpolate_below_seconds`
+  // to `full_detail` at `full_detail_seconds` of gap.
+  double interpolate_below_seconds = 0.6;
+  double full_detail_seconds = 2.0;
+  double full_detail = 1.0;
+  // The cubic's tangents: each border's velocity carried for a third of
+  // the gap, but at most this long (s), since a velocity carried across a
+  // long gap overshoots far past where the motion went.
+  double max_tangent_seconds = 0.2;
+};
+
+// The weight (0..full_detail) of the manifold's detail in a gap of
+// `seconds`.
+double detail_weight(const GapFillOptions& options, double seconds);
+
+// `observed` with every gap filled as options.method says; `manifold` (the
+// model's output for the same frames, same columns) is read for kManifold
+// and kMatched only and may be null otherwise. Values outside gaps (and the
+// root translation columns) are the observed ones. `rate_hz` converts gap
+// lengths to seconds. std::invalid_argument when `manifold` is needed and
+// missing or of another shape.
+MotionFrames fill_gaps(const MotionFrames& observed, const MotionFrames* manifold, const GapFillOptions& options,
+                       double rate_hz);
+
+// The same for one gap, written into `out` (same shape as observed; only
+// the gap's frames of its joint are written).
+void fill_gap(const MotionFrames& observed, const MotionFrames* manifold, const JointGap& gap,
+              const GapFillOptions& options, double rate_hz, MotionFrames& out);
+
+// Geodesic angle (radians, 0..pi) between two rotations given as exponential maps.
+double expmap_angle_between(const float* a, const float* b);
+
+}  // namespace mm

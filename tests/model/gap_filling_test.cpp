@@ -1,0 +1,190 @@
+// Gaps in a take filled by denoise with keep_observed (take_processor.h,
+// gap_interpolation.h): on real S5 takes and the shipped model, the fill
+// meets the recording at the gap's borders, is no worse than interpolation
+// on short gaps of a few joints, and the take path, which hands a take out
+// in pieces, fills exactly as the whole-take fill does.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <set>
+#include <vector>
+
+#include "default_model.h"
+#include "format/foot_contacts.h"
+#include "format/motion_text.h"
+#include "gap_interpolation.h"
+#include "motion_manifold.h"
+#include "take_processor.h"
+#include "test_environment.h"
+
+namespace mm {
+namespace {
+
+class GapFilling : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    if (!test::has_h36m()) return;
+    model_ = new MotionManifold(MotionManifold::load(default_model_dir()));
+  }
+  static void TearDownTestSuite() {
+    delete model_;
+    model_ = nullptr;
+  }
+  // `seconds` of an S5 take from its start, at 25 Hz (every second frame of the 50 Hz file).
+  static MotionFrames s5_at_25(const std::string& name, double seconds) {
+    const MotionFrames file = read_motion_text((test::h36m_dataset_dir() / "S5" / name).string());
+    MotionFrames take;
+    take.columns = file.columns;
+    for (int64_t f = 0; f < file.frame_count() && take.frame_count() < std::lround(seconds * 25); f += 2) {
+      take.values.insert(take.values.end(), file.frame(f), file.frame(f) + file.columns);
+    }
+    return take;
+  }
+  static void make_missing(MotionFrames& take, const std::vector<int>& joints, int64_t first, int64_t last) {
+    for (int64_t f = first; f <= last; ++f) {
+      for (int j : joints) std::fill_n(take.frame(f) + 3 + 3 * j, 3, std::numeric_limits<float>::quiet_NaN());
+    }
+  }
+  static TakeResult denoise(const MotionFrames& take, GapMethod method, bool keep_observed = true, int batch = 32) {
+    TakeOptions o;
+    o.operation = TakeOperation::kDenoise;
+    o.frame_rate = 25;
+    o.at_model_rate = true;
+    o.batch_windows = batch;
+    o.denoise.keep_observed = keep_observed;
+    o.gap_fill.method = method;
+    return process_take(*model_, take, o);
+  }
+  // Positions (mm, root at the origin) of every frame, frame-major.
+  static std::vector<Vec3> positions(const MotionFrames& m) {
+    std::vector<Vec3> p;
+    for (int64_t f = 0; f < m.frame_count(); ++f) {
+      const auto pose = pose_positions(model_->skeleton(), m.frame(f));
+      p.insert(p.end(), pose.begin(), pose.end());
+    }
+    return p;
+  }
+  static double mean_distance(const std::vector<Vec3>& a, int64_t fa, const std::vector<Vec3>& b, int64_t fb,
+                              const std::vector<int>& joints) {
+    const int n = model_->skeleton().joint_count();
+    double sum = 0;
+    for (int j : joints) {
+      const Vec3& p = a[static_cast<size_t>(fa * n + j)];
+      const Vec3& q = b[static_cast<size_t>(fb * n + j)];
+      sum += std::sqrt((p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) + (p[2] - q[2]) * (p[2] - q[2]));
+    }
+    return sum / static_cast<double>(joints.size());
+  }
+  // The joints a rotation of `missing` moves: their descendants.
+  static std::vector<int> moved_by(const std::vector<int>& missing) {
+    const auto& joints = model_->skeleton().joints;
+    std::vector<bool> moved(joints.size(), false), source(joints.size(), false);
+    for (int j : missing) source[static_cast<size_t>(j)] = true;
+    for (size_t j = 1; j < joints.size(); ++j) {
+      const auto parent = static_cast<size_t>(joints[j].parent);
+      moved[j] = source[parent] || moved[parent];
+    }
+    std::vector<int> result;
+    for (size_t j = 0; j < joints.size(); ++j) {
+      if (moved[j]) result.push_back(static_cast<int>(j));
+    }
+    return result;
+  }
+  static MotionManifold* model_;
+};
+MotionManifold* GapFilling::model_ = nullptr;
+
+// Measured (walking_1 at 25 Hz, the first 16 s, every joint missing for 1 s
+// from 8 s): the take's median move is 18.5 mm/frame; the manifold's fill
+// as it was jumped 72.4 mm (3.9x) into or out of the gap, the matched fill
+// 14.5 mm (0.78x).
+TEST_F(GapFilling, EveryJointMissingForOneSecondJoinsTheRecordingWithoutAJump) {
+  MM_REQUIRE_H36M();
+  const MotionFrames take = s5_at_25("walking_1.txt", 16);
+  MotionFrames gapped = take;
+  const int64_t first = 200, last = 224;
+  std::vector<int> every;
+  for (int j = 0; j < model_->skeleton().joint_count(); ++j) every.push_back(j);
+  make_missing(gapped, every, first, last);
+  std::vector<int> moved;
+  for (int j = 1; j < model_->skeleton().joint_count(); ++j) moved.push_back(j);
+
+  const auto recorded = positions(take);
+  std::vector<double> moves;
+  for (int64_t f = 1; f < take.frame_count(); ++f) moves.push_back(mean_distance(recorded, f - 1, recorded, f, moved));
+  std::nth_element(moves.begin(), moves.begin() + static_cast<std::ptrdiff_t>(moves.size() / 2), moves.end());
+  const double median = moves[moves.size() / 2];
+  auto border_jump = [&](const MotionFrames& filled) {
+    const auto p = positions(filled);
+    return std::max(mean_distance(p, first - 1, p, first, moved), mean_distance(p, last, p, last + 1, moved));
+  };
+  const double before = border_jump(denoise(gapped, GapMethod::kManifold).frames);
+  const double now = border_jump(denoise(gapped, GapMethod::kMatched).frames);
+  std::printf("median move %.1f mm/frame; border jump: manifold %.1f, matched %.1f mm/frame\n", median, before, now);
+  EXPECT_GT(before, 1.5 * median);  // what the issue reported
+  EXPECT_LE(now, 1.5 * median);
+}
+
+// The issue's case: greeting_2 with five joints (both knees, the left arm
+// and forearm, the right forearm) missing for 0.5 s at three places.
+// Measured: slerp 30.5 mm, the manifold's fill as it was 130.2, matched 17.4.
+TEST_F(GapFilling, FiveJointsMissingForHalfASecondAreFilledNoWorseThanSlerp) {
+  MM_REQUIRE_H36M();
+  const MotionFrames take = s5_at_25("greeting_2.txt", 30);
+  MotionFrames gapped = take;
+  const std::vector<int> joints = {2, 7, 17, 18, 26};
+  const int64_t firsts[] = {150, 380, 610};
+  for (int64_t first : firsts) make_missing(gapped, joints, first, first + 11);
+  const auto moved = moved_by(joints);
+  const auto recorded = positions(take);
+  auto gap_error = [&](const MotionFrames& filled) {
+    const auto p = positions(filled);
+    double sum = 0;
+    int n = 0;
+    for (int64_t first : firsts) {
+      for (int64_t f = first; f <= first + 11; ++f, ++n) sum += mean_distance(p, f, recorded, f, moved);
+    }
+    return sum / n;
+  };
+  GapFillOptions slerp;
+  slerp.method = GapMethod::kSlerp;
+  const double slerp_error = gap_error(fill_gaps(gapped, nullptr, slerp, 25));
+  const double before = gap_error(denoise(gapped, GapMethod::kManifold).frames);
+  const double now = gap_error(denoise(gapped, GapMethod::kMatched).frames);
+  std::printf("gap MPJPE: slerp %.1f, manifold %.1f, matched %.1f mm\n", slerp_error, before, now);
+  EXPECT_GT(before, 1.05 * slerp_error);  // what the issue reported
+  EXPECT_LE(now, 1.05 * slerp_error);
+}
+
+// The take path hands its frames out a batch of one window at a time, and
+// holds a gap until the frame after it has arrived: the result is the
+// whole-take fill of the same model output, a long gap over a window's
+// hand-out included, and the observed values are returned as given.
+TEST_F(GapFilling, TheTakePathFillsAsTheWholeTakeFillDoes) {
+  MM_REQUIRE_H36M();
+  MotionFrames gapped = s5_at_25("walking_1.txt", 16);
+  std::vector<int> every;
+  for (int j = 0; j < model_->skeleton().joint_count(); ++j) every.push_back(j);
+  make_missing(gapped, every, 60, 159);  // 4 s across the hand-outs of several windows
+  make_missing(gapped, {17, 18}, 300, 312);
+  make_missing(gapped, {26}, 0, 5);      // at the take's start: one border
+  make_missing(gapped, {2}, 395, 399);   // at its end
+  const MotionFrames decoded = denoise(gapped, GapMethod::kMatched, false, 1).frames;
+  const MotionFrames streamed = denoise(gapped, GapMethod::kMatched, true, 1).frames;
+  MotionFrames whole = fill_gaps(gapped, &decoded, GapFillOptions{}, 25);
+  ASSERT_EQ(streamed.values.size(), whole.values.size());
+  for (size_t i = 0; i < whole.values.size(); ++i) {
+    ASSERT_TRUE(std::isfinite(streamed.values[i])) << i;
+    if (!std::isnan(gapped.values[i])) {
+      ASSERT_EQ(streamed.values[i], gapped.values[i]) << i;
+    } else {
+      ASSERT_NEAR(streamed.values[i], whole.values[i], 1e-5) << i;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace mm
