@@ -126,8 +126,9 @@ int parse_server_config(int argc, char** argv, ServerConfig& config) {
       ->envname("MM_GRPC_THREADS")->capture_default_str()->check(CLI::Range(2, 4096));
   // gRPC's limits on one connection (GrpcOptions says why each is set).
   app.add_option("--grpc-max-streams-per-connection", config.grpc.max_streams_per_connection,
-                 "gRPC calls and streams one connection may have open at once (HTTP/2 "
-                 "MAX_CONCURRENT_STREAMS); fewer than --grpc-threads, so that one client cannot take every thread")
+                 "gRPC calls one connection may have open at once, fewer than --grpc-threads so that one client "
+                 "cannot take every thread; HTTP/2's MAX_CONCURRENT_STREAMS is this plus "
+                 "--max-watch-streams-per-client")
       ->envname("MM_GRPC_MAX_STREAMS_PER_CONNECTION")->capture_default_str()->check(CLI::Range(1, 4095));
   app.add_option("--grpc-keepalive-seconds", config.grpc.keepalive_seconds,
                  "the server pings a gRPC connection quiet this long (0: never)")
@@ -272,6 +273,7 @@ int parse_server_config(int argc, char** argv, ServerConfig& config) {
   config.rest.tls_key_file = config.grpc.tls_key_file;
   config.jobs.model_store = config.core.model_store;
   config.rest.watch_streams = config.grpc.watch_streams = config.core.watch_streams.max_streams;
+  config.grpc.watch_streams_per_client = config.core.watch_streams.max_streams_per_client;
   config.core.data_root = config.jobs.data_root;
   config.core.job_store = config.jobs.job_store;
   // An installation without the source tree has no page unless it names one;

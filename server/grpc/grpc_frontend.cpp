@@ -53,6 +53,13 @@ int milliseconds_or_unlimited(int seconds) {
   return seconds * 1000;
 }
 
+// HTTP/2's stream cap: the calls plus the watch streams a client may hold
+// (never more than the server's, whose threads are counted apart).
+int streams_per_connection(const GrpcOptions& options) {
+  return options.max_streams_per_connection +
+         std::max(0, std::min(options.watch_streams_per_client, options.watch_streams));
+}
+
 // The per-connection limits of GrpcOptions as gRPC's channel arguments.
 void apply_connection_limits(const GrpcOptions& options, grpc::ServerBuilder& builder) {
   if (options.max_streams_per_connection < 1 || options.max_streams_per_connection >= options.max_threads) {
@@ -66,7 +73,7 @@ void apply_connection_limits(const GrpcOptions& options, grpc::ServerBuilder& bu
   // Announced in the connection's SETTINGS; a stream opened beyond it is
   // reset with REFUSED_STREAM by the transport, before a call or a thread
   // exists for it. gRPC clients queue their calls until a stream frees.
-  builder.AddChannelArgument(GRPC_ARG_MAX_CONCURRENT_STREAMS, options.max_streams_per_connection);
+  builder.AddChannelArgument(GRPC_ARG_MAX_CONCURRENT_STREAMS, streams_per_connection(options));
 
   // The server's own pings find peers that went away without closing.
   builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIME_MS, milliseconds_or_unlimited(options.keepalive_seconds));
@@ -146,9 +153,9 @@ void GrpcFrontend::start() {
   // gRPC refuses a compressed request with its own words ("Compression
   // algorithm 'gzip' is disabled"), which cannot name the option: the
   // operator finds it here.
-  spdlog::info("gRPC: at most {} streams a connection, keepalive ping after {} s quiet, connections closed after {} s "
+  spdlog::info("gRPC: at most {} calls and {} streams a connection, keepalive ping after {} s quiet, connections closed after {} s "
                "idle or {} s old (+{} s grace); compressed requests {}",
-               options_.max_streams_per_connection, options_.keepalive_seconds, options_.max_connection_idle_seconds,
+               options_.max_streams_per_connection, streams_per_connection(options_), options_.keepalive_seconds, options_.max_connection_idle_seconds,
                options_.max_connection_age_seconds, options_.max_connection_age_grace_seconds,
                options_.accept_compressed_messages
                    ? "taken (--grpc-accept-compression: gRPC inflates each whole before checking its size)"

@@ -49,11 +49,15 @@ struct GrpcOptions {
   // Limits on what one connection may hold, and for how long (seconds; 0
   // turns a time limit off).
   //
-  // Streams one connection may have open at once (HTTP/2's
-  // SETTINGS_MAX_CONCURRENT_STREAMS): well below max_threads, so that one
-  // client's burst waits on its own connection instead of taking every
-  // thread; gRPC clients queue calls beyond it themselves.
+  // Calls one connection may have open at once, well below max_threads, so
+  // that one client's burst waits on its own connection instead of taking
+  // every thread; gRPC clients queue calls beyond it themselves. Announced
+  // as HTTP/2's SETTINGS_MAX_CONCURRENT_STREAMS together with the WatchJob
+  // streams one client may hold (watch_streams_per_client, the core's
+  // --max-watch-streams-per-client), which have threads of their own: a
+  // client watching its jobs on one channel is never queued behind them.
   int max_streams_per_connection = 16;
+  int watch_streams_per_client = 8;
   // The server pings a connection quiet for this long and closes it when
   // the ping is not answered in keepalive_timeout_seconds: a peer that
   // vanished without a FIN stops holding its streams.
