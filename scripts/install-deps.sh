@@ -3,11 +3,19 @@
 # libopenblas0-openmp matters: without an optimised BLAS, Debian's LibTorch
 # runs on the reference BLAS, many times slower. Never add
 # libopenblas0-pthread beside it.
-#   bash scripts/install-deps.sh               # building and testing
+#   bash scripts/install-deps.sh               # building and testing (.ci/run): everything below
+#   bash scripts/install-deps.sh --serving     # building and serving (scripts/serve.sh): the build's
+#                                              # packages and the README's curl, jq and python3
 #   bash scripts/install-deps.sh --build-only  # building only (the container image's build stage)
 # A container engine (podman) is not installed here: scripts/build-image.sh
 # installs it when an image is built.
 set -euo pipefail
+mode=${1:-full}
+case "$mode" in
+  full|--serving|--build-only) ;;
+  *) echo "install-deps: unknown option \"$mode\"; expected --serving, --build-only or nothing (everything)" >&2
+     exit 2 ;;
+esac
 packages=(
   build-essential cmake pkg-config git xz-utils
   libtorch-dev libopenblas0-openmp libdnnl-dev
@@ -15,9 +23,14 @@ packages=(
   libcpp-httplib-dev nlohmann-json3-dev libcli11-dev zlib1g-dev
   libsqlite3-dev libpqxx-dev libspdlog-dev prometheus-cpp-dev
 )
-if [ "${1:-}" != "--build-only" ]; then
+# What the README's service examples call beside the client: curl, jq, and
+# python3 for scripts/motion_json.py.
+if [ "$mode" != "--build-only" ]; then
+  packages+=(curl jq python3)
+fi
+if [ "$mode" = full ]; then
   packages+=(
-    postgresql python3 python3-grpcio python3-grpc-tools python3-yaml curl
+    postgresql python3-grpcio python3-grpc-tools python3-yaml
     libgtest-dev libgmock-dev libbenchmark-dev
   )
   # The fuzz targets (tests/fuzz) build with clang and its libFuzzer and

@@ -14,7 +14,9 @@
 #   bash scripts/serve.sh --rest-port 9090 --auth-token-file token   # token: openssl rand -hex 24 > token; chmod 600 token
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bash scripts/install-deps.sh
+# Only what serving needs (the build, curl and jq for the README's examples):
+# the test tools (PostgreSQL, Chromium, Blender, clang, Node.js) are .ci/run's.
+bash scripts/install-deps.sh --serving
 bash scripts/extract-h36m.sh || echo "serve: no H3.6M copy extracted; training jobs need a dataset under data/" >&2
 mkdir -p data runs/state runs/models
 # The store: the shipped models (linked) and what training jobs publish.
@@ -22,6 +24,10 @@ for model in models/*/; do
   name=$(basename "$model")
   [ -e "runs/models/$name" ] || ln -s "../../models/$name" "runs/models/$name"
 done
-cmake -S . -B build -DCMAKE_BUILD_TYPE=Release
+# The test suite needs GoogleTest, which --serving leaves out: a fresh build
+# tree is configured without it; one configured before keeps its choice.
+tests=()
+[ -f build/CMakeCache.txt ] || tests=(-DMM_BUILD_TESTS=OFF)
+cmake -S . -B build -DCMAKE_BUILD_TYPE=Release "${tests[@]}"
 cmake --build build -j "$(nproc)" --target motion-manifold-server motion-manifold motion-manifold-client
 exec build/server/motion-manifold-server --model-store runs/models --state-dir runs/state --data-root data "$@"

@@ -15,6 +15,8 @@ std::string lowercase(std::string text) {
 
 }  // namespace
 
+const char kBearerWithoutToken[] = "the Authorization header has the Bearer scheme but no token";
+
 std::string bearer_authorization(const std::string& token) { return "Bearer " + token; }
 
 BearerCredentials parse_authorization(const std::vector<std::string>& header_values) {
@@ -41,7 +43,7 @@ BearerCredentials parse_authorization(const std::vector<std::string>& header_val
   }
   size_t token_begin = scheme_end;
   while (token_begin < end && is_blank(value[token_begin])) ++token_begin;
-  if (token_begin == end) return {"", "the Authorization header has the Bearer scheme but no token"};
+  if (token_begin == end) return {"", kBearerWithoutToken};
   if (end - token_begin > kMaxBearerTokenBytes) {
     return {"", "the bearer token is longer than " + std::to_string(kMaxBearerTokenBytes) + " bytes"};
   }

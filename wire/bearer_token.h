@@ -32,4 +32,10 @@ struct BearerCredentials {
 };
 BearerCredentials parse_authorization(const std::vector<std::string>& header_values);
 
+// The problem parse_authorization gives for "Bearer" with no token, as a
+// script writes it from an unset variable (`Authorization: Bearer $TOKEN`):
+// a server without a token takes such a header as none
+// (server/core/caller_identity.h).
+extern const char kBearerWithoutToken[];
+
 }  // namespace mm::wire

@@ -9,7 +9,10 @@ void add_connection_options(CLI::App& app, ConnectionOptions& options) {
   app.add_flag("--rest", options.rest, "talk REST/JSON instead of gRPC");
   app.add_option("--rest-url", options.rest_url, "REST base URL (with --rest)")->envname("MM_REST_URL")
       ->capture_default_str();
-  app.add_option("--token", options.token, "bearer token for activate, clips upload, jobs submit and jobs cancel")
+  app.add_option("--token", options.token,
+                 "bearer token of a server started with one, for the calls that change its state (models activate "
+                 "and delete, clips upload and delete, jobs submit, cancel and delete) and clips list and read; "
+                 "empty (a server without a token, called from its own machine): none is sent")
       ->envname("MM_TOKEN");
   app.add_option("--tls-ca", options.tls_ca, "PEM CA certificate of the server; turns TLS on")
       ->envname("MM_TLS_CA")->check(CLI::ExistingFile);

@@ -100,7 +100,8 @@ void add_encode(CLI::App& app, const ClientSettings& settings, Action& action) {
   auto o = std::make_shared<Options>();
   auto* command = app.add_subcommand(
       "encode", std::string("Print the code of a motion: {\"code\": [...], ...} on stdout, a code file for decode, "
-                            "interpolate and analogy. ") + kMotionInputNote);
+                            "interpolate and analogy"));
+  command->footer(kMotionInputNote);  // once per command, in its own --help
   o->model.add_to(command, false);
   command->add_option("--input", o->input.path, "motion file (.txt or .bvh; - for standard input)")->required();
   add_rate(command, {&o->input});
@@ -209,7 +210,8 @@ void add_interpolate(CLI::App& app, const ClientSettings& settings, Action& acti
   auto o = std::make_shared<Options>();
   auto* command = app.add_subcommand(
       "interpolate", std::string("Interpolate between two motions or codes (Sec. 5.3) and write the --steps motions "
-                                 "(ends included) as <out-dir>/interpolation_000.txt, .... ") + kMotionInputNote);
+                                 "(ends included) as <out-dir>/interpolation_000.txt, ..."));
+  command->footer(kMotionInputNote);  // once per command, in its own --help
   o->model.add_to(command, true);
   o->model.add_plant_feet(command);
   command->add_option("--from", o->from.path, "first motion (.txt, .bvh) or code (.json)")->required();
@@ -248,8 +250,8 @@ void add_analogy(CLI::App& app, const ClientSettings& settings, Action& action) 
   };
   auto o = std::make_shared<Options>();
   auto* command = app.add_subcommand(
-      "analogy", std::string("Write the motion of a - b + c (Sec. 5.5): a has a feature b lacks, c receives it. ") +
-                     kMotionInputNote);
+      "analogy", std::string("Write the motion of a - b + c (Sec. 5.5): a has a feature b lacks, c receives it"));
+  command->footer(kMotionInputNote);  // once per command, in its own --help
   o->model.add_to(command, true);
   o->model.add_plant_feet(command);
   command->add_option("--a", o->a.path, "motion (.txt, .bvh) or code (.json) with the feature")->required();
@@ -289,7 +291,8 @@ void add_denoise(CLI::App& app, const ClientSettings& settings, Action& action) 
   auto o = std::make_shared<Options>();
   auto* command = app.add_subcommand(
       "denoise", std::string("Project a motion onto the manifold and write it decoded (Sec. 5.4); its root "
-                             "translation is kept. ") + kMotionInputNote);
+                             "translation is kept"));
+  command->footer(kMotionInputNote);  // once per command, in its own --help
   o->model.add_to(command, true);
   command->add_option("--input", o->input.path, "motion file (.txt or .bvh; - for standard input)")->required();
   add_rate(command, {&o->input});

@@ -138,6 +138,8 @@ void add_job_commands(CLI::App& app, const ClientSettings& settings, Action& act
       if (settings.json) {
         print_json(to_json(reply));
       } else {
+        // The columns print_job_line fills; nothing under it when there is no job.
+        if (reply.jobs_size() > 0) std::printf("%-20s %-10s %-6s %s\n", "ID", "STATE", "VARIANT", "PROGRESS");
         for (const auto& job : reply.jobs()) print_job_line(job);
       }
       return kExitSuccess;

@@ -4,14 +4,19 @@
 // (take_io.h).
 #include <CLI/CLI.hpp>
 #include <cinttypes>
+#include <cmath>
 #include <cstdio>
+#include <functional>
+#include <map>
 #include <memory>
 
 #include "commands.h"
 #include "format/input_error.h"
+#include "frame_rate_text.h"
 #include "server_connection.h"
 #include "server_error.h"
 #include "take_io.h"
+#include "take_progress.h"
 #include "wire/rest_json.h"
 
 namespace mm::client {
@@ -19,6 +24,25 @@ namespace mm::client {
 // --json prints a reply as REST answers it, written by the same code.
 using ::mm::wire::to_json;
 namespace {
+
+// The request fields a take command's options set, by the option's name:
+// a refusal naming a field is shown naming the option the user typed.
+const std::map<std::string, std::string> kTakeOptionOfField = {
+    {"hop_seconds", "--hop"}, {"frame_rate", "--rate"}, {"frames", "--frames"},     {"decoder", "--decoder"},
+    {"blend", "--blend"},     {"root", "--root"},       {"model", "--model"},       {"iterations", "--iterations"},
+    {"at_model_rate", "--at-model-rate"}};
+
+// Runs a command's body; a server's refusal that names a request field an
+// option sets is re-thrown naming that option instead.
+int naming_options(const std::function<int()>& body) {
+  try {
+    return body();
+  } catch (const ServerError& error) {
+    const auto option = kTakeOptionOfField.find(error.field());
+    if (option == kTakeOptionOfField.end()) throw;
+    throw ServerError(error.code(), option->second, error.message());
+  }
+}
 
 // The options of every take command.
 struct TakeOptions {
@@ -31,8 +55,8 @@ struct TakeOptions {
   int iterations = 0;
 
   void add_to(CLI::App* command, bool transforms) {
-    command->add_option("--in", input.path, "take file: .txt (exponential-map text of the model's layout) or .bvh (the "
-                                            "model's skeleton, at its own frame time)")
+    command->add_option("--input,--in", input.path, "take file: .txt (exponential-map text of the model's layout) or "
+                                                    ".bvh (the model's skeleton, at its own frame time)")
         ->required();
     command->add_option("--rate", input.rate, "frame rate of a .txt take in Hz, 10 to 1000 (a BVH states its own)")
         ->check(CLI::Range(10.0, 1000.0))
@@ -68,13 +92,14 @@ void report(const ClientSettings& settings, const std::string& out, const TakeFi
             const v1::TakeSummary& summary) {
   if (settings.json) {
     auto reply = to_json(summary);
-    reply["frame_rate"] = written.frame_rate();
+    reply["frame_rate"] = shown_frame_rate(written.frame_rate());
     reply["frames"] = written.frames();
     print_json(reply);
   } else if (out != "-") {
     std::printf("%s: %" PRId64 " frames at %g Hz from %" PRId64 " input frames, %d windows, error mean %.2f mm, "
                 "max %.2f mm\n",
-                out.c_str(), written.frames(), written.frame_rate(), static_cast<int64_t>(summary.input_frames()),
+                out.c_str(), written.frames(), shown_frame_rate(written.frame_rate()),
+                static_cast<int64_t>(summary.input_frames()),
                 static_cast<int>(written.windows() >= 0 ? written.windows() : summary.windows_size()),
                 summary.mean_error_mm(), summary.max_error_mm());
   }
@@ -88,12 +113,15 @@ void add_take_encode(CLI::App* take, const ClientSettings& settings, Action& act
   o->add_to(command, false);
   command->add_option("--out", o->out, "code track file (.json; - for standard output)")->required();
   command->callback([o, &settings, &action] {
-    action = [o, &settings] {
+    action = [o, &settings] { return naming_options([&] {
       const auto server = connect(settings.connection);
       ModelRigs rigs(*server);
       TakeUpload take = read_take(o->input, rigs, o->model, false);
       o->set_header(take.header);
-      const v1::CodeTrack track = server->encode_take(take);
+      TakeProgress progress(stderr, TakeProgress::stderr_is_terminal(), "take encode " + o->input.path, 0);
+      v1::CodeTrack track = server->encode_take(take);
+      progress.finish();
+      track.set_frame_rate(shown_frame_rate(track.frame_rate()));
       write_code_track(track, o->out);
       if (o->out != "-" && !settings.json) {
         std::printf("%s: %d windows of %g s every %g s over %" PRId64 " frames at %g Hz\n", o->out.c_str(),
@@ -102,7 +130,7 @@ void add_take_encode(CLI::App* take, const ClientSettings& settings, Action& act
       }
       if (settings.json && o->out != "-") print_json(to_json(track));
       return kExitSuccess;
-    };
+    }); };
   });
 }
 
@@ -124,18 +152,27 @@ void add_take_transform(CLI::App* take, const ClientSettings& settings, Action& 
     command->add_flag("--keep-observed", o->keep_observed, "fill only the missing values");
   }
   command->callback([o, operation, denoise, &settings, &action] {
-    action = [o, operation, denoise, &settings] {
+    action = [o, operation, denoise, &settings] { return naming_options([&] {
       check_take_output(o->out, "--out");
       const auto server = connect(settings.connection);
       ModelRigs rigs(*server);
       TakeUpload take = read_take(o->input, rigs, o->model, denoise);
       o->set_header(take.header);
       TakeFileWriter writer(o->out, o->error_csv, &rigs.of(o->model).skeleton, !settings.json);
+      // The reply has the take's frames, or as many at 25 Hz.
+      const int64_t input_frames = take.frames.frame_count();
+      const int64_t expected =
+          o->at_model_rate ? static_cast<int64_t>(std::llround(input_frames * 25.0 / take.header.frame_rate()))
+                           : input_frames;
+      TakeProgress progress(stderr, TakeProgress::stderr_is_terminal(),
+                            std::string("take ") + (denoise ? "denoise " : "reconstruct ") + o->input.path, expected);
+      writer.on_frames = [&progress](int64_t frames) { progress.add_frames(frames); };
       const v1::TakeSummary summary = server->transform_take(operation, take, writer);
+      progress.finish();
       writer.finish();
       report(settings, o->out, writer, summary);
       return kExitSuccess;
-    };
+    }); };
   });
 }
 
@@ -148,7 +185,7 @@ void add_track_decode(CLI::App* track, const ClientSettings& settings, Action& a
   auto o = std::make_shared<Options>();
   auto* command = track->add_subcommand(
       "decode", "A code track (as take encode writes it, edited or not) decoded into one continuous motion");
-  command->add_option("--in", o->in, "code track file (.json)")->required();
+  command->add_option("--input,--in", o->in, "code track file (.json, as take encode writes it)")->required();
   command->add_option("--rate", o->rate, "frame rate of the motion, 10 to 1000 Hz")
       ->check(CLI::Range(10.0, 1000.0))
       ->capture_default_str();
@@ -159,7 +196,7 @@ void add_track_decode(CLI::App* track, const ClientSettings& settings, Action& a
   command->add_option("--blend", o->blend, "how overlapping windows join: crossfade (default) or cut");
   command->add_option("--out", o->out, "the motion (.txt, .bvh; - for standard output)")->required();
   command->callback([o, &settings, &action] {
-    action = [o, &settings] {
+    action = [o, &settings] { return naming_options([&] {
       check_take_output(o->out, "--out");
       v1::DecodeTrackRequest request;
       read_code_track(o->in, request);
@@ -173,16 +210,19 @@ void add_track_decode(CLI::App* track, const ClientSettings& settings, Action& a
       const Skeleton* skeleton = is_bvh_path(o->out) ? &rigs.of(o->model).skeleton : nullptr;
       request.set_model(rigs.pinned(o->model));
       TakeFileWriter writer(o->out, "", skeleton, !settings.json);
+      TakeProgress progress(stderr, TakeProgress::stderr_is_terminal(), "track decode " + o->in, o->frames);
+      writer.on_frames = [&progress](int64_t frames) { progress.add_frames(frames); };
       const v1::TakeSummary summary = server->decode_track(request, writer);
+      progress.finish();
       writer.finish();
       if (settings.json) {
         report(settings, o->out, writer, summary);
       } else if (o->out != "-") {
         std::printf("%s: %" PRId64 " frames at %g Hz from %d windows\n", o->out.c_str(), writer.frames(),
-                    writer.frame_rate(), request.windows_size());
+                    shown_frame_rate(writer.frame_rate()), request.windows_size());
       }
       return kExitSuccess;
-    };
+    }); };
   });
 }
 

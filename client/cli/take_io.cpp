@@ -34,7 +34,7 @@ bool is_bvh_path(const std::string& path) { return lower_extension(path) == ".bv
 
 TakeUpload read_take(const TakeSource& source, ModelRigs& rigs, const std::string& model, bool missing_allowed) {
   if (!is_motion_file(source.path)) {
-    throw InputError("--in " + source.path + ": unknown take file type \"" + lower_extension(source.path) +
+    throw InputError("--input " + source.path + ": unknown take file type \"" + lower_extension(source.path) +
                      "\", expected .txt (exponential-map text) or .bvh");
   }
   TakeUpload take;
@@ -95,6 +95,7 @@ void TakeFileWriter::chunk(const v1::FrameChunk& chunk) {
                              std::to_string(chunk.frames()) + " x " + std::to_string(header_.columns()));
   }
   frames_ += chunk.frames();
+  if (on_frames) on_frames(chunk.frames());
   errors_.insert(errors_.end(), chunk.error_mm().begin(), chunk.error_mm().end());
   if (bvh_) {
     held_.values.insert(held_.values.end(), frames.values.begin(), frames.values.end());

@@ -7,6 +7,7 @@
 
 #include <cstdio>
 #include <fstream>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -58,6 +59,8 @@ class TakeFileWriter : public TakeReplySink {
   double frame_rate() const { return header_.frame_rate(); }
   // Windows the server said it used, for a whole file; -1 otherwise.
   int64_t windows() const { return windows_; }
+  // Called with each chunk's frame count as it arrives (the progress line).
+  std::function<void(int64_t)> on_frames;
 
  private:
   std::string path_, error_csv_, temporary_;

@@ -16,6 +16,12 @@ std::string lowercase(std::string text) {
 
 }  // namespace
 
+std::string authorization_refusal(const std::string& problem, bool server_has_token) {
+  if (problem != ::mm::wire::kBearerWithoutToken) return problem;
+  if (!server_has_token) return "";
+  return problem + ": this server has a token; send Authorization: Bearer <token> (is $TOKEN set?)";
+}
+
 bool tokens_equal(const std::string& given, const std::string& expected) {
   unsigned char difference = given.size() == expected.size() ? 0 : 1;
   if (expected.empty()) return false;

@@ -20,6 +20,14 @@ using ::mm::wire::BearerCredentials;
 using ::mm::wire::kMaxBearerTokenBytes;
 using ::mm::wire::parse_authorization;
 
+// Why a call's Authorization header is refused before any token is
+// compared: `problem` as parse_authorization gave it, or "" to go on. On a
+// server without a token (`server_has_token` false) "Bearer" with nothing
+// after it (a script's empty $TOKEN) is no header, so such a call is let in
+// from loopback as one without the header is; on a server with a token it
+// is refused saying so and that the token is missing.
+std::string authorization_refusal(const std::string& problem, bool server_has_token);
+
 // Whether `given` is `expected`, in a time that depends on the length of
 // `given` only, never on how much of it matches.
 bool tokens_equal(const std::string& given, const std::string& expected);

@@ -137,9 +137,8 @@ struct ManifoldCore::State {
   // starts it) is then never writable from the network, and local use (the
   // tool's scripts, a page opened on the same machine) needs no secret.
   void require_access(const CallContext& ctx, const std::string& what) const {
-    if (!ctx.authorization_problem.empty()) {
-      throw ApiError(ErrorCode::kUnauthenticated, "authorization", ctx.authorization_problem);
-    }
+    const std::string refusal = authorization_refusal(ctx.authorization_problem, !config.auth_token.empty());
+    if (!refusal.empty()) throw ApiError(ErrorCode::kUnauthenticated, "authorization", refusal);
     if (config.auth_token.empty()) {
       if (is_loopback_ip(ctx.peer_ip)) return;
       throw ApiError(ErrorCode::kUnauthenticated, "authorization",

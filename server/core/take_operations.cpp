@@ -34,14 +34,19 @@ ApiError from_input_error(const InputError& error, const std::string& fallback) 
     ++end;
   }
   const bool named = end > 0 && end < message.size() && message[end] == ':';
-  return invalid(named ? message.substr(0, end) : fallback, message);
+  if (!named) return invalid(fallback, message);
+  // The field once: the refusal carries it beside the message, and the
+  // frontends and the client print it before the message.
+  size_t text = end + 1;
+  while (text < message.size() && message[text] == ' ') ++text;
+  return invalid(message.substr(0, end), message.substr(text));
 }
 
 void check_rate(double rate, const std::string& field) {
   try {
     check_take_rate(rate, field);
   } catch (const InputError& e) {
-    throw invalid(field, e.what());
+    throw from_input_error(e, field);
   }
 }
 
@@ -59,7 +64,7 @@ TakeBlend blend_of(const std::string& name) {
   try {
     return parse_take_blend(name);
   } catch (const InputError& e) {
-    throw invalid("blend", e.what());
+    throw from_input_error(e, "blend");
   }
 }
 

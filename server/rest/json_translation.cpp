@@ -32,9 +32,14 @@ json parse_body(const std::string& body) {
     const size_t close = what.find("] ");
     if (close != std::string::npos && what.rfind("[json.exception", 0) == 0) what = what.substr(close + 2);
     const auto* syntax = dynamic_cast<const json::parse_error*>(&e);
+    // A BVH file sent without its type (curl -d @walk.bvh says
+    // application/x-www-form-urlencoded) is read as JSON: say what to send.
+    const size_t first = body.find_first_not_of(" \t\r\n");
+    const bool bvh = first != std::string::npos && body.compare(first, 9, "HIERARCHY") == 0;
     throw ApiError(ErrorCode::kInvalidArgument, "",
                    "malformed JSON" + (syntax ? " (byte " + std::to_string(syntax->byte) + ")" : std::string()) + ": " +
-                       what);
+                       what +
+                       (bvh ? "; the body is a BVH file: send it with Content-Type: application/x-bvh" : ""));
   }
 }
 
