@@ -5,6 +5,8 @@
 #include <optional>
 #include <stdexcept>
 
+#include "format/expmap_slerp.h"
+
 namespace mm {
 namespace {
 
@@ -43,24 +45,9 @@ Vector scaled(const Vector& v, double s) { return {v.x * s, v.y * s, v.z * s}; }
 
 Quaternion quaternion_of(const float* expmap) { return exp_of({expmap[0], expmap[1], expmap[2]}); }
 
-// The exponential map of q nearest `reference` (one of angle + 2 pi k
-// along the axis), so that a joint's maps stay continuous from frame to frame.
+// The map of q nearest `reference`, so that a joint's maps stay continuous.
 void write_expmap(const Quaternion& q, const double* reference, float* out) {
-  const Vector v = log_of(q);
-  const double angle = std::sqrt(v.x * v.x + v.y * v.y + v.z * v.z);
-  if (angle < 1e-12) {
-    const double reference_norm =
-        std::sqrt(reference[0] * reference[0] + reference[1] * reference[1] + reference[2] * reference[2]);
-    const double turns = std::round(reference_norm / (2 * M_PI));
-    for (int i = 0; i < 3; ++i) {
-      out[i] = reference_norm > 0 ? static_cast<float>(reference[i] / reference_norm * turns * 2 * M_PI) : 0.0f;
-    }
-    return;
-  }
-  const double axis[3] = {v.x / angle, v.y / angle, v.z / angle};
-  const double along = axis[0] * reference[0] + axis[1] * reference[1] + axis[2] * reference[2];
-  const double chosen = angle + 2 * M_PI * std::round((along - angle) / (2 * M_PI));
-  for (int i = 0; i < 3; ++i) out[i] = static_cast<float>(axis[i] * chosen);
+  write_expmap_nearest(q.w, q.x, q.y, q.z, reference, out);
 }
 
 // The angular velocity (rotation vector per frame, in the joint's own

@@ -20,6 +20,28 @@ Quaternion quaternion_of(const float* v) {
 
 }  // namespace
 
+void write_expmap_nearest(double w, double x, double y, double z, const double* reference, float* out) {
+  // Axis and angle, the angle in [0, 2 pi).
+  const double vector_norm = std::sqrt(x * x + y * y + z * z);
+  if (vector_norm < 1e-12) {
+    // The identity: its maps are 2 pi k times any axis; keep the
+    // reference's axis so that a map near 2 pi stays near it.
+    const double reference_norm =
+        std::sqrt(reference[0] * reference[0] + reference[1] * reference[1] + reference[2] * reference[2]);
+    const double turns = std::round(reference_norm / (2 * M_PI));
+    for (int i = 0; i < 3; ++i) {
+      out[i] = reference_norm > 0 ? static_cast<float>(reference[i] / reference_norm * turns * 2 * M_PI) : 0.0f;
+    }
+    return;
+  }
+  const double axis[3] = {x / vector_norm, y / vector_norm, z / vector_norm};
+  const double angle = 2 * std::atan2(vector_norm, w);
+  // Of the maps (angle + 2 pi k) axis, the one nearest the reference.
+  const double along = axis[0] * reference[0] + axis[1] * reference[1] + axis[2] * reference[2];
+  const double chosen = angle + 2 * M_PI * std::round((along - angle) / (2 * M_PI));
+  for (int i = 0; i < 3; ++i) out[i] = static_cast<float>(axis[i] * chosen);
+}
+
 void slerp_expmap(const float* a, const float* b, double t, float* out) {
   if (t == 0) {
     for (int i = 0; i < 3; ++i) out[i] = a[i];
@@ -54,25 +76,7 @@ void slerp_expmap(const float* a, const float* b, double t, float* out) {
   Quaternion r{wp * p.w + wq * q.w, wp * p.x + wq * q.x, wp * p.y + wq * q.y, wp * p.z + wq * q.z};
   const double norm = std::sqrt(r.w * r.w + r.x * r.x + r.y * r.y + r.z * r.z);
   r = {r.w / norm, r.x / norm, r.y / norm, r.z / norm};
-  // Back to axis and angle, angle in [0, 2 pi).
-  const double vector_norm = std::sqrt(r.x * r.x + r.y * r.y + r.z * r.z);
-  if (vector_norm < 1e-12) {
-    // The identity: its maps are 2 pi k times any axis; keep the
-    // reference's axis so that a map near 2 pi stays near it.
-    const double reference_norm =
-        std::sqrt(reference[0] * reference[0] + reference[1] * reference[1] + reference[2] * reference[2]);
-    const double turns = std::round(reference_norm / (2 * M_PI));
-    for (int i = 0; i < 3; ++i) {
-      out[i] = reference_norm > 0 ? static_cast<float>(reference[i] / reference_norm * turns * 2 * M_PI) : 0.0f;
-    }
-    return;
-  }
-  const double axis[3] = {r.x / vector_norm, r.y / vector_norm, r.z / vector_norm};
-  const double angle = 2 * std::atan2(vector_norm, r.w);
-  // Of the maps (angle + 2 pi k) axis, the one nearest the reference.
-  const double along = axis[0] * reference[0] + axis[1] * reference[1] + axis[2] * reference[2];
-  const double chosen = angle + 2 * M_PI * std::round((along - angle) / (2 * M_PI));
-  for (int i = 0; i < 3; ++i) out[i] = static_cast<float>(axis[i] * chosen);
+  write_expmap_nearest(r.w, r.x, r.y, r.z, reference, out);
 }
 
 }  // namespace mm

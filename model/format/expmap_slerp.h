@@ -20,4 +20,10 @@ namespace mm {
 // `out` may alias a or b.
 void slerp_expmap(const float* a, const float* b, double t, float* out);
 
+// The exponential map of the unit quaternion (w, x, y, z) nearest
+// `reference` (3 values) among its maps (the angle plus any multiple of 2 pi
+// along the axis), written to out[0..2], so that a joint's maps stay
+// continuous from frame to frame; the identity keeps the reference's axis.
+void write_expmap_nearest(double w, double x, double y, double z, const double* reference, float* out);
+
 }  // namespace mm

@@ -29,6 +29,7 @@
 #include "format/h36m_bvh.h"
 #include "format/motion_text.h"
 #include "rest_call.h"
+#include "process_cost.h"
 #include "server_process.h"
 #include "test_environment.h"
 
@@ -59,31 +60,8 @@ std::string h36m_bvh(int frames) {
 // makes 990,001 frames (about 390 MB of floats) of.
 std::string hour_long_frames_bvh() { return replaced(h36m_bvh(12), "Frame Time: 0.04", "Frame Time: 3600"); }
 
-// What the server process has used so far: CPU time of all its threads and
-// the peak of its resident memory.
-struct ProcessCost {
-  double cpu_seconds = 0;
-  long peak_rss_kib = 0;
-};
-
-ProcessCost process_cost(pid_t pid) {
-  ProcessCost cost;
-  std::ifstream stat_file("/proc/" + std::to_string(pid) + "/stat");
-  const std::string stat((std::istreambuf_iterator<char>(stat_file)), {});
-  // The name in parentheses may hold spaces; fields 14 and 15 (utime,
-  // stime, in clock ticks) are the 12th and 13th after it.
-  std::istringstream fields(stat.substr(stat.rfind(')') + 1));
-  std::vector<std::string> after_name{std::istream_iterator<std::string>(fields), {}};
-  if (after_name.size() > 12) {
-    cost.cpu_seconds = static_cast<double>(std::stoll(after_name[11]) + std::stoll(after_name[12])) /
-                       static_cast<double>(sysconf(_SC_CLK_TCK));
-  }
-  std::ifstream status("/proc/" + std::to_string(pid) + "/status");
-  for (std::string line; std::getline(status, line);) {
-    if (line.rfind("VmHWM:", 0) == 0) cost.peak_rss_kib = std::stol(line.substr(6));
-  }
-  return cost;
-}
+using test::ProcessCost;
+using test::process_cost;
 
 // Runs `requests`, then checks what they cost the server: its peak
 // resident memory grew by less than 1 MiB and it spent less than 200 ms of

@@ -34,6 +34,7 @@
 
 #include "grpc_calls.h"
 #include "motionmanifold/v1/manifold.grpc.pb.h"
+#include "process_cost.h"
 #include "server_process.h"
 
 namespace mm {
@@ -50,35 +51,8 @@ std::vector<std::string> server_args(std::vector<std::string> more = {}) {
   return args;
 }
 
-// What the server process has used so far: the CPU time of all its
-// threads, the peak of its resident memory, and its threads now.
-struct ProcessCost {
-  double cpu_seconds = 0;
-  long peak_rss_kib = 0;
-  long rss_kib = 0;
-  int threads = 0;
-};
-
-ProcessCost process_cost(pid_t pid) {
-  ProcessCost cost;
-  std::ifstream stat_file("/proc/" + std::to_string(pid) + "/stat");
-  const std::string stat((std::istreambuf_iterator<char>(stat_file)), {});
-  // The name in parentheses may hold spaces; utime and stime (fields 14 and
-  // 15, clock ticks) are the 12th and 13th after it.
-  std::istringstream fields(stat.substr(stat.rfind(')') + 1));
-  std::vector<std::string> after_name{std::istream_iterator<std::string>(fields), {}};
-  if (after_name.size() > 12) {
-    cost.cpu_seconds = static_cast<double>(std::stoll(after_name[11]) + std::stoll(after_name[12])) /
-                       static_cast<double>(sysconf(_SC_CLK_TCK));
-  }
-  std::ifstream status("/proc/" + std::to_string(pid) + "/status");
-  for (std::string line; std::getline(status, line);) {
-    if (line.rfind("VmHWM:", 0) == 0) cost.peak_rss_kib = std::stol(line.substr(6));
-    if (line.rfind("VmRSS:", 0) == 0) cost.rss_kib = std::stol(line.substr(6));
-    if (line.rfind("Threads:", 0) == 0) cost.threads = std::stoi(line.substr(8));
-  }
-  return cost;
-}
+using test::ProcessCost;
+using test::process_cost;
 
 // Waits until the server has stopped spending CPU (no more than 20 ms in
 // 300 ms) or 20 s have passed; returns its cost then: the cost of a burst
