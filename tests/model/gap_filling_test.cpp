@@ -18,21 +18,14 @@
 #include "gap_interpolation.h"
 #include "motion_manifold.h"
 #include "take_processor.h"
+#include "shipped_model_suite.h"
 #include "test_environment.h"
 
 namespace mm {
 namespace {
 
-class GapFilling : public ::testing::Test {
+class GapFilling : public test::ShippedModelSuite {
  protected:
-  static void SetUpTestSuite() {
-    if (!test::has_h36m()) return;
-    model_ = new MotionManifold(MotionManifold::load(default_model_dir()));
-  }
-  static void TearDownTestSuite() {
-    delete model_;
-    model_ = nullptr;
-  }
   // `seconds` of an S5 take from its start, at 25 Hz (every second frame of the 50 Hz file).
   static MotionFrames s5_at_25(const std::string& name, double seconds) {
     const MotionFrames file = read_motion_text((test::h36m_dataset_dir() / "S5" / name).string());
@@ -93,9 +86,7 @@ class GapFilling : public ::testing::Test {
     }
     return result;
   }
-  static MotionManifold* model_;
 };
-MotionManifold* GapFilling::model_ = nullptr;
 
 // Measured (walking_1 at 25 Hz, the first 16 s, every joint missing for 1 s
 // from 8 s): the take's median move is 18.5 mm/frame; the manifold's fill

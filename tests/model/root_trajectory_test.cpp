@@ -23,6 +23,7 @@
 #include "motion_manifold.h"
 #include "root_trajectory.h"
 #include "take_processor.h"
+#include "shipped_model_suite.h"
 #include "test_environment.h"
 #include "trajectory_evaluation.h"
 #include "trajectory_training.h"
@@ -71,25 +72,15 @@ double distance_travelled(const MotionFrames& motion) {
   return length;
 }
 
-class RootTrajectoryTest : public ::testing::Test {
+class RootTrajectoryTest : public test::ShippedModelSuite {
  protected:
-  static void SetUpTestSuite() {
-    if (!test::has_h36m()) return;
-    model_ = new MotionManifold(MotionManifold::load(default_model_dir()));
-  }
-  static void TearDownTestSuite() {
-    delete model_;
-    model_ = nullptr;
-  }
   void SetUp() override {
     if (!test::has_h36m()) {
       if (test::missing_h36m_allowed()) GTEST_SKIP() << "H3.6M not extracted";
       FAIL() << "H3.6M not found at " << test::h36m_dataset_dir();
     }
   }
-  static MotionManifold* model_;
 };
-MotionManifold* RootTrajectoryTest::model_ = nullptr;
 
 TEST_F(RootTrajectoryTest, TheShippedModelHasATrajectoryNetwork) {
   EXPECT_TRUE(model_->has_trajectory());

@@ -25,6 +25,7 @@
 #include "take_assembly.h"
 #include "take_processor.h"
 #include "take_windows.h"
+#include "shipped_model_suite.h"
 #include "test_environment.h"
 
 namespace mm {
@@ -222,16 +223,8 @@ TEST(TakeAssembly, AWindowThatWouldLeaveAGapOrGoBackIsRefusedNamingItsStart) {
 
 // ---- the processor on the shipped model and real S5 takes ----
 
-class Takes : public ::testing::Test {
+class Takes : public test::ShippedModelSuite {
  protected:
-  static void SetUpTestSuite() {
-    if (!test::has_h36m()) return;
-    model_ = new MotionManifold(MotionManifold::load(default_model_dir()));
-  }
-  static void TearDownTestSuite() {
-    delete model_;
-    model_ = nullptr;
-  }
   // The first `frames` frames of an S5 file at 50 Hz.
   static MotionFrames s5(const std::string& name, int64_t frames) {
     return frames_of(read_motion_text((test::h36m_dataset_dir() / "S5" / name).string()), 0, frames);
@@ -258,9 +251,7 @@ class Takes : public ::testing::Test {
     for (size_t i = first; i < first + count; ++i) sum += v[i];
     return sum / count;
   }
-  static MotionManifold* model_;
 };
-MotionManifold* Takes::model_ = nullptr;
 
 TEST_F(Takes, FramesOutEqualFramesInAtTheTakesRate) {
   MM_REQUIRE_H36M();
