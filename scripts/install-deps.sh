@@ -5,7 +5,8 @@
 # libopenblas0-pthread beside it.
 #   bash scripts/install-deps.sh               # building and testing (.ci/run): everything below
 #   bash scripts/install-deps.sh --serving     # building and serving (scripts/serve.sh): the build's
-#                                              # packages and the README's curl, jq and python3
+#                                              # packages, the README's curl, jq and python3, and
+#                                              # what the Python client installs on
 #   bash scripts/install-deps.sh --build-only  # building only (the container image's build stage)
 # A container engine (podman) is not installed here: scripts/build-image.sh
 # installs it when an image is built.
@@ -24,13 +25,16 @@ packages=(
   libsqlite3-dev libpqxx-dev libspdlog-dev prometheus-cpp-dev
 )
 # What the README's service examples call beside the client: curl, jq, and
-# python3 for scripts/motion_json.py.
+# python3 for scripts/motion_json.py; and the Python client's one-line install
+# (client/python/README.md): grpcio, numpy, grpc-tools to generate its stubs,
+# venv and wheel to build it into a virtual environment without downloading.
 if [ "$mode" != "--build-only" ]; then
   packages+=(curl jq python3)
+  packages+=(python3-grpcio python3-grpc-tools python3-numpy python3-venv python3-setuptools python3-wheel)
 fi
 if [ "$mode" = full ]; then
   packages+=(
-    postgresql python3-grpcio python3-grpc-tools python3-yaml
+    postgresql python3-yaml
     libgtest-dev libgmock-dev libbenchmark-dev
   )
   # The fuzz targets (tests/fuzz) build with clang and its libFuzzer and

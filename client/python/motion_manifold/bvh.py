@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .motion import Motion, MODEL_RATE
+from .motion_text import write_file_atomically
 from .rotations import axis_rotation, expmap_to_matrix, matrix_to_euler_degrees, matrix_to_expmap
 
 CHANNEL_NAMES = ["Xposition", "Yposition", "Zposition", "Xrotation", "Yrotation", "Zrotation"]
@@ -321,5 +322,4 @@ def read_bvh(source, skeleton, at_model_rate=False):
 
 def write_bvh(motion, skeleton, path):
     """Writes the motion as BVH of the skeleton to `path` (a temporary file beside it, then renamed)."""
-    from .motion_text import write_file_atomically  # pylint: disable=import-outside-toplevel
     write_file_atomically(path, bvh_text(motion_to_bvh(skeleton, motion)))

@@ -4,7 +4,7 @@ command-line client read and write them. "nan" marks a missing value (for
 denoising takes)."""
 
 import os
-import tempfile
+import secrets
 
 import numpy as np
 
@@ -62,7 +62,10 @@ def write_file_atomically(path, text):
     """Writes `text` to a temporary file beside `path`, then renames it there,
     so that no reader sees a half-written file."""
     folder = os.path.dirname(os.path.abspath(path))
-    handle, temporary = tempfile.mkstemp(dir=folder, prefix=".tmp-" + os.path.basename(path))
+    temporary = os.path.join(folder, f".{os.path.basename(path)}.{os.getpid()}.{secrets.token_hex(4)}.tmp")
+    # Created as open() would create the file (0666 less the umask), not
+    # mkstemp's 0600, so that the renamed file has the usual permissions.
+    handle = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
     try:
         with os.fdopen(handle, "w", encoding="utf-8") as f:
             f.write(text)

@@ -408,6 +408,9 @@ class PythonClientTest(unittest.TestCase):
         np.testing.assert_array_equal(from_array.start_seconds, [0.0, 3.0, 6.0])
         bvh = os.path.join(self.scratch, "walk_take.bvh")
         self.client.write_motion(take, bvh)
+        umask = os.umask(0)
+        os.umask(umask)
+        self.assertEqual(os.stat(bvh).st_mode & 0o777, 0o666 & ~umask)  # as open() makes files, not 0600
         from_bvh = self.client.reconstruct_take(bvh, at_model_rate=True)
         self.assertEqual((from_bvh.motion.frame_rate, from_bvh.motion.frames, from_bvh.input_frames), (25.0, 300, 600))
         np.testing.assert_allclose(from_bvh.track.codes, from_array.codes, atol=1e-3)
