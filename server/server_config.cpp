@@ -43,8 +43,10 @@ int parse_server_config(int argc, char** argv, ServerConfig& config) {
   config.rest.web_root = MM_SOURCE_DIR "/web";
   std::string address = "0.0.0.0", token_file;
 
-  app.add_option("--model-store", config.core.model_store, "folder of model folders")
-      ->envname("MM_MODEL_STORE")->capture_default_str();
+  // The path defaults are this build's source and build tree: described,
+  // not shown, since --help is read on other machines too.
+  app.add_option("--model-store", config.core.model_store, "folder of model folders (default: models/ of the source tree)")
+      ->envname("MM_MODEL_STORE");
   app.add_option("--default-model", config.core.default_model,
                  "model to activate at start (default: h36m-dkgm-h100, or the store's only model)")
       ->envname("MM_DEFAULT_MODEL");
@@ -120,8 +122,9 @@ int parse_server_config(int argc, char** argv, ServerConfig& config) {
       ->envname("MM_REST_MAX_HEADER_BYTES")->capture_default_str()
       ->check(CLI::Range(size_t{1024}, size_t{1} << 20));
   auto* web_root = app.add_option("--web-root", config.rest.web_root,
-                 "folder of the web page served at / over REST (empty: no page)")
-      ->envname("MM_WEB_ROOT")->capture_default_str();
+                 "folder of the web page served at / over REST (default: web/ of the source tree, none when it is "
+                 "absent; empty: no page)")
+      ->envname("MM_WEB_ROOT");
   app.add_option("--grpc-threads", config.grpc.max_threads, "gRPC threads: calls served at once")
       ->envname("MM_GRPC_THREADS")->capture_default_str()->check(CLI::Range(2, 4096));
   // gRPC's limits on one connection (GrpcOptions says why each is set).
@@ -184,11 +187,19 @@ int parse_server_config(int argc, char** argv, ServerConfig& config) {
                  "folder every training dataset must lie under, whose motion files clients may also list and read "
                  "(ListClips, ReadClip)")
       ->envname("MM_DATA_ROOT");
-  app.add_option("--tool", config.jobs.tool_path, "the motion-manifold executable that trains")
-      ->envname("MM_TOOL")->capture_default_str();
+  app.add_option("--tool", config.jobs.tool_path,
+                 "the motion-manifold executable that trains (default: beside the server, else the build tree's)")
+      ->envname("MM_TOOL");
   app.add_option("--training-threads", config.jobs.training_threads,
                  "threads of a training job (it runs at the lowest CPU priority)")
       ->envname("MM_TRAINING_THREADS")->capture_default_str()->check(CLI::Range(1, 1024));
+  app.add_option_function<std::string>(
+         "--training-priority",
+         [&config](const std::string& priority) { config.jobs.training_at_lowest_priority = priority == "idle"; },
+         "CPU priority of a training job: idle (SCHED_IDLE and nice 19, so that it only takes a core serving leaves "
+         "idle, and waits while calls keep the cores busy) or normal (the server's own, for a replica that only "
+         "trains)")
+      ->envname("MM_TRAINING_PRIORITY")->default_str("idle")->check(CLI::IsMember({"idle", "normal"}));
   app.add_option("--checkpoint-every", config.jobs.checkpoint_every, "iterations between a job's checkpoints")
       ->envname("MM_CHECKPOINT_EVERY")->capture_default_str()->check(CLI::Range(1, 1000000));
   app.add_option("--max-queued-jobs", config.jobs.max_queued, "queued jobs beyond which submissions are refused")

@@ -69,10 +69,12 @@ ChildProcess::ChildProcess(const ChildOptions& options) {
     if (::getppid() != parent) ::_exit(127);
     // Lowest priority: SCHED_IDLE runs only when nothing else wants the
     // CPU; nice 19 is the fallback where SCHED_IDLE is not permitted.
-    struct sched_param param {};
-    param.sched_priority = 0;
-    ::sched_setscheduler(0, SCHED_IDLE, &param);
-    ::setpriority(PRIO_PROCESS, 0, 19);
+    if (options.lowest_priority) {
+      struct sched_param param {};
+      param.sched_priority = 0;
+      ::sched_setscheduler(0, SCHED_IDLE, &param);
+      ::setpriority(PRIO_PROCESS, 0, 19);
+    }
     // Signal masks and ignored signals survive exec: the tool must see
     // SIGTERM (to checkpoint and stop) whatever the server's threads block.
     sigset_t none;

@@ -2,7 +2,8 @@
 // a child of the server, at the lowest CPU priority and with its threads
 // bounded, so that training never starves serving on a small machine.
 //
-// The child runs with SCHED_IDLE and nice 19, OMP_NUM_THREADS set, stdin from
+// The child runs with SCHED_IDLE and nice 19 (unless told to keep the
+// server's priority, for a machine that does nothing but train), OMP_NUM_THREADS set, stdin from
 // /dev/null, stderr appended to a log file, and stdout either into the same
 // log or into a pipe read line by line. It is bound to the thread that
 // started it by PR_SET_PDEATHSIG (SIGKILL): if that thread or the whole
@@ -27,6 +28,7 @@ struct ChildOptions {
   int threads = 1;                // OMP_NUM_THREADS
   std::string log_path;           // stderr is appended here
   bool stdout_to_pipe = false;    // read_line(); otherwise stdout joins the log
+  bool lowest_priority = true;    // SCHED_IDLE and nice 19; false: the server's own
 };
 
 class ChildProcess {

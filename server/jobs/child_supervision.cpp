@@ -98,7 +98,8 @@ RunEnd TrainingJobs::State::run_child(JobInfo& job, const std::vector<std::strin
   {
     std::ofstream(log, std::ios::app) << "== " << what << " (" << std::fixed << unix_now() << ")\n";
   }
-  ChildProcess child({argv, config.training_threads, log.string(), /*stdout_to_pipe=*/true});
+  ChildProcess child({argv, config.training_threads, log.string(), /*stdout_to_pipe=*/true,
+                      config.training_at_lowest_priority});
   spdlog::info("training job {}: {} running as pid {}", job.id, what, child.pid());
 
   bool signalled = false, killed = false, timed_out = false;

@@ -53,6 +53,9 @@ struct JobsConfig {
   std::string model_store;  // where a finished job publishes its model
   std::string tool_path;    // the motion-manifold executable
   int training_threads = 1;  // OMP_NUM_THREADS of the child
+  // The child at SCHED_IDLE and nice 19, so that training only takes a core
+  // that serving leaves idle; false on a replica that only trains.
+  bool training_at_lowest_priority = true;
   int checkpoint_every = 100;  // iterations between checkpoints (resume point after a crash)
   int max_queued = 100;      // submissions beyond it: RESOURCE_EXHAUSTED
   int max_queued_per_submitter = 20;  // queued jobs of one submitter (a token, an address)

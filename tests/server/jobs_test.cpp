@@ -55,6 +55,20 @@ std::vector<pid_t> processes_mentioning(const std::string& text) {
   return found;
 }
 
+// A process's nice value and scheduling policy (/proc/<pid>/stat fields 19
+// and 41; policy 5 is SCHED_IDLE, 0 SCHED_OTHER).
+struct Scheduling {
+  std::string nice, policy;
+};
+Scheduling scheduling_of(pid_t pid) {
+  const std::string stat = read_text("/proc/" + std::to_string(pid) + "/stat");
+  std::istringstream fields(stat.substr(stat.rfind(')') + 2));  // from field 3, the state
+  std::vector<std::string> field(3);
+  for (std::string value; fields >> value;) field.push_back(value);
+  if (field.size() <= 41) return {};
+  return {field[19], field[41]};
+}
+
 bool eventually(const std::function<bool()>& condition, std::chrono::seconds timeout) {
   const auto deadline = std::chrono::steady_clock::now() + timeout;
   while (std::chrono::steady_clock::now() < deadline) {
@@ -671,13 +685,9 @@ TEST_F(TrainingJobsTest, CancelStopsQueuedAndRunningJobsAndRefusesFinishedOnes) 
   ASSERT_EQ(children.size(), 1u) << "the running job should have one child";
   // The child runs at the lowest priority (SCHED_IDLE, nice 19) with its
   // threads bounded.
-  const std::string stat = read_text("/proc/" + std::to_string(children[0]) + "/stat");
-  std::istringstream fields(stat.substr(stat.rfind(')') + 2));  // from field 3, the state
-  std::vector<std::string> field(3);
-  for (std::string value; fields >> value;) field.push_back(value);
-  ASSERT_GT(field.size(), 41u) << stat;
-  EXPECT_EQ(field[19], "19") << "nice";
-  EXPECT_EQ(field[41], "5") << "scheduling policy (5 = SCHED_IDLE)";
+  const Scheduling child = scheduling_of(children[0]);
+  EXPECT_EQ(child.nice, "19");
+  EXPECT_EQ(child.policy, "5") << "scheduling policy (5 = SCHED_IDLE)";
   std::string environment = read_text("/proc/" + std::to_string(children[0]) + "/environ");
   for (char& c : environment) c = c == '\0' ? '\n' : c;
   EXPECT_NE(("\n" + environment).find("\nOMP_NUM_THREADS=1\n"), std::string::npos);
@@ -703,6 +713,21 @@ TEST_F(TrainingJobsTest, CancelStopsQueuedAndRunningJobsAndRefusesFinishedOnes) 
   auto counts = jobs->counts();
   EXPECT_EQ(counts[JobState::kCancelled], 2);
   EXPECT_EQ(counts[JobState::kSucceeded], 1);
+}
+
+TEST_F(TrainingJobsTest, AJobAtNormalPriorityRunsAtTheServersOwn) {
+  config_.training_at_lowest_priority = false;
+  auto jobs = make_jobs();
+  const std::string running = jobs->submit(tiny_spec(1'000'000)).id;
+  ASSERT_TRUE(eventually([&] { return jobs->get(running).progress.iteration >= 1; }, 180s))
+      << job_state_name(jobs->get(running).state) << " " << jobs->get(running).error;
+  const auto children = processes_mentioning(job_dir(config_, running).string());
+  ASSERT_EQ(children.size(), 1u) << "the running job should have one child";
+  const Scheduling server = scheduling_of(getpid()), child = scheduling_of(children[0]);
+  EXPECT_EQ(child.nice, server.nice);
+  EXPECT_EQ(child.policy, server.policy);
+  EXPECT_NE(child.policy, "5") << "SCHED_IDLE";
+  EXPECT_EQ(job_state_name(jobs->cancel(running).state), std::string("cancelled"));
 }
 
 TEST_F(TrainingJobsTest, JobResumedAfterTheServerWasKilledEndsWithTheUninterruptedModel) {
