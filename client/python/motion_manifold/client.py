@@ -167,8 +167,9 @@ class Client:
 
     def skeleton(self, model=""):
         """The skeleton of `model`'s motions (empty: the active model), with the
-        layout and BVH layout files of it are read and written in; described
-        once per model version."""
+        layout and BVH layout files of it are read and written in: asked of
+        the server (DescribeModel) at each call, so that an activation in
+        between is seen, and parsed once per model version."""
         info = self.describe_model(model)
         key = (info.name, info.version)
         with self._lock:

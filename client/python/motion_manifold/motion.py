@@ -56,7 +56,7 @@ class Motion:
     def to_message(self):
         """The wire's Motion message."""
         return pb.Motion(frames=self.frames, columns=self.columns, frame_rate=self.frame_rate, layout=self.layout,
-                         values=self.values.ravel(), root=self.root)
+                         values=self.values.ravel().tolist(), root=self.root)
 
     @classmethod
     def from_message(cls, message):
@@ -121,7 +121,7 @@ def code_messages(codes, name="codes"):
         array = array[None, :]
     if array.ndim != 2:
         raise ValueError(f"{name}: an array of shape {array.shape}, expected N x latent (or one code, 1-D)")
-    return [pb.Code(values=row) for row in array]
+    return [pb.Code(values=row.tolist()) for row in array]
 
 
 def motion_or_code(value, name):
@@ -131,7 +131,7 @@ def motion_or_code(value, name):
     array = np.asarray(value, dtype=np.float32)
     if array.ndim != 1:
         raise ValueError(f"{name}: an array of shape {array.shape}, expected a Motion or one code (1-D)")
-    return pb.MotionOrCode(code=pb.Code(values=array))
+    return pb.MotionOrCode(code=pb.Code(values=array.tolist()))
 
 
 def motion_list(motions, name="motions"):

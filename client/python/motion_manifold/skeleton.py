@@ -75,6 +75,32 @@ class Skeleton:
         return cls(str(document.get("name", "")), names, parents, offsets, channels, end_site, unit, layout)
 
     @classmethod
+    def from_bvh(cls, bvh, name, millimetres_per_unit=1.0):
+        """The hierarchy of a parsed BVH file (bvh.parse_bvh) as a skeleton named
+        `name`, one joint per BVH joint or End Site in file order (End Sites
+        named "<parent>_End", "_2", ... where taken), offsets times
+        `millimetres_per_unit` (10 for a file in cm), its BVH layout that of
+        the file: the library's bvh_skeleton (model/format/bvh_file.h), the
+        rig a model trained on such files speaks."""
+        names = {j.name for j in bvh.joints if not j.end_site}
+        joint_names = []
+        for joint in bvh.joints:
+            if not joint.end_site:
+                joint_names.append(joint.name)
+                continue
+            base = bvh.joints[joint.parent].name + "_End"
+            candidate, n = base, 2
+            while candidate in names:
+                candidate, n = f"{base}_{n}", n + 1
+            names.add(candidate)
+            joint_names.append(candidate)
+        columns = 3 + 3 * len(joint_names)
+        return cls(name, joint_names, [j.parent for j in bvh.joints],
+                   np.array([j.offset for j in bvh.joints], dtype=np.float64) * millimetres_per_unit,
+                   [list(j.channels) for j in bvh.joints], [j.end_site for j in bvh.joints],
+                   float(millimetres_per_unit), f"expmap-{columns}")
+
+    @classmethod
     def from_model_info(cls, info):
         """The skeleton of a ModelInfo message (DescribeModel's reply)."""
         return cls.from_json(info.skeleton_json, info.layout, f"model {info.name}: skeleton_json")
