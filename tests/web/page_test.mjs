@@ -424,8 +424,7 @@ try {
   await page.click('#job-submit');
   await page.waitForSelector('#jobs tr[data-job]', { timeout: 60000 });
   const ownJobId = await page.$eval('#jobs tr[data-job]', (row) => row.dataset.job);
-  // The job's children run at the lowest priority: on a busy machine they
-  // wait for an idle core, so the wait is on the server, and long.
+  // The harness runs jobs at normal priority; the wait is the server's.
   let ownJob;
   for (const deadline = Date.now() + 400000; Date.now() < deadline;) {
     ownJob = await rigServer.call('GET', `v1/jobs/${ownJobId}`);

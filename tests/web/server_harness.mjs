@@ -106,7 +106,11 @@ export async function startServer({ models = {}, defaultModel = 'h36m-dkgm-cpu' 
   const args = ['--grpc-port', '0', '--rest-port', '0', '--address', '127.0.0.1', '--ready-file', ready,
                 '--model-store', store, '--default-model', defaultModel, '--auth-token', TOKEN, '--public-clips',
                 '--state-dir', path.join(scratch, 'state'), '--data-root', smallDataRoot(scratch),
-                '--web-root', path.join(source, 'web'), '--training-threads', '1'];
+                '--web-root', path.join(source, 'web'), '--training-threads', '1',
+                // At the default (idle) priority a job waits for a core that no
+                // other test keeps busy: under ctest -j2 the page's one job
+                // waited over 500 s.
+                '--training-priority', 'normal'];
   const out = fs.openSync(log, 'a');
   const child = spawn(environment('MM_SERVER_BINARY'), args, { stdio: ['ignore', out, out] });
   const { rest_port: port } = await waitForFile(ready, child, log, 120);
