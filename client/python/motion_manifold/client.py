@@ -14,7 +14,6 @@ import threading
 from dataclasses import dataclass
 
 import grpc
-import numpy as np
 
 from ._wire import manifold_pb2 as pb
 from ._wire import manifold_pb2_grpc as pb_grpc
