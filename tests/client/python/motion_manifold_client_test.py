@@ -22,6 +22,7 @@ without it the test fails, or with MM_ALLOW_MISSING_H36M=1 exits 77 (skipped).
 import argparse
 import json
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -179,12 +180,6 @@ def bvh_world_positions(bvh, frame):
             positions.append(positions[joint.parent] + rotations[joint.parent] @ local_position)
             rotations.append(rotations[joint.parent] @ local)
     return np.array(positions)
-
-
-class TakeTracks:  # pylint: disable=too-few-public-methods
-    """The whole file's code track, once a test has it, for another to compare with."""
-
-    whole_file = None
 
 
 class PythonClientTest(unittest.TestCase):
@@ -433,15 +428,10 @@ class PythonClientTest(unittest.TestCase):
         windows = int(np.ceil((take.seconds - 6) / 3)) + 1  # every 3 s, the last aligned to the end
         self.assertEqual(track.codes.shape, (windows, 64))
         np.testing.assert_array_equal(track.start_seconds[:-1], np.arange(windows - 1) * 3.0)
-        TakeTracks.whole_file = track
-
-        # An edited track: its first four windows (0 to 15 s) as one motion at 120 Hz.
-        first = self.mm.CodeTrack(track.codes[:4], track.start_seconds[:4], track.start_frames[:4])
-        motion = self.client.decode_track(first, frame_rate=120)
-        # From 0 to the last window's last frame, 9 + 5.96 s.
-        self.assertEqual((motion.motion.frame_rate, motion.motion.frames), (120.0, int((9 + 149 / 25) * 120) + 1))
-        self.assertEqual(motion.motion.values.shape[1], 99)
-        self.assertEqual(motion.error_mm.size, 0)
+        # Its first window is the file's first 6 s: the code Encode gives them.
+        np.testing.assert_allclose(track.codes[0], self.client.encode(mm.Motion(take.values[:300], 50)).codes[0],
+                                   atol=1e-5)
+        # (A whole track decoded at 120 Hz: the README's example, below.)
 
     def test_a_take_from_an_array_comes_back_at_its_rate_and_length_with_its_root_and_errors(self):
         np, mm = self.np, self.mm
@@ -454,8 +444,14 @@ class PythonClientTest(unittest.TestCase):
         self.assertAlmostEqual(float(result.error_mm.mean()), result.mean_error_mm, delta=0.01)
         self.assertAlmostEqual(float(result.error_mm.max()), result.max_error_mm, delta=0.01)
         np.testing.assert_array_equal(result.track.start_seconds, [0.0, 3.0, 6.0])
-        whole_file = self.client.encode_take(self.walk) if TakeTracks.whole_file is None else TakeTracks.whole_file
-        np.testing.assert_allclose(result.track.codes[:2], whole_file.codes[:2], atol=1e-5)  # the same windows
+
+        # An edited track: its first two windows (0 to 9 s) as one motion at 120 Hz.
+        first = mm.CodeTrack(result.track.codes[:2], result.track.start_seconds[:2], result.track.start_frames[:2])
+        motion = self.client.decode_track(first, frame_rate=120)
+        # From 0 to the last window's last frame, 3 + 5.96 s.
+        self.assertEqual((motion.motion.frame_rate, motion.motion.frames), (120.0, int((3 + 149 / 25) * 120) + 1))
+        self.assertEqual(motion.motion.values.shape[1], 99)
+        self.assertEqual(motion.error_mm.size, 0)
 
         # The same frames as a BVH file at 50 Hz: nearly the same codes.
         bvh = os.path.join(self.scratch, "walk_take.bvh")
@@ -508,6 +504,30 @@ class PythonClientTest(unittest.TestCase):
         self.assertEqual(self.client.encode(clip).codes.shape, (1, 64))  # still serving
         with self.assertRaises(TypeError):
             self.client.encode(clip.values)  # an array without its rate
+
+    # --- the README's example
+
+    def test_the_readme_example_runs_and_prints_what_the_readme_shows(self):
+        with open(os.path.join(ARGS.package, "README.md"), encoding="utf-8") as f:
+            readme = f.read()
+        example = re.search(r"## Example.*?```python\n(.*?)```.*?```\n(.*?)```", readme, re.S)
+        self.assertIsNotNone(example, "client/python/README.md has no example with its output")
+        code, shown = example.group(1), example.group(2)
+        self.assertIn('"localhost:50051"', code)
+        os.makedirs(os.path.join(self.scratch, "data", "h3.6m"))
+        os.symlink(h36m_dataset_dir(), os.path.join(self.scratch, "data", "h3.6m", "dataset"))  # the example's paths
+        run = subprocess.run([sys.executable, "-c", code.replace("localhost:50051", self.server.grpc_address)],
+                             cwd=self.scratch, capture_output=True, text=True, timeout=300, check=False)
+        self.assertEqual(run.returncode, 0, run.stderr)
+        printed, expected = run.stdout.splitlines(), shown.strip().splitlines()
+        self.assertEqual(len(printed), len(expected), run.stdout)
+        number = r"-?\d+\.?\d*"
+        for got, want in zip(printed, expected):
+            # The words and shapes as shown; measured values within 0.2 (a model's arithmetic may round apart).
+            self.assertEqual(re.sub(number, "#", got), re.sub(number, "#", want), run.stdout)
+            for a, b in zip(re.findall(number, got), re.findall(number, want)):
+                self.assertAlmostEqual(float(a), float(b), delta=0.2, msg=f"{got!r} against {want!r}")
+        self.assertTrue(os.path.exists(os.path.join(self.scratch, "walk_120.bvh")))
 
     # --- TLS
 
