@@ -23,6 +23,7 @@ packages=(
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler
   libcpp-httplib-dev nlohmann-json3-dev libcli11-dev zlib1g-dev
   libsqlite3-dev libpqxx-dev libspdlog-dev prometheus-cpp-dev
+  libassimp-dev libtinygltf-dev
 )
 # What the README's service examples call beside the client: curl, jq, and
 # python3 for scripts/motion_json.py; and the Python client's one-line install
