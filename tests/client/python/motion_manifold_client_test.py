@@ -13,7 +13,7 @@ takes from arrays and files, BVH both ways against the server's own
 conversion, the token, refusals carrying their field), one with TLS.
 
     /usr/bin/python3 tests/client/python/motion_manifold_client_test.py --server build/server/motion-manifold-server \
-        --package client/python --proto-dir proto --models models
+        --package client/python --proto-dir proto --models models --shared-dir ../shared
 
 The real H3.6M file S5/walking_1.txt (under $MM_DATA_DIR) is required;
 without it the test fails, or with MM_ALLOW_MISSING_H36M=1 exits 77 (skipped).
@@ -56,10 +56,16 @@ def install_and_rerun():
     venv = os.path.join(work, "venv")
     started = time.monotonic()
     environment = dict(os.environ, MM_PROTO_DIR=os.path.abspath(ARGS.proto_dir))
-    # README.md's line, with this folder's paths.
-    install = (f"/usr/bin/python3 -m venv --system-site-packages {venv} && "
-               f"{venv}/bin/pip install --no-build-isolation --no-deps --no-index --quiet {source}")
-    subprocess.run(install, shell=True, check=True, env=environment)
+    # The package README's line, the one README.md gives too, with this folder's paths.
+    with open(os.path.join(ARGS.package, "README.md"), encoding="utf-8") as f:
+        line = re.search(r"## Install.*?```sh\n(.*?)\n```", f.read(), re.S).group(1)
+    with open(os.path.join(ARGS.package, "..", "..", "README.md"), encoding="utf-8") as f:
+        if line not in f.read():
+            raise SystemExit(f"README.md does not install the Python client with client/python/README.md's line: {line}")
+    install = line.replace("~/.venvs/motion-manifold", venv).replace("./client/python", source)
+    if install == line:
+        raise SystemExit(f"client/python/README.md's install line changed its paths: {line}")
+    subprocess.run(install + " --quiet", shell=True, check=True, env=environment)
     print(f"installed in {time.monotonic() - started:.1f} s", flush=True)
     shutil.rmtree(source)
     status = subprocess.run([os.path.join(venv, "bin", "python"), os.path.abspath(__file__), "--installed-in", venv]
