@@ -141,8 +141,7 @@ void add_evaluate_command(CLI::App& app, Action& action) {
       "dataset's training subjects) and in this project's own, plus mm and radians, with their spread over "
       "several clip sets, and the denoising experiment. JSON on stdout, a summary table on stderr.");
   o->model_dir = default_model_dir();
-  command->add_option("--model", o->model_dir, "model folder (default: $MM_MODEL_DIR or the shipped model)")
-      ->capture_default_str();
+  command->add_option("--model", o->model_dir, "model folder (default: $MM_MODEL_DIR or the shipped model)");
   command->add_option("--dataset", o->dataset, "prepared dataset file; its test subjects are used")->required();
   command->add_option("--clips", o->evaluation.clips, "number of random test clips")
       ->check(at_least(1))

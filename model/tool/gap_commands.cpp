@@ -64,7 +64,7 @@ void add_gap_commands(CLI::App& app, Action& action) {
       "--joints count at seeded places, filled by hold, slerp, cubic interpolation, the manifold (take denoise) as "
       "it is, and the manifold matched to the gap's borders; MPJPE, joint-angle error, border jump, speed ratio and "
       "foot skating on the gap frames at 25 Hz, overall and per action. Prints Markdown tables; --out writes JSON.");
-  command->add_option("--model", options->model_dir, "model folder")->capture_default_str();
+  command->add_option("--model", options->model_dir, "model folder (default: $MM_MODEL_DIR or the shipped model)");
   command->add_option("--input", options->inputs, "takes (motion text or BVH of the model's skeleton)")->required();
   add_rate_option(command, options->rates, kDataSetRate, "the text inputs");
   command->add_option("--decoder", options->decoder, "rotation or velocity")->check(CLI::IsMember({"rotation", "velocity"}));

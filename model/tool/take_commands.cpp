@@ -35,8 +35,7 @@ struct TakeArguments {
   std::string precision = "fp32";
 
   void add_to(CLI::App* command, bool decodes) {
-    command->add_option("--model", model_dir, "model folder (default: $MM_MODEL_DIR or the shipped model)")
-        ->capture_default_str();
+    command->add_option("--model", model_dir, "model folder (default: $MM_MODEL_DIR or the shipped model)");
     add_precision_option(command, precision);
     if (!decodes) return;
     command->add_option("--decoder", decoder, "rotation or velocity (default: rotation if the model has it)")

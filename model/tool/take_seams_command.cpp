@@ -136,7 +136,7 @@ void add_take_seams_command(CLI::App& app, Action& action) {
       "the jump (mm per frame) and jerk at the seams against inside the windows and against the input, and the "
       "take's error beside its windows' as single clips. Prints a Markdown table; --out writes JSON, --svg the first "
       "take's per-frame error over time.");
-  command->add_option("--model", options->model_dir, "model folder")->capture_default_str();
+  command->add_option("--model", options->model_dir, "model folder (default: $MM_MODEL_DIR or the shipped model)");
   command->add_option("--input", options->inputs, "takes (motion text or BVH of the model's skeleton)")->required();
   add_rate_option(command, options->rates, kDataSetRate, "the text inputs");
   command->add_option("--hop", options->hop_seconds, "seconds between window starts")->capture_default_str();

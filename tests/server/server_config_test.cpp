@@ -141,6 +141,19 @@ TEST(ServerConfig, AnUnknownPrecisionStopsTheServerNamingIt) {
   }
 }
 
+// --help is read on machines other than the build's: the defaults that are
+// this build's source and build tree (model store, web root, tool) are
+// described, not shown as absolute paths.
+TEST(ServerConfig, HelpShowsNoPathOfTheBuildMachine) {
+  const CommandRun run = run_command(MM_SERVER_BINARY, "--help");
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  // The options' part: the Usage line names the binary as it was called.
+  const std::string options = run.out.substr(std::min(run.out.find("Options:"), run.out.size()));
+  EXPECT_EQ(options.find(MM_SOURCE_DIR), std::string::npos) << run.out;
+  EXPECT_NE(run.out.find("models/ of the source tree"), std::string::npos) << run.out;
+  EXPECT_NE(run.out.find("--tool"), std::string::npos) << run.out;
+}
+
 // A second server given a port the first one serves on stops with an error
 // naming it, instead of sharing the port (SO_REUSEPORT) and half the
 // connections with the first.

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdio>
 #include <filesystem>
@@ -253,6 +254,22 @@ TEST(Tool, HelpCreditsThePapersAuthors) {
 // decode writes 25 Hz; encode reads it back with --rate 25, and the code it
 // finds is near the one decoded: much nearer than another walk's code.
 TEST(Tool, DecodedMotionEncodesBackToANearbyCode) {
+// --help is read on machines other than the build's: a default that is this
+// build's absolute path (the shipped model's folder) is described instead.
+TEST(Tool, HelpShowsNoPathOfTheBuildMachine) {
+  const std::string source_dir = std::filesystem::path(MM_SHIPPED_MODEL).parent_path().parent_path().string();
+  for (const std::string command :
+       {"encode", "decode", "sample", "interpolate", "analogy", "denoise", "evaluate", "take encode",
+        "take reconstruct", "take denoise", "take decode", "take resample", "take-seams", "evaluate-gaps"}) {
+    const auto r = run_tool(command + " --help");
+    EXPECT_EQ(r.exit_code, 0) << command << ": " << r.output;
+    // The options' part: the Usage line names the binary as it was called.
+    const std::string options = r.output.substr(std::min(r.output.find("Options:"), r.output.size()));
+    EXPECT_EQ(options.find(source_dir), std::string::npos) << command << ": " << r.output;
+    EXPECT_NE(r.output.find("--model"), std::string::npos) << command << ": " << r.output;
+  }
+}
+
   MM_REQUIRE_H36M();
   test::ScratchDir dir;
   auto r = run_tool_split("encode " + kModel + " --input " + s5("walking_1.txt"));
