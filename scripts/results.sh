@@ -29,9 +29,9 @@ mkdir -p "$out" "$work"
 
 # Sec. 5.3: interpolation from sitting to walking (S5).
 "$tool" interpolate --model "$model" --from "$s5/sitting_1.txt" --to "$s5/walking_1.txt" --steps 5 \
-  --start-from 200 --out-dir "$work/interpolation"
+  --start-from 400 --out-dir "$work/interpolation"
 "$tool" render --input "$s5/sitting_1.txt" $(for i in 0 1 2 3 4; do echo --input "$work/interpolation/interpolation_00$i.txt"; done) \
-  --input "$s5/walking_1.txt" --rate 50,25,25,25,25,25,50 --start 200,0,0,0,0,0,0 --length 150 \
+  --input "$s5/walking_1.txt" --rate 50,25,25,25,25,25,50 --start 400,0,0,0,0,0,0 --length 150 \
   --label "S5 sitting" --label "t = 0" --label "t = 0.25" --label "t = 0.5" --label "t = 0.75" --label "t = 1" \
   --label "S5 walking" --title "Interpolation sitting to walking (linear in z)" --out "$out/interpolation.svg"
 
@@ -48,9 +48,9 @@ mkdir -p "$out" "$work"
 
 # Sec. 5.5: analogy a - b + c.
 "$tool" analogy --model "$model" --a "$s5/walkingdog_1.txt" --b "$s5/walking_1.txt" --c "$s5/sitting_1.txt" \
-  --start-c 200 --out "$work/analogy.txt"
+  --start-c 400 --out "$work/analogy.txt"
 "$tool" render --input "$s5/walkingdog_1.txt" --input "$s5/walking_1.txt" --input "$s5/sitting_1.txt" \
-  --input "$work/analogy.txt" --rate 50,50,50,25 --start 0,0,200,0 --length 150 \
+  --input "$work/analogy.txt" --rate 50,50,50,25 --start 0,0,400,0 --length 150 \
   --label "a: walking dog" --label "b: walking" --label "c: sitting" --label "a - b + c" \
   --title "Analogy: walking dog - walking + sitting (S5)" --out "$out/analogy.svg"
 

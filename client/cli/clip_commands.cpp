@@ -156,8 +156,8 @@ void add_clip_commands(CLI::App& app, const ClientSettings& settings, Action& ac
       "read", "One window of a data-root file (the model's 150 frames at 25 Hz from --start), as a motion file");
   read->add_option("path", o->path, "the file, relative to the data root as `clips list` names it")->required();
   read->add_option("--start", o->start,
-                   "the window's first frame, in the file's own frames: a row of H3.6M text (50 Hz), not a 25 Hz "
-                   "frame as encode's --start")
+                   "the window's first frame, in the file's own frames (a row of H3.6M text, 50 Hz; a BVH's "
+                   "frame), as encode's --start")
       ->capture_default_str();
   read->add_option("--model", o->model, "model whose clip length and skeleton the window takes (default: the active one)");
   read->add_option("--out", o->out, "motion file to write the window to (.txt, .bvh, - for stdout)");

@@ -99,15 +99,15 @@ void add_encode(CLI::App& app, const ClientSettings& settings, Action& action) {
   };
   auto o = std::make_shared<Options>();
   auto* command = app.add_subcommand(
-      "encode", std::string("Print the code of a motion: {\"code\": [...], ...} on stdout, a code file for decode, "
-                            "interpolate and analogy"));
+      "encode", std::string("Print the code of a motion: {\"codes\": [[...]], \"model\": ...} on stdout, a code "
+                            "file for decode, interpolate and analogy (and a REST Decode body as it is)"));
   command->footer(kMotionInputNote);  // once per command, in its own --help
   o->model.add_to(command, false);
   command->add_option("--input", o->input.path, "motion file (.txt or .bvh; - for standard input)")->required();
   add_rate(command, {&o->input});
   command->add_option("--start", o->input.start,
-                      "first frame of the clip, in 25 Hz frames (row 2 x start of a 50 Hz file), not the file's "
-                      "rows as clips read's --start");
+                      "first frame of the clip, in the file's own frames (a text file's rows, a BVH's frames), as "
+                      "clips read's --start");
   command->callback([o, &settings, &action] {
     action = [o, &settings] {
       const auto server = connect(settings.connection);
@@ -119,10 +119,11 @@ void add_encode(CLI::App& app, const ClientSettings& settings, Action& action) {
       if (settings.json) {
         print_json(to_json(reply));
       } else {
+        // One code file for the client, the tool and REST: a Decode body,
+        // with the model that made the code (REST decodes with it).
         const auto& code = reply.codes(0).values();
-        const nlohmann::json result = {{"code", std::vector<float>(code.begin(), code.end())},
-                                       {"model", reply.answered_by().model()},
-                                       {"version", reply.answered_by().version()}};
+        const nlohmann::json result = {{"codes", {std::vector<float>(code.begin(), code.end())}},
+                                       {"model", reply.answered_by().model()}};
         std::printf("%s\n", result.dump().c_str());
       }
       return kExitSuccess;
@@ -217,8 +218,8 @@ void add_interpolate(CLI::App& app, const ClientSettings& settings, Action& acti
   command->add_option("--from", o->from.path, "first motion (.txt, .bvh) or code (.json)")->required();
   command->add_option("--to", o->to.path, "last motion (.txt, .bvh) or code (.json)")->required();
   add_rate(command, {&o->from, &o->to});
-  command->add_option("--start-from", o->from.start, "first 25 Hz frame of the clip in --from");
-  command->add_option("--start-to", o->to.start, "first 25 Hz frame of the clip in --to");
+  command->add_option("--start-from", o->from.start, "first frame of the clip in --from, in its own frames (rows)");
+  command->add_option("--start-to", o->to.start, "first frame of the clip in --to, in its own frames (rows)");
   command->add_option("--steps", o->steps, "number of motions, both ends included")->capture_default_str();
   command->add_option("--method", o->method, "linear or spherical")->capture_default_str();
   command->add_flag_callback("--spherical", [o] { o->method = "spherical"; }, "same as --method spherical");
@@ -258,9 +259,9 @@ void add_analogy(CLI::App& app, const ClientSettings& settings, Action& action) 
   command->add_option("--b", o->b.path, "motion or code without it (subtracted)")->required();
   command->add_option("--c", o->c.path, "motion or code to give it to")->required();
   add_rate(command, {&o->a, &o->b, &o->c});
-  command->add_option("--start-a", o->a.start, "first 25 Hz frame of the clip in a");
-  command->add_option("--start-b", o->b.start, "first 25 Hz frame of the clip in b");
-  command->add_option("--start-c", o->c.start, "first 25 Hz frame of the clip in c");
+  command->add_option("--start-a", o->a.start, "first frame of the clip in a, in its own frames (rows)");
+  command->add_option("--start-b", o->b.start, "first frame of the clip in b, in its own frames (rows)");
+  command->add_option("--start-c", o->c.start, "first frame of the clip in c, in its own frames (rows)");
   command->add_option("--out", o->out, "motion file to write (.txt or .bvh, 25 Hz; - for standard output)");
   command->callback([o, &settings, &action] {
     action = [o, &settings] {
@@ -297,8 +298,8 @@ void add_denoise(CLI::App& app, const ClientSettings& settings, Action& action) 
   command->add_option("--input", o->input.path, "motion file (.txt or .bvh; - for standard input)")->required();
   add_rate(command, {&o->input});
   command->add_option("--start", o->input.start,
-                      "first frame of the clip, in 25 Hz frames (row 2 x start of a 50 Hz file), not the file's "
-                      "rows as clips read's --start");
+                      "first frame of the clip, in the file's own frames (a text file's rows, a BVH's frames), as "
+                      "clips read's --start");
   command->add_flag("--zeros-are-missing", o->zeros_are_missing, "a joint-angle value of exactly 0 is missing");
   command->add_flag("--means-are-missing", o->means_are_missing, "a value equal to its training mean is missing");
   command->add_option("--iterations", o->iterations, "with missing values: rounds of projecting (0: four)");

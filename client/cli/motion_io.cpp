@@ -52,7 +52,8 @@ const char* const kMotionInputNote =
     "Input motions are exponential-map text files (.txt) of the model's layout (H3.6M's 99 values a line), at "
     "50 Hz (the H3.6M data set; the default) or at 25 Hz (what this client writes): give --rate 25 for the latter. "
     "At 50 Hz every second frame is kept. A clip of the model's length (150 frames, 6 s at 25 Hz) is taken from "
-    "--start (in 25 Hz frames). BVH files (.bvh) of the model's skeleton (H3.6M's, or the rig a model learnt from "
+    "--start, counted in the file's own frames (a text file's rows, a BVH's frames), as clips read's --start and "
+    "the service count them. BVH files (.bvh) of the model's skeleton (H3.6M's, or the rig a model learnt from "
     "BVH files) are read at their own frame time and resampled to 25 Hz. Output motions are text, or BVH of the "
     "model's skeleton for a .bvh name, at 25 Hz.";
 
@@ -62,33 +63,49 @@ v1::Motion read_motion(const MotionSource& source, ModelRigs& rigs, const std::s
   if (!bvh && source.rate != 25 && source.rate != 50) {
     throw InputError(name + ": rate " + std::to_string(source.rate) + " Hz is not supported, expected 25 or 50");
   }
-  if (source.start < 0) throw InputError(name + ": start frame must be >= 0, found " + std::to_string(source.start));
+  if (source.start < 0) throw InputError(name + ": --start must be >= 0, found " + std::to_string(source.start));
   const std::string text = read_all(source.path);
   // A BVH file states its own frame time and comes back at 25 Hz. Its syntax
   // is checked before the server is asked for the model's skeleton.
   std::optional<BvhFile> parsed;
   if (bvh) parsed = parse_bvh_text(text, name);
   const ModelRig& rig = rigs.of(model);
-  const MotionFrames file = bvh ? skeleton_motion_from_bvh(rig.skeleton, *parsed, name)
-                                : parse_motion_text_buffer(text.data(), text.size(), name, rig.columns);
-  // The server would keep every second frame of a 50 Hz motion too; doing it
-  // here lets --start count 25 Hz frames, as in the tool.
-  const MotionFrames motion = !bvh && source.rate == 50 ? split_phases(file, 2)[0] : file;
-  const int64_t needed = static_cast<int64_t>(source.start) + rig.frames;
-  if (motion.frame_count() < needed) {
-    throw InputError(name + ": too short: " + std::to_string(motion.frame_count()) + " frames at 25 Hz, need " +
-                     std::to_string(needed) + " (" + std::to_string(rig.frames) + " frames from frame " +
-                     std::to_string(source.start) + ")" +
-                     (!bvh && source.rate == 50 && file.frame_count() >= needed ? "; if the file is at 25 Hz, give --rate 25"
-                                                                        : ""));
+  // --start counts the file's own frames (a text file's rows, a BVH's
+  // frames), as ReadClip's start and a take's start_frame do.
+  MotionFrames window;
+  if (bvh) {
+    if (source.start >= parsed->frame_count()) {
+      throw InputError(name + ": --start " + std::to_string(source.start) + " is past the file's last frame (it has " +
+                       std::to_string(parsed->frame_count()) + " frames)");
+    }
+    window = skeleton_motion_window_from_bvh(rig.skeleton, *parsed, name, source.start, rig.frames);
+  } else {
+    // The server would keep every second frame of a 50 Hz motion too; doing
+    // it here sends only the clip.
+    const MotionFrames file = parse_motion_text_buffer(text.data(), text.size(), name, rig.columns);
+    const int64_t step = source.rate / kModelRate;
+    const int64_t needed = static_cast<int64_t>(source.start) + (rig.frames - 1) * step + 1;
+    if (file.frame_count() < needed) {
+      throw InputError(name + ": too short: " + std::to_string(file.frame_count()) + " frames at " +
+                       std::to_string(source.rate) + " Hz, need " + std::to_string(needed) + " (the model's " +
+                       std::to_string(rig.frames) + " frames at 25 Hz from frame " + std::to_string(source.start) +
+                       ")" +
+                       (source.rate == 50 && file.frame_count() >= source.start + rig.frames
+                            ? "; if the file is at 25 Hz, give --rate 25"
+                            : ""));
+    }
+    window.columns = file.columns;
+    for (int64_t f = 0; f < rig.frames; ++f) {
+      const float* row = file.frame(source.start + f * step);
+      window.values.insert(window.values.end(), row, row + file.columns);
+    }
   }
   v1::Motion message;
   message.set_frames(rig.frames);
-  message.set_columns(motion.columns);
+  message.set_columns(window.columns);
   message.set_frame_rate(kModelRate);
   message.set_layout(rig.layout);
-  const float* first = motion.frame(source.start);
-  message.mutable_values()->Add(first, first + static_cast<size_t>(rig.frames) * motion.columns);
+  message.mutable_values()->Add(window.values.begin(), window.values.end());
   return message;
 }
 
@@ -103,13 +120,21 @@ v1::Code read_code(const std::string& path) {
   const std::string name = display_name(path);
   const auto parsed = nlohmann::json::parse(read_all(path), nullptr, false);
   if (parsed.is_discarded()) throw InputError(name + ": not JSON");
+  // {"codes": [[...]]} as encode prints it (the tool's and REST's shape
+  // too), or the older {"code": [...]}, or a bare array.
   const nlohmann::json* values = &parsed;
-  if (parsed.is_object() && parsed.contains("code")) values = &parsed["code"];
-  if (parsed.is_object() && parsed.contains("codes") && parsed["codes"].is_array() && !parsed["codes"].empty()) {
-    values = &parsed["codes"][0];
+  if (parsed.is_object() && parsed.contains("codes")) {
+    const auto& codes = parsed["codes"];
+    if (!codes.is_array() || codes.size() != 1) {
+      throw InputError(name + ": codes: expected an array of one code" +
+                       (codes.is_array() ? ", found " + std::to_string(codes.size()) + " codes" : ""));
+    }
+    values = &codes[0];
+  } else if (parsed.is_object() && parsed.contains("code")) {
+    values = &parsed["code"];
   }
   if (!values->is_array() || values->empty()) {
-    throw InputError(name + ": expected {\"code\": [numbers]} or an array of numbers");
+    throw InputError(name + ": expected {\"codes\": [[numbers]]} or an array of numbers");
   }
   v1::Code code;
   for (size_t i = 0; i < values->size(); ++i) {

@@ -23,7 +23,8 @@ namespace v1 = motionmanifold::v1;
 constexpr int kModelRate = 25;  // Hz of the models' clips and of every motion written
 
 // Which motion input the user gave: a file, its rate (25 or 50 Hz) and the
-// first 25 Hz frame of the clip.
+// clip's first frame in the file's own frames (a text file's row, a BVH's
+// frame).
 struct MotionSource {
   std::string path;
   int rate = 50;
@@ -32,8 +33,9 @@ struct MotionSource {
 
 // Reads `source` as a motion of `model` ("" the active one; its rig asked of
 // `rigs` once the file has been read and, for BVH, parsed), brings it to
-// 25 Hz (every second frame of text at 50 Hz) and returns the model's clip
-// length of frames from `start` as a Motion message (25 Hz, the model's
+// 25 Hz (every second row of text at 50 Hz from row `start`; a BVH resampled
+// from its frame `start`) and returns the model's clip length of frames as a
+// Motion message (25 Hz, the model's
 // layout). Throws InputError naming the file when it cannot be read, is
 // malformed or too short (a BVH of another skeleton names what differs);
 // ServerError when the model cannot be described.

@@ -134,8 +134,10 @@ double mean_joint_error_mm(const MotionManifold& model, const MotionFrames& a, c
 // manifold, and would overflow the decoder's arithmetic long before it.
 constexpr double kMaxCodeValue = 1e3;
 
-// A code file's text: {"code": [z...]}, as encode prints, or a bare array of
-// numbers. `name` is the file's name in messages.
+// A code file's text: {"codes": [[z...]]} with one code, as encode prints it
+// and REST's Encode answers it (a REST Decode body as it is), or the older
+// {"code": [z...]}, or a bare array of numbers. `name` is the file's name in
+// messages.
 at::Tensor parse_code(const std::string& text, const std::string& name, int latent) {
   nlohmann::json document;
   try {
@@ -144,7 +146,18 @@ at::Tensor parse_code(const std::string& text, const std::string& name, int late
     // Parse errors, and numbers too large for a double (1e999).
     throw InputError(name + ": not a valid code file (JSON): " + json_error_reason(e.what()));
   }
-  const nlohmann::json& values = document.is_object() && document.contains("code") ? document["code"] : document;
+  const nlohmann::json* found = &document;
+  if (document.is_object() && document.contains("codes")) {
+    const auto& codes = document["codes"];
+    if (!codes.is_array() || codes.size() != 1) {
+      throw InputError(name + ": codes: expected an array of one code (" + std::to_string(latent) + " numbers)" +
+                       (codes.is_array() ? ", found " + std::to_string(codes.size()) + " codes" : ""));
+    }
+    found = &codes[0];
+  } else if (document.is_object() && document.contains("code")) {
+    found = &document["code"];
+  }
+  const nlohmann::json& values = *found;
   if (!values.is_array() || values.size() != static_cast<size_t>(latent)) {
     throw InputError(name + ": code: expected an array of " + std::to_string(latent) + " numbers" +
                      (values.is_array() ? ", found " + std::to_string(values.size()) : ", found " +
@@ -264,8 +277,8 @@ void add_interpolate(CLI::App& app, Action& action) {
       ->check(at_least(2))
       ->capture_default_str();
   command->add_flag("--spherical", o->spherical, "spherical instead of linear interpolation of the codes");
-  command->add_option("--start-from", from.start, "first 25 Hz frame of the window in --from");
-  command->add_option("--start-to", to.start, "first 25 Hz frame of the window in --to");
+  command->add_option("--start-from", from.start, "first frame of the window in --from, in its own frames (rows)");
+  command->add_option("--start-to", to.start, "first frame of the window in --to, in its own frames (rows)");
   command->add_option("--out-dir", o->out_dir, "folder for the motion files")->required();
   command->add_option("--format", o->format, "file format of the motions: txt (H3.6M text) or bvh")
       ->check(CLI::IsMember({"txt", "bvh"}))
@@ -298,9 +311,9 @@ void add_analogy(CLI::App& app, Action& action) {
   command->add_option("--b", m[1].path, "motion b, subtracted (- for standard input)")->required();
   command->add_option("--c", m[2].path, "motion c (- for standard input)")->required();
   o->inputs.add_rate_to(command, "a, b and c (one value, or three: a,b,c)");
-  command->add_option("--start-a", m[0].start, "first 25 Hz frame of the window in a");
-  command->add_option("--start-b", m[1].start, "first 25 Hz frame of the window in b");
-  command->add_option("--start-c", m[2].start, "first 25 Hz frame of the window in c");
+  command->add_option("--start-a", m[0].start, "first frame of the window in a, in its own frames (rows)");
+  command->add_option("--start-b", m[1].start, "first frame of the window in b, in its own frames (rows)");
+  command->add_option("--start-c", m[2].start, "first frame of the window in c, in its own frames (rows)");
   command->add_option("--out", o->out, "motion file to write (25 Hz; - for standard output)")->required();
   command->callback([o, &action] {
     action = [o] {
@@ -336,7 +349,7 @@ void add_denoise(CLI::App& app, Action& action) {
   auto& input = o->inputs.motions[0];
   command->add_option("--input", input.path, "motion file (- for standard input)")->required();
   o->inputs.add_rate_to(command, "--input");
-  command->add_option("--start", input.start, "first frame of the window, in 25 Hz frames (row 2 x start of a 50 Hz file)");
+  command->add_option("--start", input.start, "first frame of the window, in the file's own frames (a text file's rows, a BVH's frames)");
   command->add_option("--out", o->out, "denoised motion file to write (25 Hz; - for standard output)")->required();
   command->add_option("--corrupt-probability", o->probability, "drop each joint-angle value with this probability first")
       ->check(CLI::Range(0.0, 1.0));
@@ -413,26 +426,30 @@ void add_encode(CLI::App& app, Action& action) {
   };
   auto o = std::make_shared<Options>();
   auto* command = app.add_subcommand(
-      "encode", std::string("Print the manifold code of a motion as JSON {\"code\": [...]} on stdout, a code file "
-                            "for decode. ") + kMotionRateNote);
+      "encode", std::string("Print the manifold code of a motion as JSON {\"codes\": [[...]]} on stdout, a code "
+                            "file for decode (the client's and REST's Decode read it as it is), and which window it "
+                            "encodes on stderr. ") + kMotionRateNote);
   o->model.add_to(command, false);
   auto& input = o->inputs.motions[0];
   command->add_option("--input", input.path, "motion file (- for standard input)")->required();
   o->inputs.add_rate_to(command, "--input");
-  command->add_option("--start", input.start, "first frame of the window, in 25 Hz frames (row 2 x start of a 50 Hz file)");
+  command->add_option("--start", input.start, "first frame of the window, in the file's own frames (a text file's rows, a BVH's frames)");
   command->callback([o, &action] {
     action = [o] {
       o->inputs.read();
       const MotionManifold model = load_model(o->model);
       const auto code = encode_motions(model, o->inputs.windows(model))[0].contiguous();
-      const nlohmann::json result = {
-          {"input", input_name(o->inputs.motions[0].path)},
-          {"rate", o->inputs.rate(0)},
-          {"start", o->inputs.motions[0].start},
-          {"frames", model.config().frames},
-          {"code", std::vector<float>(code.data_ptr<float>(), code.data_ptr<float>() + code.numel())},
-      };
-      std::printf("%s\n", result.dump().c_str());
+      // One code file for the tool, the client and REST: a Decode body.
+      const nlohmann::json codes = {
+          {"codes", {std::vector<float>(code.data_ptr<float>(), code.data_ptr<float>() + code.numel())}}};
+      std::printf("%s\n", codes.dump().c_str());
+      // Which window it is the code of, apart from the data (as every
+      // command's report when its output is standard output).
+      const nlohmann::json window = {{"input", input_name(o->inputs.motions[0].path)},
+                                     {"rate", o->inputs.rate(0)},
+                                     {"start", o->inputs.motions[0].start},
+                                     {"frames", model.config().frames}};
+      std::fprintf(stderr, "%s\n", window.dump().c_str());
       return kExitSuccess;
     };
   });

@@ -16,8 +16,9 @@ namespace mm::tool {
 const char* const kMotionRateNote =
     "Input motions are H3.6M exponential-map text files, at 50 Hz (the data set; the default) or at 25 Hz (what "
     "decode, sample, interpolate, analogy and denoise write): give --rate 25 for the latter. At 50 Hz every "
-    "second frame is kept. A window of the model's clip length (150 frames = 6 s at 25 Hz) is taken from --start "
-    "(in 25 Hz frames). - reads standard input. BVH files of the model's skeleton (a .bvh name, or text that starts "
+    "second frame is kept. A window of the model's clip length (150 frames = 6 s at 25 Hz) is taken from --start, "
+    "counted in the file's own frames (a text file's rows at its --rate, a BVH's frames), as the service's start "
+    "counts them. - reads standard input. BVH files of the model's skeleton (a .bvh name, or text that starts "
     "with HIERARCHY) are read at their own frame time, nearest frames at 25 Hz, and --rate does not apply. Output "
     "motions are written in the same text layout at 25 Hz, or as BVH when the file name ends in .bvh.";
 
@@ -51,25 +52,36 @@ MotionFrames at_model_rate(const MotionFrames& motion, int rate, const std::stri
 MotionFrames motion_window(const std::string& text, const std::string& name, int frames, int start, int rate,
                            const Skeleton& skeleton) {
   const int columns = skeleton_motion_columns(skeleton);
-  if (start < 0) throw InputError(name + ": start frame must be >= 0, found " + std::to_string(start));
-  const bool bvh = is_bvh_input(name, text);
-  // For text, the file as read, for the message on a file that is too short.
-  const MotionFrames file =
-      bvh ? MotionFrames{} : parse_motion_text_buffer(text.data(), text.size(), name, columns);
-  const MotionFrames motion = bvh ? motion_at_model_rate(text, name, rate, skeleton) : at_model_rate(file, rate, name);
-  const int64_t needed = static_cast<int64_t>(start) + frames;
-  if (motion.frame_count() < needed) {
-    std::string found = std::to_string(motion.frame_count()) + " frames at 25 Hz";
-    if (rate != kModelRate && !bvh) found += " (" + std::to_string(file.frame_count()) + " at " + std::to_string(rate) + " Hz)";
-    throw InputError(name + ": too short: " + found + ", need " + std::to_string(needed) + " (" +
-                     std::to_string(frames) + " frames from frame " + std::to_string(start) + ")" +
+  if (start < 0) throw InputError(name + ": --start must be >= 0, found " + std::to_string(start));
+  if (is_bvh_input(name, text)) {
+    const BvhFile file = parse_bvh_text(text, name);
+    if (start >= file.frame_count()) {
+      throw InputError(name + ": --start " + std::to_string(start) + " is past the file's last frame (it has " +
+                       std::to_string(file.frame_count()) + " frames)");
+    }
+    return skeleton_motion_window_from_bvh(skeleton, file, name, start, frames);
+  }
+  const MotionFrames file = parse_motion_text_buffer(text.data(), text.size(), name, columns);
+  if (rate != kModelRate && rate != 2 * kModelRate) {
+    throw InputError(name + ": rate " + std::to_string(rate) + " Hz is not supported, expected 25 or 50");
+  }
+  // --start counts the file's rows; at 50 Hz every second row from it is kept.
+  const int64_t step = rate / kModelRate;
+  const int64_t needed = static_cast<int64_t>(start) + (frames - 1) * step + 1;
+  if (file.frame_count() < needed) {
+    throw InputError(name + ": too short: " + std::to_string(file.frame_count()) + " frames at " +
+                     std::to_string(rate) + " Hz, need " + std::to_string(needed) + " (the model's " +
+                     std::to_string(frames) + " frames at 25 Hz from frame " + std::to_string(start) + ")" +
                      // Enough frames read at 25 Hz: most likely a file the tool wrote.
-                     (rate != kModelRate && !bvh && file.frame_count() >= needed ? "; if the file is at 25 Hz, give --rate 25"
-                                                                          : ""));
+                     (rate != kModelRate && file.frame_count() >= start + frames ? "; if the file is at 25 Hz, give --rate 25"
+                                                                                 : ""));
   }
   MotionFrames window;
-  window.columns = motion.columns;
-  window.values.assign(motion.frame(start), motion.frame(start) + static_cast<size_t>(frames) * motion.columns);
+  window.columns = file.columns;
+  for (int64_t f = 0; f < frames; ++f) {
+    const float* row = file.frame(start + f * step);
+    window.values.insert(window.values.end(), row, row + file.columns);
+  }
   return window;
 }
 

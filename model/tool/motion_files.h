@@ -39,10 +39,12 @@ MotionFrames motion_at_model_rate(const std::string& text, const std::string& na
 
 // Parses `text` (motion text at `rate` Hz, 25 or 50, with `columns` values a
 // frame, or BVH as is_bvh_input(name, text) tells; `name` is the file's name
-// in messages), brings it to 25 Hz and
-// returns `frames` frames starting at 25 Hz frame `start`. Throws InputError
-// naming the file, the frames found and the frames needed when it is too
-// short, and for a negative start or a malformed file.
+// in messages) and returns `frames` frames at 25 Hz from the file's own frame
+// `start`: a text file's row (at 50 Hz every second row from it is kept), a
+// BVH's frame (resampled to 25 Hz from there), the unit of the service's
+// ReadClip start and of a take's start_frame. Throws InputError naming the
+// file, the frames found and the frames needed when it is too short, and
+// for a negative start or a malformed file.
 MotionFrames motion_window(const std::string& text, const std::string& name, int frames, int start, int rate,
                            const Skeleton& skeleton = Skeleton::h36m());
 

@@ -6,6 +6,7 @@
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -14,6 +15,7 @@
 #include "commands.h"
 #include "file_arguments.h"
 #include "format/atomic_file.h"
+#include "format/bvh_file.h"
 #include "format/input_error.h"
 #include "format/motion_text.h"
 #include "forward_kinematics.h"
@@ -43,20 +45,27 @@ MotionFrames read_row_motion(const RenderOptions& o, size_t i) {
   const int start = per_input(o.starts, i, 0, "--start", o.inputs.size());
   const int length = per_input(o.lengths, i, -1, "--length", o.inputs.size());
   const std::string text = read_input_file(o.inputs[i], "--input");
-  const MotionFrames motion = motion_at_model_rate(text, path, rate);
-  const int64_t available = motion.frame_count();
-  if (start >= available) {
+  const MotionFrames whole = motion_at_model_rate(text, path, rate);
+  // --start counts the file's own frames (rows at --rate, a BVH's frames), as
+  // everywhere else; the window and --length are at 25 Hz.
+  const double file_rate = is_bvh_input(path, text) ? 1.0 / parse_bvh_text(text, path).frame_time_s : rate;
+  const int64_t first = std::llround(start * kModelRate / file_rate);
+  const int64_t available = whole.frame_count() - first;
+  if (available <= 0) {
     throw InputError(path + ": --start " + std::to_string(start) + " is past the end: the file has " +
-                     std::to_string(available) + " frames at 25 Hz");
+                     std::to_string(whole.frame_count()) + " frames at 25 Hz");
   }
-  const int64_t count = length < 0 ? available - start : length;
-  if (start + count > available) {
+  MotionFrames motion;
+  motion.columns = whole.columns;
+  motion.values.assign(whole.frame(first), whole.frame(first) + available * whole.columns);
+  const int64_t count = length < 0 ? available : length;
+  if (count > available) {
     throw InputError(path + ": too short for --start " + std::to_string(start) + " --length " +
                      std::to_string(length) + ": it has " + std::to_string(available) + " frames at 25 Hz");
   }
   MotionFrames window;
   window.columns = motion.columns;
-  window.values.assign(motion.frame(start), motion.frame(start) + count * motion.columns);
+  window.values.assign(motion.frame(0), motion.frame(0) + count * motion.columns);
   return window;
 }
 
@@ -127,7 +136,7 @@ void add_render(CLI::App& app, Action& action) {
                       "shortest row, e.g. 0,30,60,90,120,149 for 150 frames)")
       ->delimiter(',');
   add_rate_option(command, o->rates, kModelRate, "the input files");
-  command->add_option("--start", o->starts, "first 25 Hz frame of the window (default 0)")
+  command->add_option("--start", o->starts, "first frame of the window, in the file's own frames (rows at --rate; default 0)")
       ->check(at_least(0))
       ->delimiter(',');
   command->add_option("--length", o->lengths, "frames in the window at 25 Hz (default: to the end)")

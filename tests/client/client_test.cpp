@@ -93,7 +93,12 @@ class ClientTest : public ::testing::Test {
 test::ServerProcess* ClientTest::server_ = nullptr;
 test::ScratchDir* ClientTest::scratch_ = nullptr;
 
-std::vector<double> code_of(const std::string& out) { return json::parse(out).at("code").get<std::vector<double>>(); }
+// encode's code file: {"codes": [[...]], "model"}, a REST Decode body as it is.
+std::vector<double> code_of(const std::string& out) {
+  const json codes = json::parse(out).at("codes");
+  EXPECT_EQ(codes.size(), 1u) << out;
+  return codes.at(0).get<std::vector<double>>();
+}
 
 // The first 300 frames (6 s at 50 Hz) of an H3.6M file, as a REST motion.
 json rest_motion(const std::string& path) {
@@ -116,6 +121,11 @@ TEST_F(ClientTest, EncodeGivesTheServersCodeOverBothProtocols) {
     ASSERT_EQ(code.size(), 64u);
     for (size_t i = 0; i < code.size(); ++i) EXPECT_NEAR(code[i], want[i], 1e-5) << i;
     EXPECT_EQ(json::parse(run.out)["model"], expected["answered_by"]["model"]);
+    // One code file for the client, the tool and REST: encode's output is a
+    // REST Decode body as it is.
+    const json decoded = rest_call("/v1/decode", json::parse(run.out));
+    ASSERT_EQ(decoded["motions"].size(), 1u) << decoded.dump();
+    EXPECT_EQ(decoded["motions"][0]["frames"], 150);
   }
   // --json prints the reply itself, as REST does.
   const auto run = run_client(grpc() + " --json encode --input " + s5("walking_1.txt"));
@@ -439,6 +449,25 @@ TEST_F(ClientTest, ClipsReadWritesEverySecondRowFromStartAsTheServerAnswers) {
   printed["motion"].erase("values");
   answered["motion"].erase("values");
   EXPECT_EQ(printed, answered);
+}
+
+// One unit for every start: encode --start counts the file's rows as
+// clips read --start and REST's start= do, so the same start of the same
+// file is the same window and gives the same code (an odd row included).
+TEST_F(ClientTest, EncodeStartCountsTheFilesRowsAsClipsReadAndRestDo) {
+  const std::string window = dir_.file("window_7.txt");
+  ASSERT_EQ(run_client(grpc() + " " + token() + " clips read small/S5/walking_1.txt --start 7 --out " + window)
+                .exit_code,
+            0);
+  const auto from_window = run_client(grpc() + " encode --rate 25 --input " + window);
+  const auto from_start = run_client(grpc() + " encode --start 7 --input " + s5("walking_1.txt"));
+  ASSERT_EQ(from_window.exit_code, 0) << from_window.err;
+  ASSERT_EQ(from_start.exit_code, 0) << from_start.err;
+  const auto a = code_of(from_window.out), b = code_of(from_start.out);
+  ASSERT_EQ(a.size(), 64u);
+  for (size_t i = 0; i < a.size(); ++i) EXPECT_NEAR(a[i], b[i], 1e-6) << i;
+  const auto unshifted = code_of(run_client(grpc() + " encode --input " + s5("walking_1.txt")).out);
+  EXPECT_NE(unshifted, b) << "--start must move the window";
 }
 
 TEST_F(ClientTest, ClipsReadReportsTheServersRefusalsNamingTheField) {

@@ -51,9 +51,12 @@ SplitResult run_tool_split(const std::string& arguments, const std::string& inpu
 
 const std::string kModel = std::string("--model ") + MM_SHIPPED_MODEL;
 
-// The code in encode's output (or a code file).
+// The code in encode's output (or a code file): {"codes": [[...]]}, the
+// shape the client and REST's Decode read too.
 std::vector<double> code_of(const std::string& json_text) {
-  return nlohmann::json::parse(json_text).at("code").get<std::vector<double>>();
+  const auto codes = nlohmann::json::parse(json_text).at("codes");
+  EXPECT_EQ(codes.size(), 1u) << json_text;
+  return codes.at(0).get<std::vector<double>>();
 }
 
 double distance(const std::vector<double>& a, const std::vector<double>& b) {
@@ -251,9 +254,6 @@ TEST(Tool, HelpCreditsThePapersAuthors) {
   EXPECT_EQ(r.output.find("Yoon"), std::string::npos) << r.output;
 }
 
-// decode writes 25 Hz; encode reads it back with --rate 25, and the code it
-// finds is near the one decoded: much nearer than another walk's code.
-TEST(Tool, DecodedMotionEncodesBackToANearbyCode) {
 // --help is read on machines other than the build's: a default that is this
 // build's absolute path (the shipped model's folder) is described instead.
 TEST(Tool, HelpShowsNoPathOfTheBuildMachine) {
@@ -270,6 +270,9 @@ TEST(Tool, HelpShowsNoPathOfTheBuildMachine) {
   }
 }
 
+// decode writes 25 Hz; encode reads it back with --rate 25, and the code it
+// finds is near the one decoded: much nearer than another walk's code.
+TEST(Tool, DecodedMotionEncodesBackToANearbyCode) {
   MM_REQUIRE_H36M();
   test::ScratchDir dir;
   auto r = run_tool_split("encode " + kModel + " --input " + s5("walking_1.txt"));
@@ -289,7 +292,7 @@ TEST(Tool, HelpShowsNoPathOfTheBuildMachine) {
   r = run_tool_split("encode " + kModel + " --rate 25 --generated --input " + dir.file("decoded.txt"));
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto round_trip = code_of(r.out);
-  EXPECT_EQ(nlohmann::json::parse(r.out)["rate"], 25);
+  EXPECT_EQ(nlohmann::json::parse(r.err)["rate"], 25);  // which window: on stderr, apart from the code
   EXPECT_LT(distance(code, round_trip), 0.4 * distance(code, other_walk));
 
   // At the default 50 Hz the decoded file holds only 75 frames: the message says what to do.
@@ -300,7 +303,9 @@ TEST(Tool, HelpShowsNoPathOfTheBuildMachine) {
 }
 
 // Reading a 50 Hz file keeps every second frame: the same frames written at
-// 25 Hz give the very same window, hence the same code.
+// 25 Hz give the very same window, hence the same code. --start counts the
+// file's own frames (rows), as the service's start does: row 80 of the
+// 50 Hz file is row 40 of its even frames.
 TEST(Tool, A50HzFileReadsAsItsEvenFramesAt25Hz) {
   MM_REQUIRE_H36M();
   test::ScratchDir dir;
@@ -308,7 +313,7 @@ TEST(Tool, A50HzFileReadsAsItsEvenFramesAt25Hz) {
   std::string even;
   for (size_t i = 0; i < lines.size(); i += 2) even += lines[i] + "\n";
   const std::string slow = dir.write("walking_1_25hz.txt", even);
-  const auto at_50 = run_tool_split("encode " + kModel + " --start 40 --input " + s5("walking_1.txt"));
+  const auto at_50 = run_tool_split("encode " + kModel + " --start 80 --input " + s5("walking_1.txt"));
   const auto at_25 = run_tool_split("encode " + kModel + " --start 40 --rate 25 --input " + slow);
   ASSERT_EQ(at_50.exit_code, 0) << at_50.err;
   ASSERT_EQ(at_25.exit_code, 0) << at_25.err;
@@ -338,7 +343,7 @@ TEST(Tool, DashReadsStandardInputAndWritesStandardOutput) {
   const auto from_file = run_tool_split("encode " + kModel + " --rate 25 --input " + decoded);
   ASSERT_EQ(from_stdin.exit_code, 0) << from_stdin.err;
   EXPECT_EQ(code_of(from_stdin.out), code_of(from_file.out));
-  EXPECT_EQ(nlohmann::json::parse(from_stdin.out)["input"], "standard input");
+  EXPECT_EQ(nlohmann::json::parse(from_stdin.err)["input"], "standard input");
 
   // denoise's report moves to stderr when the motion goes to stdout.
   r = run_tool_split("denoise " + kModel + " --rate 25 --input - --out -", decoded);
