@@ -427,10 +427,11 @@ TakeSummary TakeProcessor::finish() {
   const double rate = s.options.frame_rate;
   const int64_t minimum = minimum_take_frames(s.windowing, rate);
   if (s.input_frames < minimum) {
+    // A duration is frames over rate: 150 frames at 25 Hz are a 6 s window.
     throw InputError("take: " + std::to_string(s.input_frames) + " frames at " + number_text(rate) + " Hz (" +
-                     number_text(s.input_frames > 0 ? (s.input_frames - 1) / rate : 0.0) +
-                     " s) is shorter than one window of the model; expected at least " + std::to_string(minimum) +
-                     " frames (" + number_text((s.windowing.window_frames - 1) / kTakeModelRate) + " s)");
+                     number_text(s.input_frames / rate) + " s) is shorter than one window of the model (" +
+                     number_text(s.windowing.window_frames / kTakeModelRate) + " s); expected at least " +
+                     std::to_string(minimum) + " frames at " + number_text(rate) + " Hz");
   }
   MotionFrames last_frames;
   last_frames.columns = s.columns;

@@ -38,14 +38,13 @@ int64_t minimum_take_frames(const TakeWindowing& windowing, double rate_hz) {
 std::vector<int64_t> take_window_starts(int64_t frames, const TakeWindowing& windowing, double rate_hz) {
   const int64_t window = windowing.window_frames;
   if (frames < window) {
-    const double minimum_seconds = (window - 1) / kTakeModelRate;
-    const double found_seconds = frames > 0 ? (frames - 1) / kTakeModelRate : 0.0;
+    // A duration is frames over rate: 150 frames at 25 Hz are a 6 s clip.
     char rate[32];
     std::snprintf(rate, sizeof rate, "%g", rate_hz);
-    throw InputError("take: " + seconds_text(found_seconds) + " s (" + std::to_string(frames) +
-                     " frames at 25 Hz) is shorter than one window of the model; expected at least " +
-                     seconds_text(minimum_seconds) + " s (" + std::to_string(minimum_take_frames(windowing, rate_hz)) +
-                     " frames at " + rate + " Hz)");
+    throw InputError("take: " + seconds_text(frames / kTakeModelRate) + " s (" + std::to_string(frames) +
+                     " frames at 25 Hz) is shorter than one window of the model (" +
+                     seconds_text(window / kTakeModelRate) + " s); expected at least " +
+                     std::to_string(minimum_take_frames(windowing, rate_hz)) + " frames at " + rate + " Hz");
   }
   std::vector<int64_t> starts;
   int64_t start = 0;

@@ -20,7 +20,7 @@ Motion motion_from_bvh_body(const std::string& body, const ModelShape& shape) {
   // its "Frame Time:" line, before its frames are read, and a shorter one
   // before it is resampled.
   char duration[32];
-  std::snprintf(duration, sizeof duration, "%.2f", (shape.frames - 1) / kBvhImportRate);
+  std::snprintf(duration, sizeof duration, "%g", shape.frames / kBvhImportRate);  // 150 frames: 6 s
   BvhFrameLimit clip;
   clip.frames = shape.frames;
   clip.name = "the model's clip (" + std::string(duration) + " s at 25 Hz)";
