@@ -17,6 +17,8 @@
 #include "motion_files.h"
 #include "precision_option.h"
 #include "take_processor.h"
+#include "take_progress_line.h"
+#include "take_windows.h"
 
 namespace mm::tool {
 namespace {
@@ -235,7 +237,28 @@ void add_take_operation(CLI::App* take, Action& action, TakeOperation operation)
       options.root = parse_take_root(o->root, "--root");
       TakeResult result;
       try {
-        result = process_take(model, take.frames, options);
+        // process_take's work, with each window counted on a terminal.
+        const int64_t model_frames = resampled_frame_count(take.frames.frame_count(), take.rate, kTakeModelRate);
+        const int window_frames = model.config().frames;
+        const int64_t windows =
+            model_frames >= window_frames
+                ? static_cast<int64_t>(take_window_starts(model_frames, take_windowing(window_frames, o->hop)).size())
+                : 0;
+        const std::string what = std::string("take ") + take_operation_name(operation) + " " + input_name(o->input);
+        TakeProgressLine progress(stderr, what, windows);
+        result.frames.columns = take.frames.columns;
+        TakeSink sink;
+        sink.on_window = [&](const TakeWindowCode& window) {
+          result.windows.push_back(window);
+          progress.window_done();
+        };
+        sink.on_frames = [&result](const MotionFrames& frames, const std::vector<float>& error_mm) {
+          result.frames.values.insert(result.frames.values.end(), frames.values.begin(), frames.values.end());
+          result.error_mm.insert(result.error_mm.end(), error_mm.begin(), error_mm.end());
+        };
+        TakeProcessor processor(model, options, std::move(sink));
+        processor.push(take.frames.values.data(), take.frames.frame_count());
+        result.summary = processor.finish();
       } catch (const InputError& e) {
         throw InputError(input_name(o->input) + ": " + e.what());  // what is left to refuse is the take's
       }
@@ -269,7 +292,8 @@ void add_take_decode(CLI::App* take, Action& action) {
       "to a 6 s window at its start, the windows joined, at --rate. The root does not move (the model has no root "
       "translation).");
   o->model.add_to(command, true);
-  command->add_option("--track", o->track, "code track (JSON; - for standard input)")->required();
+  // --input as in the client's track decode and every other command; --track as before.
+  command->add_option("--input,--track", o->track, "code track (JSON; - for standard input)")->required();
   command->add_option("--rate", o->rate, "frame rate of the motion, Hz (10 to 1000)")->capture_default_str();
   command->add_option("--frames", o->frames, "frames to write (default: the track's length at --rate)");
   command
@@ -279,7 +303,7 @@ void add_take_decode(CLI::App* take, Action& action) {
       ->required();
   command->callback([o, &action] {
     action = [o] {
-      const std::string text = read_input_file(o->track, "--track");
+      const std::string text = read_input_file(o->track, "--input");
       check_output_file(o->out, "--out");
       check_take_rate(o->rate, "--rate");
       if (o->frames < -1 || o->frames == 0) {

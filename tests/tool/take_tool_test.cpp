@@ -67,11 +67,30 @@ TEST(ToolTake, ATakeIsAnsweredFrameForFrameAtItsRate) {
   EXPECT_EQ(track.at("windows")[1].at("start_seconds"), 3.0);
   EXPECT_EQ(track.at("windows")[5].at("start_seconds"), 14.0);
   EXPECT_EQ(track.at("windows")[1].at("code").size(), 64u);
-  r = run_tool("take decode " + kModel + " --track " + dir.file("track.json") + " --rate 120 --out " +
+  EXPECT_EQ(r.err.find("windows ("), std::string::npos) << "progress drawn off a terminal: " << r.err;
+  // --input, as the client's track decode and every other command name it
+  // (--track as before: the test of bad takes below).
+  r = run_tool("take decode " + kModel + " --input " + dir.file("track.json") + " --rate 120 --out " +
                dir.file("decoded.bvh"));
   ASSERT_EQ(r.exit_code, 0) << r.err;
   // 500 frames at 25 Hz (19.96 s) at 120 Hz.
   EXPECT_NE(test::read_text(dir.file("decoded.bvh")).find("Frames: 2396\n"), std::string::npos);
+}
+
+// On a terminal (script(1) gives the tool one) a take's windows are counted
+// on stderr as they are done, the line cleared before the summary.
+TEST(ToolTake, OnATerminalATakeShowsTheWindowsDone) {
+  MM_REQUIRE_H36M();
+  test::ScratchDir dir;
+  const std::string take = dir.write("walking.txt", first_lines(test::read_text(s5("walking_1.txt")), 1000));
+  const std::string command = std::string(MM_TOOL_PATH) + " take encode " + kModel + " --input " + take + " --out " +
+                              dir.file("track.json");
+  const auto r = test::run_command("script", "-qec '" + command + "' " + dir.file("typescript"));
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  const std::string shown = test::read_text(dir.file("typescript"));
+  EXPECT_NE(shown.find("take encode " + take + ": 6 of 6 windows (100%), "), std::string::npos) << shown;
+  EXPECT_NE(shown.find("\r"), std::string::npos) << shown;
+  EXPECT_NE(shown.find("\"windows\""), std::string::npos) << "the summary: " << shown;
 }
 
 TEST(ToolTake, BadTakesAreExitTwoNamingWhatIsWrong) {
