@@ -54,11 +54,19 @@ RootTrajectoryImpl::RootTrajectoryImpl(int pose_dims, int latent, const Trajecto
 }
 
 at::Tensor RootTrajectoryImpl::forward(const at::Tensor& poses, const at::Tensor& codes) {
-  const auto every_frame = codes.unsqueeze(1).expand({poses.size(0), poses.size(1), codes.size(1)});
-  auto x = at::cat({poses, every_frame.to(poses.dtype())}, 2).transpose(1, 2);  // (B, D + latent, T)
-  for (size_t i = 0; i < layers_->size(); ++i) {
-    x = layers_[i]->as<torch::nn::Conv1d>()->forward(x);
-    if (i + 1 < layers_->size()) x = at::relu(x);
+  // The first layer reads each frame's pose and the clip's code. The code
+  // is the same in every frame, and replicate padding keeps it so: its part
+  // of the convolution is the same in every frame too, one product per clip
+  // with the kernel's taps summed, added to the poses' part. Convolving the
+  // code at every frame instead was a quarter of the network's arithmetic.
+  const auto& first = *layers_[0]->as<torch::nn::Conv1d>();
+  const int64_t pose_dims = poses.size(2), pad = first.options.kernel_size()->front() / 2;
+  const auto pose_weight = first.weight.narrow(1, 0, pose_dims);
+  const auto code_weight = first.weight.narrow(1, pose_dims, first.weight.size(1) - pose_dims).sum(2);  // (H, latent)
+  auto x = at::conv1d(at::replication_pad1d(poses.transpose(1, 2), {pad, pad}), pose_weight, first.bias) +
+           at::linear(codes.to(poses.dtype()), code_weight).unsqueeze(2);  // (B, H, T)
+  for (size_t i = 1; i < layers_->size(); ++i) {
+    x = layers_[i]->as<torch::nn::Conv1d>()->forward(at::relu(x));
   }
   x = x.transpose(1, 2);
   return at::cat({x.narrow(2, 0, 3) * kTrajectoryOutputMm, x.narrow(2, 3, 3) * kTrajectoryOutputRadians}, 2);
@@ -97,14 +105,16 @@ void write_generated_roots(const MotionManifold& model, const at::Tensor& normal
     for (int64_t f = 0; f < motion.frame_count() && f < frames; ++f) {
       std::memcpy(motion.frame(f), raw.data() + (i * frames + f) * columns, 3 * sizeof(float));
     }
-    if (kind == TrajectoryFrame::kRootChanges) {
-      integrate_level_root_path(model.skeleton(), motion, kRootRotationStepsPerFrame);
-    } else {
-      RootPathIntegrator(kRootRotationStepsPerFrame, kind).integrate(motion);
-    }
     // The integrated vertical moves' errors add up: a sample's lowest foot
     // strayed more than 60 mm from the floor in up to 60% of its frames.
-    settle_on_floor(model.skeleton(), motion);
+    // The feet's poses the floor is found from serve settling too: one pass
+    // of forward kinematics over the legs.
+    if (kind == TrajectoryFrame::kRootChanges) {
+      settle_on_floor(integrate_level_root_path(model.skeleton(), motion, kRootRotationStepsPerFrame), motion);
+    } else {
+      RootPathIntegrator(kRootRotationStepsPerFrame, kind).integrate(motion);
+      settle_on_floor(model.skeleton(), motion);
+    }
   }
   });
 }

@@ -23,6 +23,20 @@ int leg_of(const Skeleton& skeleton, int j) {
 
 double horizontal_distance(const Vec3& a, const Vec3& b) { return std::hypot(a[0] - b[0], a[2] - b[2]); }
 
+// The root's position in every frame: the running sum of columns 0..2.
+std::vector<Vec3> root_positions(const MotionFrames& motion) {
+  std::vector<Vec3> roots(static_cast<size_t>(motion.frame_count()));
+  Vec3 root{0, 0, 0};
+  for (int64_t f = 0; f < motion.frame_count(); ++f) {
+    for (int a = 0; a < 3; ++a) root[static_cast<size_t>(a)] += motion.frame(f)[a];
+    roots[static_cast<size_t>(f)] = root;
+  }
+  return roots;
+}
+
+// A foot joint on the root's path, added as world_positions adds them.
+Vec3 in_world(const Vec3& pose, const Vec3& root) { return {pose[0] + root[0], pose[1] + root[1], pose[2] + root[2]}; }
+
 // Per frame and foot: the lowest joint's height and that joint's
 // horizontal displacement since the frame before (frame 1's for frame 0):
 // the point the foot stands on, which stays put while the heel lifts and
@@ -30,32 +44,58 @@ double horizontal_distance(const Vec3& a, const Vec3& b) { return std::hypot(a[0
 struct FootTracks {
   std::vector<double> lowest;    // frames x feet
   std::vector<double> movement;  // frames x feet, mm per frame
+  std::vector<size_t> joint;     // frames x feet: which of the foot's joints is lowest
 };
 
-// The foot's joint lowest at frame f.
-int lowest_joint(const std::vector<int>& foot, const std::vector<Vec3>& world, int64_t f, int joint_count) {
-  int lowest = foot.front();
-  for (int j : foot) {
-    if (world[static_cast<size_t>(f * joint_count + j)][1] < world[static_cast<size_t>(f * joint_count + lowest)][1]) lowest = j;
+// The foot's joint lowest at frame f (the first of equals).
+size_t lowest_joint(const FeetPoses& poses, size_t foot, const std::vector<Vec3>& roots, int64_t f) {
+  size_t lowest = 0;
+  double height = poses.at(f, foot, 0)[1] + roots[static_cast<size_t>(f)][1];
+  for (size_t i = 1; i < poses.feet.joints[foot].size(); ++i) {
+    const double y = poses.at(f, foot, i)[1] + roots[static_cast<size_t>(f)][1];
+    if (y < height) {
+      lowest = i;
+      height = y;
+    }
   }
   return lowest;
 }
 
-FootTracks track_feet(const SkeletonFeet& feet, const std::vector<Vec3>& world, int64_t frames, int joint_count) {
-  const size_t foot_count = feet.joints.size();
+FootTracks track_feet(const FeetPoses& poses, const std::vector<Vec3>& roots) {
+  const size_t foot_count = poses.feet.joints.size();
+  const auto frames = static_cast<int64_t>(roots.size());
   FootTracks tracks{std::vector<double>(static_cast<size_t>(frames) * foot_count),
-                    std::vector<double>(static_cast<size_t>(frames) * foot_count, 0.0)};
+                    std::vector<double>(static_cast<size_t>(frames) * foot_count, 0.0),
+                    std::vector<size_t>(static_cast<size_t>(frames) * foot_count, 0)};
   for (int64_t f = 0; f < frames; ++f) {
     for (size_t k = 0; k < foot_count; ++k) {
-      const int j = lowest_joint(feet.joints[k], world, f, joint_count);
+      const size_t i = lowest_joint(poses, k, roots, f);
       const int64_t before = f > 0 ? f - 1 : std::min<int64_t>(1, frames - 1), after = f > 0 ? f : 0;
-      tracks.lowest[static_cast<size_t>(f) * foot_count + k] = world[static_cast<size_t>(f * joint_count + j)][1];
-      tracks.movement[static_cast<size_t>(f) * foot_count + k] =
-          horizontal_distance(world[static_cast<size_t>(after * joint_count + j)],
-                              world[static_cast<size_t>(before * joint_count + j)]);
+      const size_t at = static_cast<size_t>(f) * foot_count + k;
+      tracks.joint[at] = i;
+      tracks.lowest[at] = poses.at(f, k, i)[1] + roots[static_cast<size_t>(f)][1];
+      tracks.movement[at] = horizontal_distance(in_world(poses.at(after, k, i), roots[static_cast<size_t>(after)]),
+                                                in_world(poses.at(before, k, i), roots[static_cast<size_t>(before)]));
     }
   }
   return tracks;
+}
+
+// The lowest foot joint's height in every frame, on the root's path.
+std::vector<double> lowest_foot(const FeetPoses& poses, const std::vector<Vec3>& roots) {
+  std::vector<double> lowest(roots.size(), std::numeric_limits<double>::infinity());
+  for (size_t f = 0; f < roots.size(); ++f) {
+    const Vec3* pose = poses.positions.data() + f * poses.per_frame;
+    for (size_t i = 0; i < poses.per_frame; ++i) lowest[f] = std::min(lowest[f], pose[i][1] + roots[f][1]);
+  }
+  return lowest;
+}
+
+// The 5th percentile of `heights` (reordered).
+double fifth_percentile(std::vector<double>& heights) {
+  const auto nth = heights.begin() + static_cast<std::ptrdiff_t>(static_cast<double>(heights.size() - 1) * 0.05);
+  std::nth_element(heights.begin(), nth, heights.end());
+  return *nth;
 }
 
 // A motion's feet, its floor and its feet's tracks: what contacts and
@@ -103,42 +143,100 @@ std::vector<bool> feet_and_legs(const Skeleton& skeleton, const SkeletonFeet& fe
   return needed;
 }
 
-std::vector<Vec3> pose_positions(const Skeleton& skeleton, const float* frame, const std::vector<bool>* only) {
+PoseKinematics::PoseKinematics(const Skeleton& skeleton, const std::vector<bool>* only) {
   const size_t count = skeleton.joints.size();
-  std::vector<Vec3> positions(count, Vec3{0, 0, 0});
-  std::vector<Mat3> world(count);
+  std::vector<bool> flagged(count, only == nullptr);
+  for (size_t j = 0; j < count && only; ++j) {
+    if (!(*only)[j]) continue;
+    // A flagged joint's parents are placed with it, flagged or not.
+    for (int k = static_cast<int>(j); k >= 0 && !flagged[static_cast<size_t>(k)]; k = skeleton.joints[static_cast<size_t>(k)].parent) {
+      flagged[static_cast<size_t>(k)] = true;
+    }
+  }
+  parents_.resize(count);
+  offsets_.resize(count);
+  turned_.assign(count, false);
+  rotations_.resize(count);
   for (size_t j = 0; j < count; ++j) {
-    if (only && !(*only)[j]) continue;
-    const Vec3 expmap{frame[3 + 3 * j], frame[4 + 3 * j], frame[5 + 3 * j]};
-    const Mat3 local = expmap_to_matrix(expmap);
-    const int parent = skeleton.joints[j].parent;
+    parents_[j] = skeleton.joints[j].parent;
+    offsets_[j] = skeleton.joints[j].offset_mm;
+    if (!flagged[j]) continue;
+    joints_.push_back(static_cast<int>(j));
+    if (parents_[j] >= 0) turned_[static_cast<size_t>(parents_[j])] = true;
+  }
+}
+
+void PoseKinematics::place(const float* frame, Vec3* positions) {
+  for (const int joint : joints_) {
+    const auto j = static_cast<size_t>(joint);
+    const int parent = parents_[j];
     if (parent < 0) {
-      world[j] = local;
+      if (turned_[j]) rotations_[j] = expmap_to_matrix({frame[3 + 3 * j], frame[4 + 3 * j], frame[5 + 3 * j]});
       positions[j] = {0, 0, 0};
       continue;
     }
     // Row vectors (the skeleton file's convention): R_world[j] = R_local[j]
-    // R_world[parent], p[j] = offset[j] R_world[parent] + p[parent].
+    // R_world[parent], p[j] = offset[j] R_world[parent] + p[parent]. A
+    // joint no flagged joint hangs from (a toe tip) needs no R_world.
     const auto p = static_cast<size_t>(parent);
-    world[j] = multiply(local, world[p]);
-    const Vec3 turned = multiply(skeleton.joints[j].offset_mm, world[p]);
+    if (turned_[j]) {
+      rotations_[j] = multiply(expmap_to_matrix({frame[3 + 3 * j], frame[4 + 3 * j], frame[5 + 3 * j]}), rotations_[p]);
+    }
+    const Vec3 turned = multiply(offsets_[j], rotations_[p]);
     positions[j] = {turned[0] + positions[p][0], turned[1] + positions[p][1], turned[2] + positions[p][2]};
   }
+}
+
+std::vector<Vec3> pose_positions(const Skeleton& skeleton, const float* frame, const std::vector<bool>* only) {
+  std::vector<Vec3> positions(skeleton.joints.size(), Vec3{0, 0, 0});
+  PoseKinematics(skeleton, only).place(frame, positions.data());
   return positions;
 }
 
 std::vector<Vec3> world_positions(const Skeleton& skeleton, const MotionFrames& motion, const std::vector<bool>* only) {
   const int64_t frames = motion.frame_count();
   const size_t count = skeleton.joints.size();
+  PoseKinematics kinematics(skeleton, only);
+  std::vector<Vec3> pose(count, Vec3{0, 0, 0});
   std::vector<Vec3> world;
   world.reserve(static_cast<size_t>(frames) * count);
   Vec3 root{0, 0, 0};
   for (int64_t f = 0; f < frames; ++f) {
     const float* frame = motion.frame(f);
     for (int a = 0; a < 3; ++a) root[static_cast<size_t>(a)] += frame[a];
-    for (const Vec3& p : pose_positions(skeleton, frame, only)) world.push_back({p[0] + root[0], p[1] + root[1], p[2] + root[2]});
+    kinematics.place(frame, pose.data());
+    for (const Vec3& p : pose) world.push_back(in_world(p, root));
   }
   return world;
+}
+
+FeetPoses feet_poses(const Skeleton& skeleton, const MotionFrames& motion) {
+  FeetPoses poses;
+  poses.feet = find_feet(skeleton);
+  for (const auto& foot : poses.feet.joints) {
+    poses.first.push_back(poses.per_frame);
+    poses.per_frame += foot.size();
+  }
+  const int64_t frames = motion.frame_count();
+  if (poses.feet.empty() || frames < 1) return poses;
+  const auto legs = feet_and_legs(skeleton, poses.feet);
+  PoseKinematics kinematics(skeleton, &legs);
+  std::vector<Vec3> pose(skeleton.joints.size(), Vec3{0, 0, 0});
+  poses.positions.resize(static_cast<size_t>(frames) * poses.per_frame);
+  Vec3* out = poses.positions.data();
+  for (int64_t f = 0; f < frames; ++f) {
+    kinematics.place(motion.frame(f), pose.data());
+    for (const auto& foot : poses.feet.joints) {
+      for (const int j : foot) *out++ = pose[static_cast<size_t>(j)];
+    }
+  }
+  return poses;
+}
+
+double floor_height(const FeetPoses& poses, const MotionFrames& motion) {
+  if (poses.feet.empty() || motion.frame_count() < 1) return 0.0;
+  std::vector<double> lowest = lowest_foot(poses, root_positions(motion));
+  return fifth_percentile(lowest);
 }
 
 double floor_height(const Skeleton& skeleton, const SkeletonFeet& feet, const std::vector<Vec3>& world,
@@ -151,27 +249,21 @@ double floor_height(const Skeleton& skeleton, const SkeletonFeet& feet, const st
       for (int j : foot) lowest[static_cast<size_t>(f)] = std::min(lowest[static_cast<size_t>(f)], world[static_cast<size_t>(f * count + j)][1]);
     }
   }
-  const auto nth = lowest.begin() + static_cast<std::ptrdiff_t>(static_cast<double>(frames - 1) * 0.05);
-  std::nth_element(lowest.begin(), nth, lowest.end());
-  return *nth;
+  return fifth_percentile(lowest);
 }
 
 namespace {
 
 // Empty feet for a skeleton without any or a motion of fewer than 2 frames.
-FeetOnTheFloor feet_on_the_floor(const Skeleton& skeleton, const std::vector<Vec3>& world, int64_t frames) {
-  FeetOnTheFloor on;
-  on.feet = find_feet(skeleton);
-  if (on.feet.empty() || frames < 2) return FeetOnTheFloor{};
-  on.floor = floor_height(skeleton, on.feet, world, frames);
-  on.tracks = track_feet(on.feet, world, frames, skeleton.joint_count());
-  return on;
+FeetOnTheFloor feet_on_the_floor(const FeetPoses& poses, const std::vector<Vec3>& roots) {
+  if (poses.feet.empty() || roots.size() < 2) return FeetOnTheFloor{};
+  std::vector<double> lowest = lowest_foot(poses, roots);
+  return FeetOnTheFloor{poses.feet, fifth_percentile(lowest), track_feet(poses, roots)};
 }
 
 FeetOnTheFloor feet_on_the_floor(const Skeleton& skeleton, const MotionFrames& motion) {
-  if (find_feet(skeleton).empty() || motion.frame_count() < 2) return FeetOnTheFloor{};
-  const auto legs = feet_and_legs(skeleton, find_feet(skeleton));
-  return feet_on_the_floor(skeleton, world_positions(skeleton, motion, &legs), motion.frame_count());
+  if (motion.frame_count() < 2) return FeetOnTheFloor{};
+  return feet_on_the_floor(feet_poses(skeleton, motion), root_positions(motion));
 }
 
 std::vector<uint8_t> planted_feet(const FeetOnTheFloor& on, int64_t frames, double rate_hz,
@@ -223,10 +315,12 @@ double place_root_on_floor(const Skeleton& skeleton, MotionFrames& motion, doubl
   const SkeletonFeet feet = find_feet(skeleton);
   if (feet.empty()) return height_before;
   const auto legs = feet_and_legs(skeleton, feet);
+  PoseKinematics kinematics(skeleton, &legs);
+  std::vector<Vec3> pose(skeleton.joints.size(), Vec3{0, 0, 0});
   double previous = height_before;
   for (int64_t f = 0; f < motion.frame_count(); ++f) {
     float* frame = motion.frame(f);
-    const auto pose = pose_positions(skeleton, frame, &legs);
+    kinematics.place(frame, pose.data());
     double lowest = std::numeric_limits<double>::infinity();
     for (const auto& foot : feet.joints) {
       for (int j : foot) lowest = std::min(lowest, pose[static_cast<size_t>(j)][1]);
@@ -239,27 +333,19 @@ double place_root_on_floor(const Skeleton& skeleton, MotionFrames& motion, doubl
 }
 
 void settle_on_floor(const Skeleton& skeleton, MotionFrames& motion, int window) {
-  const SkeletonFeet feet = find_feet(skeleton);
+  if (find_feet(skeleton).empty() || motion.frame_count() < 1) return;
+  settle_on_floor(feet_poses(skeleton, motion), motion, window);
+}
+
+void settle_on_floor(const FeetPoses& poses, MotionFrames& motion, int window) {
   const int64_t frames = motion.frame_count();
-  if (feet.empty() || frames < 1) return;
-  const auto legs = feet_and_legs(skeleton, feet);
-  const auto world = world_positions(skeleton, motion, &legs);
-  const int joint_count = skeleton.joint_count();
-  std::vector<double> lowest(static_cast<size_t>(frames));
-  for (int64_t f = 0; f < frames; ++f) {
-    double low = std::numeric_limits<double>::infinity();
-    for (const auto& foot : feet.joints) {
-      for (int j : foot) low = std::min(low, world[static_cast<size_t>(f * joint_count + j)][1]);
-    }
-    lowest[static_cast<size_t>(f)] = low;
-  }
-  std::vector<double> floor(static_cast<size_t>(frames)), offset(static_cast<size_t>(frames));
+  if (poses.feet.empty() || frames < 1) return;
+  const std::vector<double> lowest = lowest_foot(poses, root_positions(motion));
+  std::vector<double> floor(static_cast<size_t>(frames)), offset(static_cast<size_t>(frames)), near;
   for (int64_t f = 0; f < frames; ++f) {
     const int64_t from = std::max<int64_t>(0, f - window), to = std::min<int64_t>(frames - 1, f + window);
-    std::vector<double> near(lowest.begin() + from, lowest.begin() + to + 1);
-    const auto nth = near.begin() + static_cast<std::ptrdiff_t>(static_cast<double>(near.size() - 1) * 0.05);
-    std::nth_element(near.begin(), nth, near.end());
-    floor[static_cast<size_t>(f)] = *nth;
+    near.assign(lowest.begin() + from, lowest.begin() + to + 1);
+    floor[static_cast<size_t>(f)] = fifth_percentile(near);
   }
   const int half = std::max(1, window / 2);
   for (int64_t f = 0; f < frames; ++f) {
@@ -274,8 +360,20 @@ void settle_on_floor(const Skeleton& skeleton, MotionFrames& motion, int window)
   }
 }
 
+namespace {
+
+PoseKinematics legs_of(const Skeleton& skeleton, const SkeletonFeet& feet) {
+  const auto legs = feet_and_legs(skeleton, feet);
+  return PoseKinematics(skeleton, &legs);
+}
+
+}  // namespace
+
 StreamingFloor::StreamingFloor(const Skeleton& skeleton, int window)
-    : skeleton_(skeleton), feet_(find_feet(skeleton)), legs_(feet_and_legs(skeleton_, feet_)), window_(std::max(1, window)) {}
+    : feet_(find_feet(skeleton)),
+      legs_(legs_of(skeleton, feet_)),
+      pose_(skeleton.joints.size(), Vec3{0, 0, 0}),
+      window_(std::max(1, window)) {}
 
 void StreamingFloor::settle(MotionFrames& frames) {
   if (feet_.empty()) return;
@@ -288,10 +386,10 @@ void StreamingFloor::settle(MotionFrames& frames) {
     // above it), so the height is the floor's offset alone.
     frame[1] = 0.0f;
     for (int a = 0; a < 3; ++a) root_[static_cast<size_t>(a)] += frame[a];
-    const auto pose = pose_positions(skeleton_, frame, &legs_);
+    legs_.place(frame, pose_.data());
     double lowest = std::numeric_limits<double>::infinity();
     for (const auto& foot : feet_.joints) {
-      for (int j : foot) lowest = std::min(lowest, pose[static_cast<size_t>(j)][1]);
+      for (int j : foot) lowest = std::min(lowest, pose_[static_cast<size_t>(j)][1]);
     }
     lowest += root_[1];
     if (recent_.size() < static_cast<size_t>(window_)) {
@@ -318,26 +416,15 @@ void StreamingFloor::settle(MotionFrames& frames) {
 
 std::vector<uint8_t> plant_feet(const Skeleton& skeleton, MotionFrames& motion, double rate_hz,
                                 const FootContactThresholds& thresholds) {
-  const SkeletonFeet feet = find_feet(skeleton);
   const int64_t frames = motion.frame_count();
-  if (feet.empty() || frames < 2) return std::vector<uint8_t>(static_cast<size_t>(std::max<int64_t>(frames, 0)), 0);
-  // One pass of forward kinematics: the world positions (the heights, which
-  // the correction keeps), and each pose about its root from them.
-  const int joint_count = skeleton.joint_count();
-  const auto legs = feet_and_legs(skeleton, feet);
-  const auto world = world_positions(skeleton, motion, &legs);
-  const auto contacts = planted_feet(feet_on_the_floor(skeleton, world, frames), frames, rate_hz, thresholds);
-  std::vector<std::vector<Vec3>> poses(static_cast<size_t>(frames));
-  Vec3 root{0, 0, 0};
-  for (int64_t f = 0; f < frames; ++f) {
-    for (int a = 0; a < 3; ++a) root[static_cast<size_t>(a)] += motion.frame(f)[a];
-    auto& pose = poses[static_cast<size_t>(f)];
-    pose.reserve(static_cast<size_t>(joint_count));
-    for (int j = 0; j < joint_count; ++j) {
-      const Vec3& p = world[static_cast<size_t>(f * joint_count + j)];
-      pose.push_back({p[0] - root[0], p[1] - root[1], p[2] - root[2]});
-    }
-  }
+  if (find_feet(skeleton).empty() || frames < 2) return std::vector<uint8_t>(static_cast<size_t>(std::max<int64_t>(frames, 0)), 0);
+  // One pass of forward kinematics: each pose about its root, which the
+  // correction keeps, and on the root's path as given the feet's heights
+  // and tracks.
+  const FeetPoses poses = feet_poses(skeleton, motion);
+  const FeetOnTheFloor on = feet_on_the_floor(poses, root_positions(motion));
+  const auto contacts = planted_feet(on, frames, rate_hz, thresholds);
+  const size_t foot_count = poses.feet.joints.size();
   // Each planted frame's root change is chosen so that the point each
   // planted foot stands on (its lowest joint) lands, on average, where it
   // was in the frame before, on the path as corrected so far.
@@ -346,11 +433,11 @@ std::vector<uint8_t> plant_feet(const Skeleton& skeleton, MotionFrames& motion, 
     if (planted == 0) continue;
     double slip_x = 0, slip_z = 0;
     int joints = 0;
-    for (size_t k = 0; k < feet.joints.size() && k < 8; ++k) {
+    for (size_t k = 0; k < foot_count && k < 8; ++k) {
       if (!(planted & (1u << k))) continue;
-      const int j = lowest_joint(feet.joints[k], world, f, joint_count);
-      const Vec3& now = poses[static_cast<size_t>(f)][static_cast<size_t>(j)];
-      const Vec3& before = poses[static_cast<size_t>(f - 1)][static_cast<size_t>(j)];
+      const size_t i = on.tracks.joint[static_cast<size_t>(f) * foot_count + k];
+      const Vec3& now = poses.at(f, k, i);
+      const Vec3& before = poses.at(f - 1, k, i);
       // The joint's world change is the root's change plus the pose's.
       slip_x += motion.frame(f)[0] + now[0] - before[0];
       slip_z += motion.frame(f)[2] + now[2] - before[2];

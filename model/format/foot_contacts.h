@@ -54,6 +54,28 @@ struct SkeletonFeet {
 };
 SkeletonFeet find_feet(const Skeleton& skeleton);
 
+// Forward kinematics of one frame's pose about its root (what
+// pose_positions gives), set up once for a skeleton and the joints flagged
+// in `only` (all without it; every flagged joint's parent flagged with it):
+// frame after frame it allocates nothing and works out no rotation that no
+// flagged joint below reads. Copyable; one thread at a time (it keeps its
+// scratch rotations).
+class PoseKinematics {
+ public:
+  explicit PoseKinematics(const Skeleton& skeleton, const std::vector<bool>* only = nullptr);
+  // Writes the flagged joints' positions (mm, the root at the origin) of
+  // `frame` (skeleton_motion_columns values) into positions[j], an array of
+  // joint_count() entries; the others are left as they are.
+  void place(const float* frame, Vec3* positions);
+
+ private:
+  std::vector<int> joints_;       // the flagged joints, parents first
+  std::vector<int> parents_;      // per joint
+  std::vector<Vec3> offsets_;     // per joint, mm
+  std::vector<bool> turned_;      // per joint: a flagged child reads its rotation
+  std::vector<Mat3> rotations_;   // per joint, scratch: its rotation in the root's frame
+};
+
 // Joint positions (mm) of one frame's pose with the root at the origin:
 // joint_count() entries. `frame` holds skeleton_motion_columns(skeleton)
 // values; the root translation columns are ignored. With `only` (one flag
@@ -77,6 +99,26 @@ std::vector<bool> feet_and_legs(const Skeleton& skeleton, const SkeletonFeet& fe
 // two of noise and to jumps. 0 for a skeleton without feet.
 double floor_height(const Skeleton& skeleton, const SkeletonFeet& feet, const std::vector<Vec3>& world,
                     int64_t frames);
+
+// Every foot joint's position about the root (the pose alone, the root at
+// the origin) in every frame of a motion: the one pass of forward
+// kinematics over the legs that the floor, settle_on_floor and plant_feet
+// read. It stays valid while only the root's moves (columns 0..2) change,
+// as they do in those functions; a change of any rotation needs a new one.
+struct FeetPoses {
+  SkeletonFeet feet;
+  std::vector<size_t> first;    // per foot, its first joint's place in a frame's entries
+  size_t per_frame = 0;         // the joints of all feet
+  std::vector<Vec3> positions;  // frames x per_frame, foot by foot in feet.joints' order
+  const Vec3& at(int64_t frame, size_t foot, size_t joint) const {
+    return positions[static_cast<size_t>(frame) * per_frame + first[foot] + joint];
+  }
+};
+FeetPoses feet_poses(const Skeleton& skeleton, const MotionFrames& motion);
+
+// floor_height of `motion` on its root path as it is now, from its feet's
+// poses: no forward kinematics.
+double floor_height(const FeetPoses& poses, const MotionFrames& motion);
 
 // Per frame, one bit per foot (bit k: feet.joints[k]) set when that foot is
 // planted: near the floor and moving slower than planted_speed_mm_s. A
@@ -117,6 +159,9 @@ double place_root_on_floor(const Skeleton& skeleton, MotionFrames& motion, doubl
 // floats, while the body's rise and fall within a step stays. Returns
 // nothing; columns 1 (the root's height changes) are rewritten.
 void settle_on_floor(const Skeleton& skeleton, MotionFrames& motion, int window = 25);
+// The same from the motion's feet poses (feet_poses(), or what
+// integrate_level_root_path returns): no forward kinematics.
+void settle_on_floor(const FeetPoses& poses, MotionFrames& motion, int window = 25);
 
 // settle_on_floor for a stream that is never held whole (a take's reply):
 // the stream's vertical moves are dropped, and the root's height follows
@@ -131,9 +176,9 @@ class StreamingFloor {
   void settle(MotionFrames& frames);
 
  private:
-  Skeleton skeleton_;
   SkeletonFeet feet_;
-  std::vector<bool> legs_;
+  PoseKinematics legs_;
+  std::vector<Vec3> pose_;  // one frame's joints, of which the feet's are placed
   int window_;
   Vec3 root_{0, 0, 0};         // the root as given, before any offset
   std::vector<double> recent_;  // the lowest foot's height, last `window_` frames (a ring)

@@ -120,9 +120,9 @@ void root_changes_from_world(MotionFrames& motion, double rotation_steps) {
   }
 }
 
-void integrate_level_root_path(const Skeleton& skeleton, MotionFrames& motion, double rotation_steps) {
+FeetPoses integrate_level_root_path(const Skeleton& skeleton, MotionFrames& motion, double rotation_steps) {
   const int64_t frames = motion.frame_count();
-  if (frames < 1) return;
+  if (frames < 1) return FeetPoses{};
   RootPathIntegrator integrator(rotation_steps);
   integrator.integrate(motion);
 
@@ -169,10 +169,9 @@ void integrate_level_root_path(const Skeleton& skeleton, MotionFrames& motion, d
       frame[3 + a] = static_cast<float>(orientation[static_cast<size_t>(a)]);
     }
   }
-  const SkeletonFeet feet = find_feet(skeleton);
-  const auto legs = feet_and_legs(skeleton, feet);
-  const auto world = world_positions(skeleton, motion, &legs);
-  motion.frame(0)[1] -= static_cast<float>(floor_height(skeleton, feet, world, frames));
+  FeetPoses poses = feet_poses(skeleton, motion);
+  motion.frame(0)[1] -= static_cast<float>(floor_height(poses, motion));
+  return poses;
 }
 
 }  // namespace mm

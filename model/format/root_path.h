@@ -21,6 +21,7 @@
 // Thread safety: pure functions, and an integrator used by one thread.
 #pragma once
 
+#include "format/foot_contacts.h"
 #include "format/motion_text.h"
 #include "format/rotation_matrix.h"
 #include "format/skeleton.h"
@@ -93,6 +94,9 @@ void model_root_from_world(const Skeleton& skeleton, MotionFrames& motion, doubl
 // mean of the pelvis's up axis over the clip made perpendicular to the
 // directions the root travels in (the path lies on a floor), so that a
 // walk neither climbs nor sinks.
-void integrate_level_root_path(const Skeleton& skeleton, MotionFrames& motion, double rotation_steps);
+//
+// Returns the feet's poses the floor was found from (empty for a skeleton
+// without feet), for settle_on_floor to reuse.
+FeetPoses integrate_level_root_path(const Skeleton& skeleton, MotionFrames& motion, double rotation_steps);
 
 }  // namespace mm

@@ -2,8 +2,9 @@
 // one full training iteration (Trainer::step, DKGM; on a GPU with and
 // without CUDA graphs, and also at batch 256) and inference (encode,
 // rotation decode; on the CPU with the weights unpacked, packed in fp32 and
-// in bf16), with random weights on synthetic or real data. The
-// numbers behind docs/PERFORMANCE.md.
+// in bf16), with random weights on synthetic or real data; with
+// --root-path, what the root path and the feet add to a decode to motions.
+// The numbers behind docs/PERFORMANCE.md.
 #include <ATen/Parallel.h>
 #include <c10/core/InferenceMode.h>
 #include <torch/cuda.h>
@@ -11,6 +12,7 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
+#include <ctime>
 #include <cstdio>
 #include <fstream>
 #include <functional>
@@ -42,7 +44,7 @@ namespace {
 struct BenchOptions {
   int hidden = 1024;
   int iterations = 5;
-  bool inference_only = false, profile = false;
+  bool inference_only = false, profile = false, root_path = false;
   std::string dataset, out, device = "all";
 };
 
@@ -148,7 +150,8 @@ void bench_device(const BenchOptions& o, const PreparedDataset& data, c10::Devic
   // What a decode to motions (the service's) adds to the networks: the
   // frames in the layout, the trajectory network's root path in the world
   // (a network of the shipped shape, random weights: it costs the same),
-  // and the feet planted.
+  // and the feet planted; bench --root-path times them alternately and
+  // part by part.
   if (!device.is_cpu()) return;
   model.pack_for_inference(Precision::kFp32);
   for (int batch : {1, 30}) {
@@ -217,6 +220,111 @@ void profile_decoder_step(const BenchOptions& o, std::vector<Timing>& out) {
   }
 }
 
+// What the root path and the feet add to a decode to motions, and where
+// their time goes, at batch 1 and 30: the three decodes (standing, root
+// path, root path with the feet planted) alternate within every round, so
+// that a neighbour's load on a shared machine falls on all three alike,
+// and each part is also timed alone on the same decoded clips: the
+// trajectory network, the path's integration, levelling and settling on
+// the floor, and plant_feet. The paper's model size, random weights, a
+// trajectory network of the shipped shape (its cost does not depend on its
+// weights), weights packed in fp32 as a loaded model's are.
+// The CPU time of the whole process (ms), every thread's: on a machine
+// shared with other work it counts only this process's own, where the wall
+// clock also counts the waits for a core.
+double process_cpu_ms() {
+  timespec now{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &now);
+  return static_cast<double>(now.tv_sec) * 1e3 + static_cast<double>(now.tv_nsec) / 1e6;
+}
+
+// What the root path and the feet add to a decode to motions, and where
+// their time goes, at batch 1 and 30: the three decodes (standing, root
+// path, root path with the feet planted) alternate within every round,
+// each first in turn, so that a neighbour's load on a shared machine falls
+// on all three alike; then each part alone on one decode's clips: the
+// trajectory network, the path (network, integration, levelling, floor)
+// and plant_feet. Each is timed by the wall clock and by the process's CPU
+// time (rows marked "CPU time"; with one LibTorch thread, OMP_NUM_THREADS=1,
+// that is the work itself, where more threads also count their waits). The
+// paper's model size, random weights, a trajectory network of the shipped
+// shape (its cost does not depend on its weights), the weights packed in
+// fp32 as a loaded model's are.
+void bench_root_path(const BenchOptions& o, const PreparedDataset& data, std::vector<Timing>& out) {
+  TrainConfig config = variant_config("DKGM");
+  config.model.hidden = o.hidden;
+  config.model.pose_dims = data.normalization.dims();
+  MotionManifold model(config.model, data.normalization, Skeleton::h36m());
+  model.train(false);
+  model.pack_for_inference(Precision::kFp32);
+  RootTrajectory network(config.model.pose_dims, config.model.latent, TrajectoryConfig{});
+  network->eval();
+  const int rounds = std::max(o.iterations, 10);
+  for (int batch : {1, 30}) {
+    c10::InferenceMode inference;
+    const auto codes = at::randn({batch, config.model.latent});
+    const auto normalized = model.decode(codes, DecoderKind::kRotation);
+    model.set_trajectory(RootTrajectory(nullptr));
+    const auto standing = decode_codes(model, codes, DecoderKind::kRotation);
+    model.set_trajectory(network);
+    const auto travelling = decode_codes(model, codes, DecoderKind::kRotation);
+    struct Work {
+      std::string name;
+      bool path;  // the model has the trajectory network
+      std::function<void()> run;
+    };
+    const std::vector<Work> decodes{
+        {"decode to motions, standing (packed fp32)", false, [&] { decode_codes(model, codes, DecoderKind::kRotation); }},
+        {"decode to motions, root path (packed fp32)", true, [&] { decode_codes(model, codes, DecoderKind::kRotation); }},
+        {"decode to motions, root path, feet planted (packed fp32)", true, [&] {
+           auto motions = decode_codes(model, codes, DecoderKind::kRotation);
+           plant_feet_of_each(model.skeleton(), motions, 25);
+         }}};
+    const std::vector<Work> parts{
+        {"root path: trajectory network", true, [&] {
+           std::vector<float> raw(static_cast<size_t>(normalized.size(0) * normalized.size(1)) *
+                                  static_cast<size_t>(model.normalization().input_columns()));
+           write_generated_root_changes(model, normalized, codes, raw.data(), model.normalization().input_columns());
+         }},
+        {"root path: network, integration, levelling, floor", true, [&] {
+           auto motions = standing;
+           write_generated_roots(model, normalized, codes, motions);
+         }},
+        {"feet planted: plant_feet of each motion", true, [&] {
+           auto motions = travelling;
+           plant_feet_of_each(model.skeleton(), motions, 25);
+         }}};
+    for (const auto* works : {&decodes, &parts}) {
+      std::vector<Timing> wall, cpu;
+      for (const auto& work : *works) {
+        wall.push_back(Timing{work.name, batch, "cpu", {}});
+        cpu.push_back(Timing{work.name + ", CPU time", batch, "cpu", {}});
+        model.set_trajectory(work.path ? network : RootTrajectory(nullptr));
+        for (int i = 0; i < 2; ++i) work.run();
+      }
+      const size_t n = works->size();
+      for (int round = 0; round < rounds; ++round) {
+        for (size_t k = 0; k < n; ++k) {
+          const size_t v = (static_cast<size_t>(round) + k) % n;  // each first in turn
+          model.set_trajectory((*works)[v].path ? network : RootTrajectory(nullptr));
+          const double cpu_before = process_cpu_ms();
+          const auto started = std::chrono::steady_clock::now();
+          (*works)[v].run();
+          wall[v].ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started).count());
+          cpu[v].ms.push_back(process_cpu_ms() - cpu_before);
+        }
+      }
+      for (size_t v = 0; v < n; ++v) {
+        std::fprintf(stderr, "  %s, batch %d: median %.1f ms, CPU time %.1f ms\n", wall[v].operation.c_str(), batch,
+                     wall[v].median(), cpu[v].median());
+        out.push_back(std::move(wall[v]));
+      }
+      for (auto& timing : cpu) out.push_back(std::move(timing));
+    }
+  }
+  model.set_trajectory(RootTrajectory(nullptr));
+}
+
 std::string cpu_name() {
   std::ifstream in("/proc/cpuinfo");
   for (std::string line; std::getline(in, line);) {
@@ -244,7 +352,11 @@ int run_bench(const BenchOptions& o) {
                machine.c_str());
 
   std::vector<Timing> timings;
-  for (const auto& device : devices) bench_device(o, data, device, timings);
+  if (o.root_path) {
+    bench_root_path(o, data, timings);
+  } else {
+    for (const auto& device : devices) bench_device(o, data, device, timings);
+  }
   if (o.profile) profile_decoder_step(o, timings);
 
   std::printf("| operation | batch | device | median (ms) | min (ms) | repeats | operations |\n");
@@ -288,6 +400,10 @@ void add_bench_command(CLI::App& app, Action& action) {
   command->add_flag("--profile", o->profile,
                     "also time each part of a decoder step alone on the CPU (its three products, unpacked and "
                     "packed, and its element-wise update), 150 steps at batch 1 and 30");
+  command->add_flag("--root-path", o->root_path,
+                    "time only what the root path and the feet add to a decode to motions (CPU, batch 1 and 30): "
+                    "the decodes standing, with the root path and with the feet planted alternating in every round, "
+                    "and each part alone");
   command->add_option("--dataset", o->dataset, "prepared dataset to draw clips from (default: synthetic data)");
   command->add_option("--device", o->device, "cpu, cuda, or all (the CPU, plus CUDA when available)")
       ->capture_default_str();

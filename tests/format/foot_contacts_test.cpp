@@ -44,6 +44,33 @@ TEST(FootContacts, PosePositionsAreTheReferenceKinematics) {
   }
 }
 
+TEST(FootContacts, FeetPosesAreTheFeetOfEveryFramesPoseAboutItsRoot) {
+  MotionFrames motion = sliding_rest_pose(4, 12.0f);
+  for (int64_t f = 0; f < 4; ++f) {
+    for (int c = 3; c < kH36mColumns; ++c) motion.frame(f)[c] = 0.2f * std::sin(static_cast<float>(c * (f + 1)));
+  }
+  const FeetPoses poses = feet_poses(Skeleton::h36m(), motion);
+  ASSERT_EQ(poses.per_frame, 6u);
+  ASSERT_EQ(poses.positions.size(), 4u * 6u);
+  for (int64_t f = 0; f < 4; ++f) {
+    const auto whole = pose_positions(Skeleton::h36m(), motion.frame(f));  // every joint, nothing skipped
+    for (size_t k = 0; k < 2; ++k) {
+      for (size_t i = 0; i < 3; ++i) {
+        const int j = poses.feet.joints[k][i];
+        for (int a = 0; a < 3; ++a) EXPECT_EQ(poses.at(f, k, i)[a], whole[static_cast<size_t>(j)][a]) << f << " " << j;
+      }
+    }
+  }
+  // The floor and the settling from them are those worked out afresh.
+  const auto legs = feet_and_legs(Skeleton::h36m(), poses.feet);
+  EXPECT_EQ(floor_height(poses, motion),
+            floor_height(Skeleton::h36m(), poses.feet, world_positions(Skeleton::h36m(), motion, &legs), 4));
+  MotionFrames settled = motion, again = motion;
+  settle_on_floor(Skeleton::h36m(), settled, 2);
+  settle_on_floor(poses, again, 2);
+  EXPECT_EQ(settled.values, again.values);
+}
+
 TEST(FootContacts, TheRootHeightPutsTheLowestFootOnTheFloor) {
   MotionFrames motion = sliding_rest_pose(3, 0);
   motion.frame(2)[3 + 3 * 2] = 0.8f;  // frame 2 bends the right knee: the left foot is lowest there

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <c10/core/InferenceMode.h>
+#include <torch/nn/modules/conv.h>
 
 #include <cmath>
 #include <cstring>
@@ -245,6 +246,29 @@ TEST(RootTrajectory, AModelWithoutOneStandsInPlaceAndTakesRefuseAGeneratedRoot) 
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("root: "), std::string::npos) << e.what();
   }
+}
+
+TEST(RootTrajectory, TheCodeEntersTheFirstConvolutionOnceAClipAsIfGivenToEveryFrame) {
+  // forward() adds the code's part of the first convolution once per clip;
+  // the network as trained reads the code beside the pose in every frame.
+  torch::manual_seed(4);
+  RootTrajectory network(51, 64, TrajectoryConfig{});
+  network->eval();
+  c10::InferenceMode inference;
+  const auto poses = at::randn({3, 40, 51}), codes = at::randn({3, 64});
+  auto x = at::cat({poses, codes.unsqueeze(1).expand({3, 40, 64})}, 2).transpose(1, 2);
+  const auto children = network->children()[0]->children();
+  for (size_t i = 0; i < children.size(); ++i) {
+    x = children[i]->as<torch::nn::Conv1d>()->forward(i == 0 ? x : at::relu(x));
+  }
+  x = x.transpose(1, 2);
+  const auto want = at::cat({x.narrow(2, 0, 3) * kTrajectoryOutputMm, x.narrow(2, 3, 3) * kTrajectoryOutputRadians}, 2);
+  const auto got = network->forward(poses, codes);
+  ASSERT_EQ(got.sizes(), want.sizes());
+  // Float rounding of sums taken in another order: outputs are of order 20
+  // mm and 0.02 rad.
+  EXPECT_LT((got - want).abs().max().item<double>(), 1e-4);
+  EXPECT_GT(want.abs().max().item<double>(), 1.0);
 }
 
 TEST(RootTrajectory, TrainedNetworkIsSavedWithTheModelAndGivesTheSamePathBack) {

@@ -129,6 +129,30 @@ TEST(Tool, BenchTimesAndCountsTheTensorOperationsOfEveryOperation) {
             operations.at("decode to motions, standing (packed fp32) 30"));
 }
 
+// bench --root-path: the three decodes to motions and the three parts of
+// the root path and the feet, each by the wall clock and by CPU time, at
+// batch 1 and 30.
+TEST(Tool, BenchOfTheRootPathTimesTheDecodesAndEachPartByClockAndCpuTime) {
+  test::ScratchDir dir;
+  const auto r = run_tool("bench --root-path --hidden 8 --iterations 1 --out " + dir.file("bench.json"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::ifstream in(dir.file("bench.json"));
+  const auto results = nlohmann::json::parse(in)["results"];
+  ASSERT_EQ(results.size(), 24u) << results.dump();
+  std::map<std::string, double> median;
+  for (const auto& result : results) {
+    EXPECT_EQ(result["ms"].size(), 10u) << result.dump();  // at least 10 rounds
+    median[result["operation"].get<std::string>() + " " + std::to_string(result["batch"].get<int>())] =
+        result["median_ms"].get<double>();
+  }
+  for (const char* part : {"root path: trajectory network", "root path: network, integration, levelling, floor",
+                           "feet planted: plant_feet of each motion"}) {
+    EXPECT_GT(median.at(std::string(part) + " 30"), 0.0) << part;
+    EXPECT_GT(median.at(std::string(part) + ", CPU time 30"), 0.0) << part;
+  }
+  EXPECT_GT(median.at("decode to motions, root path (packed fp32), CPU time 30"), 0.0);
+}
+
 TEST(Tool, PrepareTrainEvaluateAndDecodeOnRealData) {
   MM_REQUIRE_H36M();
   test::ScratchDir dir;
