@@ -105,6 +105,10 @@ bool sniff_animation_format(const char* data, size_t size, AnimationFormat* form
   return false;
 }
 
+bool animation_format_of_input(const std::string& name, const char* data, size_t size, AnimationFormat* format) {
+  return animation_format_of_path(name, format) || sniff_animation_format(data, size, format);
+}
+
 BvhFile parse_animation_file(const std::string& bytes, AnimationFormat format, const std::string& source_name,
                              double millimetres_per_unit, const BvhFrameLimit& limit) {
   return parse_animation_file(bytes.data(), bytes.size(), format, source_name, millimetres_per_unit, limit);

@@ -38,6 +38,10 @@ bool animation_format_of_media_type(const std::string& media_type, AnimationForm
 // (FBX), '{' after blanks (.gltf), "HIERARCHY" after blanks (BVH); false when
 // none.
 bool sniff_animation_format(const char* data, size_t size, AnimationFormat* format);
+// The format of an input named `name` whose bytes begin with `data`: its
+// extension's, else (standard input, a name without one of the four) its
+// first bytes'; false for neither (motion text, say).
+bool animation_format_of_input(const std::string& name, const char* data, size_t size, AnimationFormat* format);
 // "a .bvh, .glb, .gltf or .fbx file": how refusals list the formats.
 const char* animation_formats_listed();
 

@@ -157,9 +157,16 @@ std::vector<int> match_bvh_to_skeleton(const Skeleton& skeleton, const BvhFile& 
   for (size_t j = 0; j < file.joints.size(); ++j) {
     if (!file.joints[j].end_site) by_name[file.joints[j].name] = static_cast<int>(j);
   }
+  // A leaf of the skeleton may be an End Site in the file, or absent where
+  // its parent is a leaf there in a file without any End Site: animation
+  // tools drop them all (Blender's BVH import makes them bone tails, which
+  // its glTF and FBX exports leave out), and a leaf carries no motion. A
+  // file that has End Sites but not this one is another hierarchy.
   std::set<int> parents_of_end_sites;
+  std::vector<bool> file_leaf(file.joints.size(), true);
   for (const auto& joint : file.joints) {
     if (joint.end_site) parents_of_end_sites.insert(joint.parent);
+    if (joint.parent >= 0) file_leaf[joint.parent] = false;
   }
 
   std::vector<int> match(skeleton.joints.size(), -1);
@@ -172,7 +179,10 @@ std::vector<int> match_bvh_to_skeleton(const Skeleton& skeleton, const BvhFile& 
     const std::string parent_name = joint.parent >= 0 ? skeleton.joints[joint.parent].name : "";
     if (found == by_name.end()) {
       const auto parent = by_name.find(parent_name);
-      if (leaf[j] && parent != by_name.end() && parents_of_end_sites.count(parent->second)) continue;  // an End Site
+      if (leaf[j] && parent != by_name.end() &&
+          (parents_of_end_sites.count(parent->second) || (parents_of_end_sites.empty() && file_leaf[parent->second]))) {
+        continue;  // an End Site, or none
+      }
       missing.push_back(joint.name + (leaf[j] && j > 0 ? " (or an End Site under " + parent_name + ")" : ""));
       continue;
     }

@@ -100,7 +100,10 @@ MotionFrames skeleton_motion_window_from_bvh(const Skeleton& skeleton, const Bvh
                                              const std::string& source_name, int64_t first_frame, int64_t frames);
 
 // For each joint of `skeleton`, the index of the BVH joint that carries its
-// rotation, or -1 for a leaf that is an End Site in the file. Throws the
+// rotation, or -1 for a leaf that is an End Site in the file or, in a file
+// without End Sites, absent under a parent that is a leaf there (animation
+// tools drop them: Blender's glTF and FBX exports of a BVH have none).
+// Throws the
 // InputError described above when the hierarchies differ.
 std::vector<int> match_bvh_to_skeleton(const Skeleton& skeleton, const BvhFile& file, const std::string& source_name);
 

@@ -239,8 +239,8 @@ void add_sample(CLI::App& app, Action& action) {
       ->capture_default_str();
   command->add_option("--seed", o->seed, "seed of the codes")->capture_default_str();
   command->add_option("--out-dir", o->out_dir, "folder for the motion files")->required();
-  command->add_option("--format", o->format, "file format of the motions: txt (H3.6M text) or bvh")
-      ->check(CLI::IsMember({"txt", "bvh"}))
+  command->add_option("--format", o->format, "file format of the motions: txt (H3.6M text), bvh, glb or gltf")
+      ->check(CLI::IsMember({"txt", "bvh", "glb", "gltf"}))
       ->capture_default_str();
   command->callback([o, &action] {
     action = [o] {
@@ -280,8 +280,8 @@ void add_interpolate(CLI::App& app, Action& action) {
   command->add_option("--start-from", from.start, "first frame of the window in --from, in its own frames (rows)");
   command->add_option("--start-to", to.start, "first frame of the window in --to, in its own frames (rows)");
   command->add_option("--out-dir", o->out_dir, "folder for the motion files")->required();
-  command->add_option("--format", o->format, "file format of the motions: txt (H3.6M text) or bvh")
-      ->check(CLI::IsMember({"txt", "bvh"}))
+  command->add_option("--format", o->format, "file format of the motions: txt (H3.6M text), bvh, glb or gltf")
+      ->check(CLI::IsMember({"txt", "bvh", "glb", "gltf"}))
       ->capture_default_str();
   command->callback([o, &action] {
     action = [o] {

@@ -7,6 +7,7 @@
 #include <system_error>
 
 #include "file_arguments.h"
+#include "format/animation_file.h"
 #include "format/atomic_file.h"
 #include "format/skeleton_bvh.h"
 #include "format/input_error.h"
@@ -20,7 +21,9 @@ const char* const kMotionRateNote =
     "counted in the file's own frames (a text file's rows at its --rate, a BVH's frames), as the service's start "
     "counts them. - reads standard input. BVH files of the model's skeleton (a .bvh name, or text that starts "
     "with HIERARCHY) are read at their own frame time, nearest frames at 25 Hz, and --rate does not apply. Output "
-    "motions are written in the same text layout at 25 Hz, or as BVH when the file name ends in .bvh.";
+    "motions are written in the same text layout at 25 Hz, or as BVH when the file name ends in .bvh and as glTF "
+    "when it ends in .glb or .gltf. glTF (.glb, .gltf) and FBX (.fbx) files are read as BVH is (a .glb, .gltf or "
+    ".fbx name, or their first bytes), joints by name, lengths in metres as animation tools write them.";
 
 bool is_bvh_path(const std::string& path) {
   if (path.size() < 4) return false;
@@ -36,9 +39,31 @@ bool is_bvh_input(const std::string& path, const std::string& text) {
   return text.compare(at, 9, "HIERARCHY") == 0;
 }
 
+bool is_animation_path(const std::string& path) {
+  AnimationFormat format;
+  return animation_format_of_path(path, &format);
+}
+
+bool is_animation_input(const std::string& path, const std::string& text) {
+  AnimationFormat format;
+  return animation_format_of_input(path, text.data(), text.size(), &format);
+}
+
+BvhFile parse_animation_input(const std::string& text, const std::string& name, const Skeleton& skeleton) {
+  AnimationFormat format = AnimationFormat::kBvh;
+  animation_format_of_input(name, text.data(), text.size(), &format);
+  return parse_animation_file(text, format, name, bvh_layout_of(skeleton).millimetres_per_unit);
+}
+
+std::string animation_output_bytes(const BvhFile& file, const std::string& path, const Skeleton& skeleton) {
+  AnimationFormat format = AnimationFormat::kBvh;
+  animation_format_of_path(path, &format);
+  return write_animation_file(file, format, bvh_layout_of(skeleton).millimetres_per_unit);
+}
+
 MotionFrames motion_at_model_rate(const std::string& text, const std::string& name, int rate,
                                   const Skeleton& skeleton) {
-  if (is_bvh_input(name, text)) return skeleton_motion_from_bvh(skeleton, parse_bvh_text(text, name), name);
+  if (is_animation_input(name, text)) return skeleton_motion_from_bvh(skeleton, parse_animation_input(text, name, skeleton), name);
   return at_model_rate(parse_motion_text_buffer(text.data(), text.size(), name, skeleton_motion_columns(skeleton)),
                        rate, name);
 }
@@ -53,8 +78,8 @@ MotionFrames motion_window(const std::string& text, const std::string& name, int
                            const Skeleton& skeleton) {
   const int columns = skeleton_motion_columns(skeleton);
   if (start < 0) throw InputError(name + ": --start must be >= 0, found " + std::to_string(start));
-  if (is_bvh_input(name, text)) {
-    const BvhFile file = parse_bvh_text(text, name);
+  if (is_animation_input(name, text)) {
+    const BvhFile file = parse_animation_input(text, name, skeleton);
     if (start >= file.frame_count()) {
       throw InputError(name + ": --start " + std::to_string(start) + " is past the file's last frame (it has " +
                        std::to_string(file.frame_count()) + " frames)");
@@ -86,8 +111,8 @@ MotionFrames motion_window(const std::string& text, const std::string& name, int
 }
 
 void write_motion_output(const MotionFrames& motion, const std::string& path, const Skeleton& skeleton) {
-  if (is_bvh_path(path)) {
-    write_file_atomically(path, write_bvh_text(skeleton_motion_to_bvh(skeleton, bvh_layout_of(skeleton), motion, kModelRate)));
+  if (is_animation_path(path)) {
+    write_file_atomically(path, animation_output_bytes(skeleton_motion_to_bvh(skeleton, bvh_layout_of(skeleton), motion, kModelRate), path, skeleton));
     return;
   }
   if (!is_standard_stream(path)) {

@@ -4,10 +4,13 @@
 // frame rate (format/skeleton_bvh.h), from which a window of the model's clip
 // length is taken at 25 Hz; outputs are written at 25 Hz, as BVH of the
 // skeleton's own layout when the path ends in ".bvh", else as text. Torch-free.
+// glTF (.glb, .gltf) and FBX (.fbx) go wherever BVH does, in and out (FBX in
+// only), through format/animation_file.h, in the rig's BVH layout and unit.
 #pragma once
 
 #include <string>
 
+#include "format/bvh_file.h"
 #include "format/motion_text.h"
 #include "format/skeleton.h"
 
@@ -29,6 +32,23 @@ bool is_bvh_path(const std::string& path);
 // Whether an input is BVH: its path ends in ".bvh", or (for standard input
 // and other names) its first word is HIERARCHY, which no motion text holds.
 bool is_bvh_input(const std::string& path, const std::string& text);
+
+// Whether `path` names an animation file: it ends in ".bvh", ".glb",
+// ".gltf" or ".fbx" (any case).
+bool is_animation_path(const std::string& path);
+
+// Whether an input is an animation file: its path says so, or (for standard
+// input and other names) its first bytes are BVH's HIERARCHY, glTF's or
+// FBX's, which no motion text holds.
+bool is_animation_input(const std::string& path, const std::string& text);
+
+// An animation input as a BVH of the skeleton's rig (glTF and FBX in the unit
+// of the skeleton's BVH layout). Throws InputError naming `name`.
+BvhFile parse_animation_input(const std::string& text, const std::string& name, const Skeleton& skeleton);
+
+// The bytes of `file`, a BVH of the skeleton's rig, in the format `path`'s
+// extension names. Throws InputError for FBX, which is not written.
+std::string animation_output_bytes(const BvhFile& file, const std::string& path, const Skeleton& skeleton);
 
 // The whole motion of an input at 25 Hz: BVH is converted and resampled to
 // 25 Hz (its frame time decides; `rate` is ignored), text at `rate` as

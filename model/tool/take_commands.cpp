@@ -62,8 +62,8 @@ struct TakeInput {
 TakeInput read_take(const std::string& path, double text_rate, bool nan_is_missing, const Skeleton& skeleton) {
   const std::string text = read_input_file(path, "--input");
   const std::string name = input_name(path);
-  if (is_bvh_input(path, text)) {
-    const BvhFile file = parse_bvh_text(text, name);
+  if (is_animation_input(path, text)) {
+    const BvhFile file = parse_animation_input(text, name, skeleton);
     return {skeleton_motion_from_bvh_at_file_rate(skeleton, file, name), bvh_frame_rate(file)};
   }
   return {parse_motion_text_buffer(text.data(), text.size(), name, skeleton_motion_columns(skeleton), nan_is_missing),
@@ -73,8 +73,8 @@ TakeInput read_take(const std::string& path, double text_rate, bool nan_is_missi
 // BVH of the skeleton's own layout at `rate` for a path ending in .bvh,
 // else motion text; "-" is standard output.
 void write_take(const MotionFrames& frames, double rate, const std::string& path, const Skeleton& skeleton) {
-  if (is_bvh_path(path)) {
-    write_output_file(path, write_bvh_text(skeleton_motion_to_bvh(skeleton, bvh_layout_of(skeleton), frames, rate)));
+  if (is_animation_path(path)) {
+    write_output_file(path, animation_output_bytes(skeleton_motion_to_bvh(skeleton, bvh_layout_of(skeleton), frames, rate), path, skeleton));
     return;
   }
   std::ostringstream text;

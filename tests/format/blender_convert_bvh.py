@@ -25,6 +25,21 @@ scene = bpy.context.scene
 action = scene.objects[0].animation_data.action
 scene.frame_end = int(action.frame_range[1])
 if out.endswith(".fbx"):
+    # FBX keeps no rest pose of an armature without a mesh beside its bones'
+    # transforms, which Blender writes as the pose at the current frame (its
+    # exporter's fbx_object_tx(rest=False)): frame 0, before the animation,
+    # gets the rest pose and is the current frame when the file is written.
+    armature = next(o for o in scene.objects if o.type == "ARMATURE")
+    for bone in armature.pose.bones:
+        bone.location = (0, 0, 0)
+        bone.keyframe_insert("location", frame=0)
+        if bone.rotation_mode == "QUATERNION":
+            bone.rotation_quaternion = (1, 0, 0, 0)
+            bone.keyframe_insert("rotation_quaternion", frame=0)
+        else:
+            bone.rotation_euler = (0, 0, 0)
+            bone.keyframe_insert("rotation_euler", frame=0)
+    scene.frame_set(0)
     bpy.ops.export_scene.fbx(filepath=out, bake_anim=True, add_leaf_bones=False, bake_anim_use_nla_strips=False,
                              bake_anim_use_all_actions=False, bake_anim_simplify_factor=0.0)
 else:
