@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "format/animation_file.h"
 #include "format/atomic_file.h"
 #include "format/bvh_file.h"
 #include "format/input_error.h"
@@ -30,9 +31,11 @@ MotionFormat format_of(const std::string& path, const std::string& what) {
   if (path == "-") return MotionFormat::kText;
   const std::string ext = extension_of(path);
   if (ext == ".txt") return MotionFormat::kText;
-  if (ext == ".bvh") return MotionFormat::kBvh;
+  // glTF and FBX go where BVH does (format/animation_file.h).
+  AnimationFormat animation;
+  if (animation_format_of_path(path, &animation)) return MotionFormat::kBvh;
   throw InputError(what + " " + path + ": unknown motion file type \"" + ext +
-                   "\", expected .txt (exponential-map text) or .bvh");
+                   "\", expected .txt (exponential-map text), .bvh, .glb, .gltf or .fbx");
 }
 
 std::string read_all(const std::string& path) {
@@ -67,9 +70,15 @@ v1::Motion read_motion(const MotionSource& source, ModelRigs& rigs, const std::s
   const std::string text = read_all(source.path);
   // A BVH file states its own frame time and comes back at 25 Hz. Its syntax
   // is checked before the server is asked for the model's skeleton.
+  // glTF and FBX are read in the unit of the model's rig, once it is known.
+  AnimationFormat animation = AnimationFormat::kBvh;
+  if (bvh) animation_format_of_path(source.path, &animation);
   std::optional<BvhFile> parsed;
-  if (bvh) parsed = parse_bvh_text(text, name);
+  if (bvh && animation == AnimationFormat::kBvh) parsed = parse_bvh_text(text, name);
   const ModelRig& rig = rigs.of(model);
+  if (bvh && !parsed) {
+    parsed = parse_animation_file(text, animation, name, bvh_layout_of(rig.skeleton).millimetres_per_unit);
+  }
   // --start counts the file's own frames (a text file's rows, a BVH's
   // frames), as ReadClip's start and a take's start_frame do.
   MotionFrames window;
@@ -113,7 +122,8 @@ bool is_code_file(const std::string& path) { return extension_of(path) == ".json
 
 bool is_motion_file(const std::string& path) {
   const std::string ext = extension_of(path);
-  return ext == ".txt" || ext == ".bvh";
+  AnimationFormat animation;
+  return ext == ".txt" || animation_format_of_path(path, &animation);
 }
 
 v1::Code read_code(const std::string& path) {
@@ -153,10 +163,13 @@ void write_motion(const v1::Motion& motion, const std::string& path, ModelRigs& 
   frames.columns = motion.columns();
   frames.values.assign(motion.values().begin(), motion.values().end());
   if (format_of(path, "--out") == MotionFormat::kBvh) {
-    // As the server writes it for Accept: application/x-bvh.
+    // As the server writes it for Accept: application/x-bvh (model/gltf-binary...).
     const Skeleton& skeleton = rigs.of(model).skeleton;
-    write_file_atomically(path, write_bvh_text(skeleton_motion_to_bvh(skeleton, bvh_layout_of(skeleton), frames,
-                                                                      motion.frame_rate())));
+    AnimationFormat animation = AnimationFormat::kBvh;
+    animation_format_of_path(path, &animation);
+    write_file_atomically(path, write_animation_file(skeleton_motion_to_bvh(skeleton, bvh_layout_of(skeleton), frames,
+                                                                            motion.frame_rate()),
+                                                     animation, bvh_layout_of(skeleton).millimetres_per_unit));
     return;
   }
   if (path == "-") {

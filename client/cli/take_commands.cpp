@@ -207,7 +207,7 @@ void add_track_decode(CLI::App* track, const ClientSettings& settings, Action& a
       const auto server = connect(settings.connection);
       ModelRigs rigs(*server);
       // The rig (for a BVH) of the model that will answer, asked first.
-      const Skeleton* skeleton = is_bvh_path(o->out) ? &rigs.of(o->model).skeleton : nullptr;
+      const Skeleton* skeleton = is_animation_path(o->out) ? &rigs.of(o->model).skeleton : nullptr;
       request.set_model(rigs.pinned(o->model));
       TakeFileWriter writer(o->out, "", skeleton, !settings.json);
       TakeProgress progress(stderr, TakeProgress::stderr_is_terminal(), "track decode " + o->in, o->frames);

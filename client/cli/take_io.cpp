@@ -9,6 +9,7 @@
 #include <optional>
 
 #include "format/atomic_file.h"
+#include "format/animation_file.h"
 #include "format/bvh_file.h"
 #include "format/input_error.h"
 #include "format/skeleton_bvh.h"
@@ -30,21 +31,41 @@ std::string lower_extension(const std::string& path) {
 
 }  // namespace
 
-bool is_bvh_path(const std::string& path) { return lower_extension(path) == ".bvh"; }
+bool is_animation_path(const std::string& path) {
+  AnimationFormat format;
+  return animation_format_of_path(path, &format);
+}
+
+namespace {
+
+// The animation format of a path is_animation_path accepts.
+AnimationFormat animation_format_for(const std::string& path) {
+  AnimationFormat format = AnimationFormat::kBvh;
+  animation_format_of_path(path, &format);
+  return format;
+}
+
+}  // namespace
 
 TakeUpload read_take(const TakeSource& source, ModelRigs& rigs, const std::string& model, bool missing_allowed) {
   if (!is_motion_file(source.path)) {
     throw InputError("--input " + source.path + ": unknown take file type \"" + lower_extension(source.path) +
-                     "\", expected .txt (exponential-map text) or .bvh");
+                     "\", expected .txt (exponential-map text), .bvh, .glb, .gltf or .fbx");
   }
   TakeUpload take;
-  take.bvh = is_bvh_path(source.path);
+  take.bvh = is_animation_path(source.path);
   take.file_bytes = read_whole_file(source.path);
   // Syntax first, so a malformed file is refused before the server is asked
-  // for the model's rig.
+  // for the model's rig. glTF and FBX are read in the rig's unit, and sent
+  // on as the BVH they make.
+  const AnimationFormat format = animation_format_for(source.path);
   std::optional<BvhFile> parsed;
-  if (take.bvh) parsed = parse_bvh_text(take.file_bytes, source.path);
+  if (take.bvh && format == AnimationFormat::kBvh) parsed = parse_bvh_text(take.file_bytes, source.path);
   const ModelRig& rig = rigs.of(model);
+  if (take.bvh && !parsed) {
+    parsed = parse_animation_file(take.file_bytes, format, source.path, bvh_layout_of(rig.skeleton).millimetres_per_unit);
+    take.file_bytes = write_bvh_text(*parsed);
+  }
   if (take.bvh) {
     take.frames = skeleton_motion_from_bvh_at_file_rate(rig.skeleton, *parsed, source.path);
     take.header.set_frame_rate(bvh_frame_rate(*parsed));
@@ -61,7 +82,7 @@ TakeUpload read_take(const TakeSource& source, ModelRigs& rigs, const std::strin
 
 TakeFileWriter::TakeFileWriter(std::string path, std::string error_csv, const Skeleton* skeleton,
                                bool whole_file_allowed)
-    : path_(std::move(path)), error_csv_(std::move(error_csv)), skeleton_(skeleton), bvh_(is_bvh_path(path_)),
+    : path_(std::move(path)), error_csv_(std::move(error_csv)), skeleton_(skeleton), bvh_(is_animation_path(path_)),
       whole_file_allowed_(whole_file_allowed && error_csv_.empty()) {
   if (bvh_ && skeleton_ == nullptr) throw std::logic_error("TakeFileWriter: a BVH output needs the skeleton");
 }
@@ -109,7 +130,7 @@ void TakeFileWriter::chunk(const v1::FrameChunk& chunk) {
 
 std::string TakeFileWriter::whole_file_type() const {
   if (!whole_file_allowed_) return "";
-  return bvh_ ? "application/x-bvh" : "text/plain";
+  return bvh_ ? animation_format_media_type(animation_format_for(path_)) : "text/plain";
 }
 
 void TakeFileWriter::whole_file(const std::string& bytes, int64_t frames, double frame_rate, int64_t windows) {
@@ -127,8 +148,10 @@ void TakeFileWriter::whole_file(const std::string& bytes, int64_t frames, double
 void TakeFileWriter::finish() {
   if (whole_) return;  // written whole as it came, and no error CSV asked for
   if (bvh_) {
-    write_file_atomically(path_, write_bvh_text(skeleton_motion_to_bvh(*skeleton_, bvh_layout_of(*skeleton_), held_,
-                                                                       header_.frame_rate())));
+    write_file_atomically(path_, write_animation_file(skeleton_motion_to_bvh(*skeleton_, bvh_layout_of(*skeleton_), held_,
+                                                                             header_.frame_rate()),
+                                                      animation_format_for(path_),
+                                                      bvh_layout_of(*skeleton_).millimetres_per_unit));
   } else if (path_ == "-") {
     std::cout.flush();
   } else {

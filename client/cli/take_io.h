@@ -87,7 +87,8 @@ void write_code_track(const v1::CodeTrack& track, const std::string& path);
 // InputError naming the file and the field at fault.
 void read_code_track(const std::string& path, v1::DecodeTrackRequest& request);
 
-// Whether `path` names a BVH file.
-bool is_bvh_path(const std::string& path);
+// Whether `path` names an animation file: BVH, glTF (.glb, .gltf) or FBX
+// (.fbx), which takes hold in the model's rig (format/animation_file.h).
+bool is_animation_path(const std::string& path);
 
 }  // namespace mm::client

@@ -1,5 +1,7 @@
 #include "core/data_root_clips.h"
 
+#include "format/animation_file.h"
+
 #include <fcntl.h>
 #include <sys/file.h>
 #include <sys/stat.h>
@@ -68,6 +70,8 @@ std::string clip_format(const fs::path& path) {
   for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   if (extension == ".txt") return kH36mTextFormat;
   if (extension == ".bvh") return kBvhFormat;
+  if (extension == ".glb" || extension == ".gltf") return kGltfFormat;
+  if (extension == ".fbx") return kFbxFormat;
   return "";
 }
 
@@ -141,7 +145,12 @@ void read_text_window(const std::string& data, const std::string& relative, cons
 // the window's frames are resampled.
 void read_bvh_window(const std::string& data, const std::string& relative, const ModelShape& shape, int64_t start,
                      ReadClipReply& reply) {
-  const BvhFile file = parse_bvh_text(data.data(), data.size(), relative);
+  // glTF and FBX in the unit of the model's rig (its length unit told below
+  // for another rig's).
+  AnimationFormat animation = AnimationFormat::kBvh;
+  animation_format_of_path(relative, &animation);
+  const BvhFile file = parse_animation_file(data.data(), data.size(), animation, relative,
+                                            bvh_layout_of(shape.skeleton).millimetres_per_unit);
   Skeleton skeleton = shape.skeleton;
   std::string layout = shape.layout;
   try {
@@ -258,7 +267,8 @@ ReadClipReply read_data_root_clip(const std::string& data_root, const ReadClipRe
   const std::string format = clip_format(*resolved);
   if (format.empty()) {
     throw invalid("path", "path " + quoted(request.path) +
-                              " is neither H3.6M text (.txt) nor BVH (.bvh), expected one of them");
+                              " is neither H3.6M text (.txt) nor BVH, glTF or FBX (.bvh, .glb, .gltf, .fbx), "
+                              "expected one of them");
   }
   const uintmax_t size = fs::file_size(*resolved, error);
   if (error) throw invalid("path", "path " + quoted(request.path) + " cannot be read: " + error.message());
@@ -312,7 +322,9 @@ void check_upload_path(const std::string& path) {
     }
     begin = end + 1;
   }
-  if (clip_format(fs::path(path)).empty()) refuse("has neither extension .txt (H3.6M text) nor .bvh");
+  if (clip_format(fs::path(path)).empty()) {
+    refuse("has neither extension .txt (H3.6M text) nor .bvh, .glb, .gltf or .fbx (an animation file)");
+  }
 }
 
 // The content parsed as its format says; INVALID_ARGUMENT "content" naming
@@ -320,8 +332,10 @@ void check_upload_path(const std::string& path) {
 void check_upload_content(const std::string& content, const std::string& format, const std::string& path) {
   if (content.empty()) throw invalid("content", path + ": the content is empty, expected a motion file");
   try {
-    if (format == kBvhFormat) {
-      parse_bvh_text(content, path);  // its length bounded before its frames are read
+    if (format != kH36mTextFormat) {
+      AnimationFormat animation = AnimationFormat::kBvh;
+      animation_format_of_path(path, &animation);
+      parse_animation_file(content, animation, path, 0);  // its length bounded before its frames are read
     } else {
       count_motion_text_rows(content.data(), content.size(), path, kH36mColumns);  // before any value is parsed
       parse_motion_text_buffer(content.data(), content.size(), path);

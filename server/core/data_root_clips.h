@@ -35,8 +35,12 @@ class UploadReservations;  // jobs/upload_reservations.h
 // The formats ListClips and ReadClip name.
 constexpr const char* kH36mTextFormat = "h36m-text";
 constexpr const char* kBvhFormat = "bvh";
+// glTF (*.glb, *.gltf) and FBX (*.fbx) files, read as BVH is
+// (format/animation_file.h).
+constexpr const char* kGltfFormat = "gltf";
+constexpr const char* kFbxFormat = "fbx";
 
-// Every *.txt and *.bvh file (extension in any case) under `data_root`,
+// Every *.txt, *.bvh, *.glb, *.gltf and *.fbx file (extension in any case) under `data_root`,
 // recursively, hidden files and folders (a name starting with '.') left out,
 // sorted by path; the first `max_clips` of them, `truncated` when there were
 // more. FAILED_PRECONDITION when `data_root` is empty (the server was started

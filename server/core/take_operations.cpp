@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "api/data_root_path.h"
+#include "format/animation_file.h"
 #include "format/input_error.h"
 #include "format/motion_resampling.h"
 
@@ -297,8 +298,10 @@ TakeFile read_take_file(const std::string& data_root, const std::string& path, c
   if (!fs::is_regular_file(*resolved, error)) throw invalid("path", "path \"" + path + "\" is not a file");
   std::string extension = resolved->extension().string();
   for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  if (extension != ".txt" && extension != ".bvh") {
-    throw invalid("path", "path \"" + path + "\" is neither motion text (.txt) nor BVH (.bvh)");
+  AnimationFormat animation_format;
+  const bool animation = animation_format_of_path(resolved->string(), &animation_format);
+  if (extension != ".txt" && !animation) {
+    throw invalid("path", "path \"" + path + "\" is neither motion text (.txt) nor " + animation_formats_listed());
   }
   const uintmax_t size = fs::file_size(*resolved, error);
   if (error) throw invalid("path", "path \"" + path + "\" cannot be read: " + error.message());
@@ -314,7 +317,7 @@ TakeFile read_take_file(const std::string& data_root, const std::string& path, c
     throw invalid("path", "path \"" + path + "\" cannot be read");
   }
   const std::string source = resolved->lexically_relative(root).generic_string();
-  if (extension == ".bvh") return take_from_bvh(data, source, "path", shape.skeleton);
+  if (animation) return take_from_bvh(data, source, "path", shape.skeleton, animation_format);
   const double rate = text_rate == 0 ? kH36mFrameRate : text_rate;
   check_rate(rate, "frame_rate");
   return take_from_text(data, source, "path", shape.columns, rate, allow_nan);

@@ -31,10 +31,10 @@ TakeFile take_from_text(const std::string& data, const std::string& source, cons
 }
 
 TakeFile take_from_bvh(const std::string& data, const std::string& source, const std::string& field,
-                       const Skeleton& skeleton) {
+                       const Skeleton& skeleton, AnimationFormat format) {
   TakeFile take;
   try {
-    const BvhFile file = parse_bvh_text(data, source);
+    const BvhFile file = parse_animation_file(data, format, source, bvh_layout_of(skeleton).millimetres_per_unit);
     take.frame_rate = bvh_frame_rate(file);
     take.frames = skeleton_motion_from_bvh_at_file_rate(skeleton, file, source);
   } catch (const InputError& e) {

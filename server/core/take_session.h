@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "api/api_types.h"
+#include "format/animation_file.h"
 #include "format/motion_text.h"
 #include "format/skeleton.h"
 
@@ -124,8 +125,10 @@ struct TakeFile {
 };
 TakeFile take_from_text(const std::string& data, const std::string& source, const std::string& field, int columns,
                         double frame_rate, bool allow_nan);
+// BVH, or glTF or FBX by `format` (format/animation_file.h), in the unit of
+// the skeleton's rig.
 TakeFile take_from_bvh(const std::string& data, const std::string& source, const std::string& field,
-                       const Skeleton& skeleton);
+                       const Skeleton& skeleton, AnimationFormat format = AnimationFormat::kBvh);
 // A reader handing out `take`'s frames in chunks of at most `chunk_frames`.
 TakeChunkReader take_file_reader(std::shared_ptr<const TakeFile> take, int64_t chunk_frames = 2048);
 

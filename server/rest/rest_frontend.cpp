@@ -62,18 +62,21 @@ void send_json(httplib::Response& response, int status, const std::string& body)
   response.set_content(body, kJsonType);
 }
 
-// A reply of motions as BVH of the skeleton of the model that answered
-// (`shape`); BVH holds one motion, so a reply of several is 406.
-void send_bvh_motion(httplib::Response& response, const MotionsReply& reply, const ModelShape& shape) {
+// A reply of motions as BVH (or glTF: `format`) of the skeleton of the model
+// that answered (`shape`); the file holds one motion, so a reply of several
+// is 406.
+void send_bvh_motion(httplib::Response& response, const MotionsReply& reply, const ModelShape& shape,
+                     AnimationFormat format) {
   if (reply.motions.size() != 1) {
     const ApiError error(ErrorCode::kInvalidArgument, "",
-                         "Accept: application/x-bvh holds one motion and this reply has " +
+                         std::string("Accept: ") + animation_format_media_type(format) +
+                             " holds one motion and this reply has " +
                              std::to_string(reply.motions.size()) + "; ask for application/json");
     response.status = 406;
     return response.set_content(rest::error_body(error), kJsonType);
   }
   response.status = 200;
-  response.set_content(rest::motions_reply_to_bvh(reply, shape), rest::kBvhType);
+  response.set_content(rest::motions_reply_to_bvh(reply, shape, format), animation_format_media_type(format));
 }
 
 // Answers a call whose reply is motions: JSON, or BVH when the client's
@@ -84,28 +87,47 @@ void send_bvh_motion(httplib::Response& response, const MotionsReply& reply, con
 template <typename Request, typename Call>
 void answer_motions(httplib::Response& response, const httplib::Request& request,
                     ShapedTranslation<Request, MotionsReply> translation, Call&& call) {
-  if (!rest::names_bvh(request.get_header_value("Accept"))) {
+  AnimationFormat format;
+  if (!rest::names_animation(request.get_header_value("Accept"), &format)) {
     const MotionsReply reply = call(translation);
     response.status = 200;
     return response.set_content(rest::motions_reply_to_json(reply), kJsonType);
   }
-  translation.write = [&response](const MotionsReply& reply, const ModelShape& shape) {
-    send_bvh_motion(response, reply, shape);
+  if (format == AnimationFormat::kFbx) {
+    // FBX is read, never written (format/fbx_animation.h says why).
+    const ApiError error(ErrorCode::kInvalidArgument, "",
+                         "Accept: application/octet-stream (FBX) cannot be answered: motions are written as "
+                         "application/x-bvh, model/gltf-binary, model/gltf+json or application/json");
+    response.status = 406;
+    return response.set_content(rest::error_body(error), kJsonType);
+  }
+  translation.write = [&response, format](const MotionsReply& reply, const ModelShape& shape) {
+    send_bvh_motion(response, reply, shape, format);
   };
   call(translation);
 }
 
 // An encode or denoise body: JSON, or one BVH motion (Content-Type
 // application/x-bvh; denoise then takes its defaults).
-bool is_bvh_body(const httplib::Request& request) { return rest::names_bvh(request.get_header_value("Content-Type")); }
+bool is_bvh_body(const httplib::Request& request) {
+  AnimationFormat format;
+  return rest::names_animation(request.get_header_value("Content-Type"), &format);
+}
+
+// The format of an animation body (is_bvh_body), BVH for any other.
+AnimationFormat body_format(const httplib::Request& request) {
+  AnimationFormat format = AnimationFormat::kBvh;
+  rest::names_animation(request.get_header_value("Content-Type"), &format);
+  return format;
+}
 
 // A BVH body read as the request's one motion, for the model that answers
 // (inside the call: ManifoldCore's ShapedTranslation).
 template <typename Request, typename Reply>
-ShapedTranslation<Request, Reply> bvh_body_translation(const std::string& body) {
+ShapedTranslation<Request, Reply> bvh_body_translation(const std::string& body, AnimationFormat format) {
   ShapedTranslation<Request, Reply> translation;
-  translation.read = [&body](Request& request, const ModelShape& shape) {
-    request.motions.push_back(rest::motion_from_bvh_body(body, shape));
+  translation.read = [&body, format](Request& request, const ModelShape& shape) {
+    request.motions.push_back(rest::motion_from_bvh_body(body, shape, format));
   };
   return translation;
 }
@@ -282,7 +304,7 @@ void RestFrontend::State::handle(RouteId route, const httplib::Request& request,
           encode.model = request.get_param_value("model");
           return send_json(response, 200,
                            rest::encode_reply_to_json(core.encode(
-                               context, encode, bvh_body_translation<EncodeRequest, EncodeReply>(body))));
+                               context, encode, bvh_body_translation<EncodeRequest, EncodeReply>(body, body_format(request)))));
         }
         return send_json(response, 200,
                          rest::encode_reply_to_json(core.encode(context, rest::encode_request_from_json(body))));
@@ -311,7 +333,8 @@ void RestFrontend::State::handle(RouteId route, const httplib::Request& request,
         if (is_bvh_body(request)) {
           DenoiseRequest denoise;
           denoise.model = request.get_param_value("model");
-          return answer_motions(response, request, bvh_body_translation<DenoiseRequest, MotionsReply>(body),
+          return answer_motions(response, request,
+                                bvh_body_translation<DenoiseRequest, MotionsReply>(body, body_format(request)),
                                 [&](const auto& translation) { return core.denoise(context, denoise, translation); });
         }
         const DenoiseRequest denoise = rest::denoise_request_from_json(body);

@@ -72,7 +72,14 @@ void send_frames(const GatheredTake& take, const httplib::Request& request, cons
                  httplib::Response& response) {
   const std::string accept = request.get_header_value("Accept");
   response.status = 200;
-  if (!names_bvh(accept) && !names_text(accept)) {
+  AnimationFormat reply_format = AnimationFormat::kBvh;
+  const bool animation = names_animation(accept, &reply_format);
+  if (animation && reply_format == AnimationFormat::kFbx) {
+    throw ApiError(ErrorCode::kInvalidArgument, "Accept",
+                   "application/octet-stream (FBX) is read, never written: ask for application/x-bvh, "
+                   "model/gltf-binary, model/gltf+json, text/plain or application/json");
+  }
+  if (!animation && !names_text(accept)) {
     return response.set_content(::mm::wire::body_text(::mm::wire::to_json(take.reply)), kJsonType);
   }
   MotionFrames frames;
@@ -83,12 +90,13 @@ void send_frames(const GatheredTake& take, const httplib::Request& request, cons
   response.set_header("X-Take-Mean-Error-Mm", decimal(take.summary.mean_error_mm));
   response.set_header("X-Take-Max-Error-Mm", decimal(take.summary.max_error_mm));
   response.set_header("X-Take-Windows", std::to_string(take.summary.windows));
-  if (names_bvh(accept)) {
+  if (animation) {
     try {
       return response.set_content(
-          write_bvh_text(skeleton_motion_to_bvh(shape.skeleton, bvh_layout_of(shape.skeleton), frames,
-                                                take.reply.header.frame_rate())),
-          kBvhType);
+          write_animation_file(skeleton_motion_to_bvh(shape.skeleton, bvh_layout_of(shape.skeleton), frames,
+                                                      take.reply.header.frame_rate()),
+                               reply_format, bvh_layout_of(shape.skeleton).millimetres_per_unit),
+          animation_format_media_type(reply_format));
     } catch (const InputError& error) {
       throw ApiError(ErrorCode::kInternal, "", std::string("the reply cannot be written as BVH: ") + error.what());
     }
@@ -96,6 +104,16 @@ void send_frames(const GatheredTake& take, const httplib::Request& request, cons
   std::ostringstream text;
   write_motion_text(frames, text);
   response.set_content(text.str(), kTextType);
+}
+
+// The format of an animation body; application/octet-stream's by its
+// first bytes (FBX or glTF binary).
+AnimationFormat sniffed_body_format(const std::string& body, AnimationFormat named) {
+  try {
+    return animation_body_format(body, named, "request body");
+  } catch (const InputError& error) {
+    throw ApiError(ErrorCode::kInvalidArgument, "body", error.what());
+  }
 }
 
 TakeKind kind_of(RouteId route) {
@@ -126,7 +144,8 @@ void answer_take(ManifoldCore& core, RouteId route, const CallContext& context, 
     return;
   }
   const TakeKind kind = kind_of(route);
-  const bool bvh_body = names_bvh(request.get_header_value("Content-Type"));
+  AnimationFormat body_format = AnimationFormat::kBvh;
+  const bool bvh_body = names_animation(request.get_header_value("Content-Type"), &body_format);
   const TakeRequest take_request = take_request_from_query(request.params, kind == TakeKind::kDenoise, bvh_body);
   TakeTranslation translation;
   if (take_request.path.empty()) {
@@ -135,9 +154,9 @@ void answer_take(ManifoldCore& core, RouteId route, const CallContext& context, 
                      "the body is empty, expected the take (motion text, or BVH with Content-Type: "
                      "application/x-bvh) or path=<a file under the data root>");
     }
-    translation.read = [&body, bvh_body, kind](TakeRequest& read_request, const ModelShape& shape) {
+    translation.read = [&body, bvh_body, body_format, kind](TakeRequest& read_request, const ModelShape& shape) {
       auto file = std::make_shared<const TakeFile>(
-          bvh_body ? take_from_bvh(body, "request body", "body", shape.skeleton)
+          bvh_body ? take_from_bvh(body, "request body", "body", shape.skeleton, sniffed_body_format(body, body_format))
                    : take_from_text(body, "request body", "body", shape.columns, read_request.frame_rate,
                                     kind == TakeKind::kDenoise));
       read_request.frame_rate = file->frame_rate;
