@@ -14,6 +14,10 @@ const files = {
   'three.module.min.js': 'build/three.module.min.js',
   'addons/controls/OrbitControls.js': 'examples/jsm/controls/OrbitControls.js',
   'addons/loaders/BVHLoader.js': 'examples/jsm/loaders/BVHLoader.js',
+  // Not used by the page: gltf_loader_test imports them from its origin in
+  // Chromium to read the service's glTF.
+  'addons/loaders/GLTFLoader.js': 'examples/jsm/loaders/GLTFLoader.js',
+  'addons/utils/BufferGeometryUtils.js': 'examples/jsm/utils/BufferGeometryUtils.js',
   LICENSE: 'LICENSE',
 };
 for (const [ours, theirs] of Object.entries(files)) {

@@ -50,11 +50,17 @@ export async function callApi(method, path, { body, contentType = 'application/j
     logCall({ method, path, status: 'network error', milliseconds: performance.now() - started, summary });
     throw error;
   }
-  const text = await response.text();
+  // A glTF reply is a file to save, never parsed here: the bytes as they came
+  // (model/gltf-binary, an ArrayBuffer) or the text (model/gltf+json).
+  const type = response.headers.get('Content-Type') ?? '';
+  const binary = response.ok && type.startsWith('model/gltf-binary');
+  const bytes = binary ? await response.arrayBuffer() : null;
+  const text = binary ? '' : await response.text();
   logCall({ method, path, status: response.status, milliseconds: performance.now() - started, summary,
             bytes: payload?.length ?? payload?.size ?? 0 });
   if (!response.ok) throw new ApiError(method, path, response.status, text);
-  return (response.headers.get('Content-Type') ?? '').includes('json') ? JSON.parse(text) : text;
+  if (binary) return bytes;
+  return type.includes('json') && !type.startsWith('model/') ? JSON.parse(text) : text;
 }
 
 // A call that changes state: sent with the token field's value, and once

@@ -163,17 +163,27 @@ async function showTake(view, name, reply, original) {
 // Takes `takeShown` to a reconstructed take, with the download on.
 function rememberTake(name, reconstruct) {
   takeShown = { name, reconstruct };
-  $('take-download-button').disabled = false;
+  for (const id of ['take-download-button', 'take-download-glb-button', 'take-download-gltf-button']) $(id).disabled = false;
 }
 
-// The take shown, reconstructed as BVH by the server, saved as
-// <name>-reconstructed.bvh (the name without its folders and extension).
-async function downloadTakeBvh() {
+// What the download buttons ask the server for: the take shown,
+// reconstructed once more as a file of the model's skeleton.
+const DOWNLOAD_FORMATS = {
+  bvh: { type: 'application/x-bvh', name: 'BVH' },
+  glb: { type: 'model/gltf-binary', name: 'glTF binary' },
+  gltf: { type: 'model/gltf+json', name: 'glTF' },
+};
+
+// The take shown, reconstructed by the server as `extension` (bvh, glb or
+// gltf), saved as <name>-reconstructed.<extension> (the name without its
+// folders and extension).
+async function downloadTake(extension) {
   if (!takeShown) throw new Error('reconstruct a take first');
   const { name, reconstruct } = takeShown;
-  const bvh = await reconstruct({ accept: 'application/x-bvh', summary: `${name} as BVH` });
-  const fileName = `${name.split('/').pop().replace(/\.[^.]*$/, '')}-reconstructed.bvh`;
-  const url = URL.createObjectURL(new Blob([bvh], { type: 'application/x-bvh' }));
+  const format = DOWNLOAD_FORMATS[extension];
+  const file = await reconstruct({ accept: format.type, summary: `${name} as ${format.name}` });
+  const fileName = `${name.split('/').pop().replace(/\.[^.]*$/, '')}-reconstructed.${extension}`;
+  const url = URL.createObjectURL(new Blob([file], { type: format.type }));
   const link = document.createElement('a');
   link.href = url;
   link.download = fileName;
@@ -182,8 +192,10 @@ async function downloadTakeBvh() {
   link.remove();
   // The download reads the URL after this click returns.
   setTimeout(() => URL.revokeObjectURL(url), 60000);
-  Object.assign(downloaded, { count: downloaded.count + 1, fileName, bvh });
-  $('result').textContent = `${fileName}: ${bvh.length} bytes`;
+  const size = file.byteLength ?? file.length;
+  Object.assign(downloaded, { count: downloaded.count + 1, fileName, bvh: extension === 'bvh' ? file : '',
+                              bytes: size });
+  $('result').textContent = `${fileName}: ${size} bytes`;
 }
 
 function takeQuery(extra) {
@@ -198,15 +210,20 @@ function takeQuery(extra) {
 async function reconstructTakeFile(view) {
   const file = $('take-file').files[0];
   if (!file) throw new Error('choose a take first: exponential-map text or BVH of the model\'s skeleton');
-  const text = await file.text();
-  const isBvh = file.name.toLowerCase().endsWith('.bvh');
+  const extension = file.name.toLowerCase().split('.').pop();
+  // glTF and FBX go as they are; the page draws the original of text and BVH.
+  const animationType = { bvh: 'application/x-bvh', glb: 'model/gltf-binary', gltf: 'model/gltf+json',
+                          fbx: 'application/octet-stream' }[extension];
+  const isBvh = extension === 'bvh';
+  const text = animationType && !isBvh ? null : await file.text();
   const rate = Number($('take-rate').value);
-  const route = `v1/takes:reconstruct?${takeQuery(isBvh ? {} : { frame_rate: rate })}`;
-  const reconstruct = (options) => callApi('POST', route, { body: text, contentType: isBvh ? 'application/x-bvh' : 'text/plain',
+  const route = `v1/takes:reconstruct?${takeQuery(animationType ? {} : { frame_rate: rate })}`;
+  const reconstruct = (options) => callApi('POST', route, { body: text ?? file, contentType: animationType ?? 'text/plain',
                                                             summary: file.name, ...options });
   const reply = await reconstruct();
   const skeleton = await skeletonOf(reply.answered_by.model, reply.answered_by.version);
-  await showTake(view, file.name, reply, isBvh ? bvhToMotion(text, skeleton) : textTake(text, rate));
+  const original = isBvh ? bvhToMotion(text, skeleton) : text === null ? null : textTake(text, rate);
+  await showTake(view, file.name, reply, original);
   rememberTake(file.name, reconstruct);
 }
 
@@ -229,5 +246,7 @@ export function setUpTakePanel(view) {
                                      downloaded: () => ({ ...downloaded }) };
   $('take-button').addEventListener('click', () => runAction(() => reconstructTakeFile(view)));
   $('take-clip-button').addEventListener('click', () => runAction(() => reconstructTakeClip(view)));
-  $('take-download-button').addEventListener('click', () => runAction(downloadTakeBvh));
+  $('take-download-button').addEventListener('click', () => runAction(() => downloadTake('bvh')));
+  $('take-download-glb-button').addEventListener('click', () => runAction(() => downloadTake('glb')));
+  $('take-download-gltf-button').addEventListener('click', () => runAction(() => downloadTake('gltf')));
 }
