@@ -127,6 +127,16 @@ try {
   assert.equal(timing.frames, rows.length, 'Frames: of the downloaded BVH');
   assert.ok(Math.abs(timing.frameTime - 1 / 50) < 1e-6, `Frame Time ${timing.frameTime}, expected 1/50 s`);
 
+  step('Download glb: the take shown as a glTF binary (web_gltf_loader_reads_our_export reads such a reply)');
+  const beforeGlb = (await page.evaluate(() => window.motionManifoldPage.take.downloaded())).count;
+  await page.click('#take-download-glb-button');
+  await page.waitForFunction((n) => window.motionManifoldPage.take.downloaded().count > n, { timeout: 300000 }, beforeGlb);
+  const glb = await page.evaluate(() => window.motionManifoldPage.take.downloaded());
+  assert.equal(glb.fileName, 'walking_1-reconstructed.glb');
+  // 25 rotations and a translation of 4-byte floats a frame, at least.
+  assert.ok(glb.bytes > rows.length * (25 * 16 + 12), `the glb holds ${glb.bytes} bytes for ${rows.length} frames`);
+  console.log(`   ${glb.fileName}: ${glb.bytes} bytes`);
+
   step('scrubbing moves both skeletons to the frame: the FK of the file and of the reconstruction');
   const originalReference = referencePositions(s5File);
   const reconstructionFile = path.join(scratch, 'reconstruction.txt');
