@@ -11,15 +11,10 @@ constexpr long long kTableLockKey = 0x6d6d61637476LL;  // "mmactv"
 
 }  // namespace
 
-struct ActiveModelRecord::Connection {
-  explicit Connection(const std::string& uri) : connection(uri) {}
-  pqxx::connection connection;
-};
-
 ActiveModelRecord::ActiveModelRecord(const std::string& uri, std::string replica)
-    : uri_(uri), replica_(std::move(replica)) {
+    : replica_(std::move(replica)), connection_(uri) {
   std::lock_guard<std::mutex> lock(mutex_);
-  pqxx::work work(connection().connection);
+  pqxx::work work(connection_.get());
   work.exec_params("SELECT pg_advisory_xact_lock($1)", kTableLockKey);
   // One row (id = 1): the deployment has one active model.
   work.exec(
@@ -34,14 +29,9 @@ ActiveModelRecord::ActiveModelRecord(const std::string& uri, std::string replica
 
 ActiveModelRecord::~ActiveModelRecord() = default;
 
-ActiveModelRecord::Connection& ActiveModelRecord::connection() {
-  if (!connection_ || !connection_->connection.is_open()) connection_ = std::make_unique<Connection>(uri_);
-  return *connection_;
-}
-
 std::optional<ActiveModelRecord::Entry> ActiveModelRecord::read() {
   std::lock_guard<std::mutex> lock(mutex_);
-  pqxx::read_transaction read(connection().connection);
+  pqxx::read_transaction read(connection_.get());
   const auto rows = read.exec("SELECT model, generation FROM active_model WHERE id = 1");
   if (rows.empty()) return std::nullopt;
   return Entry{rows[0][0].as<std::string>(), rows[0][1].as<int64_t>()};
@@ -49,7 +39,7 @@ std::optional<ActiveModelRecord::Entry> ActiveModelRecord::read() {
 
 ActiveModelRecord::Entry ActiveModelRecord::write(const std::string& model) {
   std::lock_guard<std::mutex> lock(mutex_);
-  pqxx::work work(connection().connection);
+  pqxx::work work(connection_.get());
   // One statement: two replicas activating at once both raise the
   // generation, and the later commit is the deployment's.
   const auto row = work.exec_params(

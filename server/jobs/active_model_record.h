@@ -23,6 +23,8 @@
 #include <optional>
 #include <string>
 
+#include "jobs/reopening_postgres_connection.h"
+
 namespace mm::service {
 
 class ActiveModelRecord {
@@ -44,13 +46,9 @@ class ActiveModelRecord {
   Entry write(const std::string& model);
 
  private:
-  struct Connection;
-  Connection& connection();  // under mutex_
-
-  const std::string uri_;
   const std::string replica_;
   std::mutex mutex_;
-  std::unique_ptr<Connection> connection_;
+  ReopeningPostgresConnection connection_;  // under mutex_
 };
 
 }  // namespace mm::service

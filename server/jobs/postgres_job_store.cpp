@@ -39,13 +39,8 @@ std::string new_replica_name() {
 
 }  // namespace
 
-struct PostgresJobStore::Connection {
-  explicit Connection(const std::string& uri) : connection(uri) {}
-  pqxx::connection connection;
-};
-
 PostgresJobStore::PostgresJobStore(const std::string& uri, double lease_seconds)
-    : uri_(uri), lease_seconds_(lease_seconds), replica_(new_replica_name()) {
+    : lease_seconds_(lease_seconds), replica_(new_replica_name()), connection_(uri) {
   pqxx::work work(connection());
   work.exec_params("SELECT pg_advisory_xact_lock($1)", kQueueLockKey);
   // seq orders the records by submission (ids are random); lease_until is in
@@ -74,10 +69,7 @@ PostgresJobStore::PostgresJobStore(const std::string& uri, double lease_seconds)
 
 PostgresJobStore::~PostgresJobStore() = default;
 
-pqxx::connection_base& PostgresJobStore::connection() const {
-  if (!connection_ || !connection_->connection.is_open()) connection_ = std::make_unique<Connection>(uri_);
-  return connection_->connection;
-}
+pqxx::connection_base& PostgresJobStore::connection() const { return connection_.get(); }
 
 QueueRoom PostgresJobStore::insert_within_limits(const JobInfo& job, const std::string& submitter, int max_queued,
                                                  int max_queued_per_submitter) {

@@ -20,10 +20,7 @@
 #include <string>
 
 #include "jobs/job_store.h"
-
-namespace pqxx {
-class connection_base;  // libpqxx 6: pqxx::connection is an alias of a template
-}
+#include "jobs/reopening_postgres_connection.h"
 
 namespace mm::service {
 
@@ -57,11 +54,9 @@ class PostgresJobStore final : public JobStore {
  private:
   pqxx::connection_base& connection() const;  // the open connection, reopened if closed
 
-  std::string uri_;
   double lease_seconds_;
   std::string replica_;
-  struct Connection;
-  mutable std::unique_ptr<Connection> connection_;
+  mutable ReopeningPostgresConnection connection_;
 };
 
 }  // namespace mm::service

@@ -11,15 +11,10 @@ constexpr long long kQuotaLockKey = 0x6d6d71756f7461LL;  // "mmquota"
 
 }  // namespace
 
-struct UploadReservations::Connection {
-  explicit Connection(const std::string& uri) : connection(uri) {}
-  pqxx::connection connection;
-};
-
 UploadReservations::UploadReservations(const std::string& uri, std::string replica)
-    : uri_(uri), replica_(std::move(replica)) {
+    : replica_(std::move(replica)), connection_(uri) {
   std::lock_guard<std::mutex> lock(mutex_);
-  pqxx::work work(connection().connection);
+  pqxx::work work(connection_.get());
   work.exec_params("SELECT pg_advisory_xact_lock($1)", kQuotaLockKey);
   // expires_at is in the database's clock, the one every replica reads.
   work.exec(
@@ -34,15 +29,10 @@ UploadReservations::UploadReservations(const std::string& uri, std::string repli
 
 UploadReservations::~UploadReservations() = default;
 
-UploadReservations::Connection& UploadReservations::connection() {
-  if (!connection_ || !connection_->connection.is_open()) connection_ = std::make_unique<Connection>(uri_);
-  return *connection_;
-}
-
 int64_t UploadReservations::reserve(const std::string& path, int64_t bytes,
                                     const std::function<void(const Reserved&)>& check) {
   std::lock_guard<std::mutex> lock(mutex_);
-  pqxx::work work(connection().connection);
+  pqxx::work work(connection_.get());
   // Held until the commit: another replica's check waits here until this
   // reservation is visible to it.
   work.exec_params("SELECT pg_advisory_xact_lock($1)", kQuotaLockKey);
@@ -59,7 +49,7 @@ int64_t UploadReservations::reserve(const std::string& path, int64_t bytes,
 
 void UploadReservations::release(int64_t id) {
   std::lock_guard<std::mutex> lock(mutex_);
-  pqxx::work work(connection().connection);
+  pqxx::work work(connection_.get());
   work.exec_params("DELETE FROM upload_reservations WHERE id = $1", id);
   work.commit();
 }

@@ -22,6 +22,8 @@
 #include <mutex>
 #include <string>
 
+#include "jobs/reopening_postgres_connection.h"
+
 namespace mm::service {
 
 class UploadReservations {
@@ -51,13 +53,9 @@ class UploadReservations {
   void release(int64_t id);
 
  private:
-  struct Connection;
-  Connection& connection();  // under mutex_
-
-  const std::string uri_;
   const std::string replica_;
   std::mutex mutex_;
-  std::unique_ptr<Connection> connection_;
+  ReopeningPostgresConnection connection_;  // under mutex_
 };
 
 }  // namespace mm::service
