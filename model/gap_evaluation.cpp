@@ -12,6 +12,7 @@
 
 #include "format/foot_contacts.h"
 #include "format/input_error.h"
+#include "gap_code_fit.h"
 #include "take_processor.h"
 #include "take_windows.h"
 
@@ -19,8 +20,12 @@ namespace mm {
 namespace {
 
 constexpr double kRate = kTakeModelRate;
-constexpr int kMethods = 6;
-const char* const kMethodNames[kMethods] = {"hold", "slerp", "cubic", "manifold", "matched_full", "matched"};
+// The methods the tables show, then the fitted fill at fixed detail
+// weights (the JSON's, for choosing the weights on training subjects).
+constexpr int kShown = 8, kMethods = 13;
+const char* const kMethodNames[kMethods] = {"hold",        "slerp",       "cubic",       "manifold",   "matched",
+                                            "fit_raw",     "fit_full",    "fitted",      "detail_0",   "detail_0.25",
+                                            "detail_0.5",  "detail_0.75", "detail_1"};
 
 struct Config {
   double seconds = 0;
@@ -200,19 +205,35 @@ GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vec
       take_options.at_model_rate = true;
       take_options.decoder = options.decoder;
       const TakeResult decoded = process_take(model, corrupted, take_options);
+      // The code fitted to each gap's centred window (gap_code_fit.h).
+      const MotionFrames fitted = fit_gap_codes(model, corrupted, decoded.frames, options.decoder, options.code_fit);
       GapFillOptions method_options[kMethods];
       for (auto& o : method_options) o.max_tangent_seconds = options.fill.max_tangent_seconds;
       method_options[0].method = GapMethod::kHold;
       method_options[1].method = GapMethod::kSlerp;
       method_options[2].method = GapMethod::kCubic;
       method_options[3].method = GapMethod::kManifold;
+      // The matched fill before the fitted codes: the take's windows'
+      // movement over the cubic, from none up to 0.6 s to full from 2 s.
       method_options[4].method = GapMethod::kMatched;
-      method_options[4].interpolate_below_seconds = method_options[4].full_detail_seconds = 0;
-      method_options[4].full_detail = 1;
-      method_options[5] = options.fill;
-      method_options[5].method = GapMethod::kMatched;
+      method_options[4].interpolate_below_seconds = 0.6;
+      method_options[4].few_joints_detail = method_options[4].most_joints_detail = {0.4 / 1.4, 1.0, 1.0};
+      method_options[5].method = GapMethod::kManifold;
+      method_options[6].method = GapMethod::kMatched;
+      method_options[6].interpolate_below_seconds = 0;
+      method_options[6].few_joints_detail = method_options[6].most_joints_detail = {1.0, 1.0, 1.0};
+      method_options[7] = options.fill;
+      method_options[7].method = GapMethod::kMatched;
+      for (int m = kShown; m < kMethods; ++m) {
+        const double w = 0.25 * (m - kShown);
+        method_options[m].method = GapMethod::kMatched;
+        method_options[m].interpolate_below_seconds = 0;
+        method_options[m].few_joints_detail = method_options[m].most_joints_detail = {w, w, w};
+      }
       MotionFrames filled[kMethods];
-      for (int m = 0; m < kMethods; ++m) filled[m] = fill_gaps(corrupted, &decoded.frames, method_options[m], kRate);
+      for (int m = 0; m < kMethods; ++m) {
+        filled[m] = fill_gaps(corrupted, m < 5 ? &decoded.frames : &fitted, method_options[m], kRate);
+      }
 
       for (const PlacedGap& gap : gaps) {
         ++total_gaps;
@@ -295,10 +316,12 @@ GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vec
       {"gaps", total_gaps},
       {"rate_hz", kRate},
       {"decoder", decoder_name(options.decoder)},
-      {"matched_fill",
+      {"fitted_fill",
        {{"interpolate_below_seconds", options.fill.interpolate_below_seconds},
-        {"full_detail_seconds", options.fill.full_detail_seconds},
-        {"full_detail", options.fill.full_detail}}},
+        {"few_joints_detail_at_1_2_4_seconds", options.fill.few_joints_detail},
+        {"most_joints_detail_at_1_2_4_seconds", options.fill.most_joints_detail},
+        {"code_fit_iterations", options.code_fit.iterations},
+        {"code_fit_min_seconds", options.code_fit.min_seconds}}},
       {"configurations", config_rows}};
 
   // Markdown: one table per measure, configurations by method, then the
@@ -306,14 +329,14 @@ GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vec
   std::string md;
   auto table = [&](const char* title, const char* key, const char* format) {
     md += std::string("\n") + title + "\n\n| joints | gap (s) | gaps |";
-    for (const char* name : kMethodNames) md += std::string(" ") + name + " |";
+    for (int m = 0; m < kShown; ++m) md += std::string(" ") + kMethodNames[m] + " |";
     md += "\n|---|---:|---:|";
-    for (int m = 0; m < kMethods; ++m) md += "---:|";
+    for (int m = 0; m < kShown; ++m) md += "---:|";
     md += "\n";
     for (size_t c = 0; c < configs.size(); ++c) {
       md += "| " + config_joints_name(configs[c].joints) + " | " + number(configs[c].seconds) + " | " +
             std::to_string(overall[c][0].gaps) + " |";
-      for (int m = 0; m < kMethods; ++m) md += " " + number(overall[c][static_cast<size_t>(m)].json()[key].get<double>(), format) + " |";
+      for (int m = 0; m < kShown; ++m) md += " " + number(overall[c][static_cast<size_t>(m)].json()[key].get<double>(), format) + " |";
       md += "\n";
     }
   };
@@ -328,14 +351,150 @@ GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vec
   for (size_t c = 0; c < configs.size(); ++c) {
     if (configs[c].joints != 0 || configs[c].seconds < 2.0) continue;
     md += "\nEvery joint missing for " + number(configs[c].seconds) + " s, per action: MPJPE (mm) / speed ratio\n\n| action | gaps |";
-    for (const char* name : kMethodNames) md += std::string(" ") + name + " |";
+    for (int m = 0; m < kShown; ++m) md += std::string(" ") + kMethodNames[m] + " |";
     md += "\n|---|---:|";
-    for (int m = 0; m < kMethods; ++m) md += "---|";
+    for (int m = 0; m < kShown; ++m) md += "---|";
     md += "\n";
     for (const auto& [action, sums] : per_action) {
       md += "| " + action + " | " + std::to_string(sums[c][0].gaps) + " |";
-      for (int m = 0; m < kMethods; ++m) {
+      for (int m = 0; m < kShown; ++m) {
         const auto j = sums[c][static_cast<size_t>(m)].json();
+        md += " " + number(j["mpjpe_mm"].get<double>()) + " / " + number(j["speed_ratio"].get<double>(), "%.2f") + " |";
+      }
+      md += "\n";
+    }
+  }
+  return {document.dump(2) + "\n", md};
+}
+
+GapBenchmarkResult run_keyframe_benchmark(const MotionManifold& model, const std::vector<GapBenchmarkTake>& takes,
+                                          const KeyframeBenchmarkOptions& options) {
+  constexpr int kKeyMethods = 4;
+  const char* const key_method_names[kKeyMethods] = {"slerp", "cubic", "manifold", "fitted"};
+  const Skeleton& skeleton = model.skeleton();
+  const int joint_count = skeleton.joint_count();
+  std::vector<int> moved;
+  for (int j = 1; j < joint_count; ++j) moved.push_back(j);
+  const int64_t window = model.config().frames;
+  // [interval][method], and per action.
+  std::vector<std::array<Sums, kKeyMethods>> overall(options.intervals.size());
+  std::map<std::string, std::vector<std::array<Sums, kKeyMethods>>> per_action;
+  std::vector<double> key_error_deg(options.intervals.size(), 0.0);
+  int used_takes = 0;
+  for (const auto& take : takes) {
+    const int64_t frames =
+        std::min<int64_t>(take.frames.frame_count(), static_cast<int64_t>(std::lround(options.take_seconds * kRate)));
+    if (frames < window) continue;
+    ++used_takes;
+    if (per_action.find(take.action) == per_action.end()) per_action[take.action].resize(options.intervals.size());
+    const MotionFrames recorded = slice(take.frames, 0, frames - 1);
+    const auto recorded_positions = positions_of(skeleton, recorded, 0, frames - 1);
+    for (size_t i = 0; i < options.intervals.size(); ++i) {
+      const auto every = std::max<int64_t>(2, std::lround(options.intervals[i] * kRate));
+      MotionFrames keyed = recorded;
+      for (int64_t f = 0; f < frames; ++f) {
+        if (f % every == 0 || f == frames - 1) continue;
+        std::fill_n(keyed.frame(f) + kRootTranslationValues, keyed.columns - kRootTranslationValues,
+                    std::numeric_limits<float>::quiet_NaN());
+      }
+      TakeOptions take_options;
+      take_options.operation = TakeOperation::kDenoise;
+      take_options.frame_rate = kRate;
+      take_options.at_model_rate = true;
+      take_options.decoder = options.decoder;
+      const TakeResult decoded = process_take(model, keyed, take_options);
+      const MotionFrames fitted = fit_gap_codes(model, keyed, decoded.frames, options.decoder, options.code_fit);
+      GapFillOptions method_options[kKeyMethods];
+      for (auto& o : method_options) o.max_tangent_seconds = options.fill.max_tangent_seconds;
+      method_options[0].method = GapMethod::kSlerp;
+      method_options[1].method = GapMethod::kCubic;
+      method_options[2].method = GapMethod::kManifold;
+      method_options[3] = options.fill;
+      method_options[3].method = GapMethod::kMatched;
+      for (int m = 0; m < kKeyMethods; ++m) {
+        const MotionFrames filled = fill_gaps(keyed, m < 3 ? &decoded.frames : &fitted, method_options[m], kRate);
+        const auto p = positions_of(skeleton, filled, 0, frames - 1);
+        Sums s;
+        s.gaps = 1;
+        double error = 0, angle = 0;
+        int64_t between = 0;
+        for (int64_t f = 0; f < frames; ++f) {
+          const bool key = f % every == 0 || f == frames - 1;
+          for (int j = 0; j < joint_count; ++j) {
+            const int column = kRootTranslationValues + 3 * j;
+            const double a = expmap_angle_between(filled.frame(f) + column, recorded.frame(f) + column) * 180.0 / M_PI;
+            if (key) {
+              if (m == 3) key_error_deg[i] = std::max(key_error_deg[i], a);
+            } else {
+              angle += a;
+            }
+          }
+          if (key) continue;
+          ++between;
+          for (int j : moved) {
+            error += distance(p[static_cast<size_t>(f * joint_count + j)], recorded_positions[static_cast<size_t>(f * joint_count + j)]);
+          }
+        }
+        s.mpjpe = error / static_cast<double>(between * static_cast<int64_t>(moved.size()));
+        s.angle = angle / static_cast<double>(between * joint_count);
+        for (int64_t f = 0; f + 1 < frames; ++f) {
+          s.moved += mean_move(p, joint_count, f, f + 1, moved);
+          s.moved_recorded += mean_move(recorded_positions, joint_count, f, f + 1, moved);
+        }
+        s.skating = skating_ratio(skeleton, filled, kRate);
+        s.skating_recorded = skating_ratio(skeleton, recorded, kRate);
+        overall[i][static_cast<size_t>(m)].add(s);
+        per_action[take.action][i][static_cast<size_t>(m)].add(s);
+      }
+    }
+  }
+  if (used_takes == 0) throw InputError("takes: none is one window (" + std::to_string(window) + " frames at 25 Hz) long");
+
+  nlohmann::json rows = nlohmann::json::array();
+  for (size_t i = 0; i < options.intervals.size(); ++i) {
+    nlohmann::json methods = nlohmann::json::object(), actions = nlohmann::json::object();
+    for (int m = 0; m < kKeyMethods; ++m) methods[key_method_names[m]] = overall[i][static_cast<size_t>(m)].json();
+    for (const auto& [action, sums] : per_action) {
+      nlohmann::json a = nlohmann::json::object();
+      for (int m = 0; m < kKeyMethods; ++m) a[key_method_names[m]] = sums[i][static_cast<size_t>(m)].json();
+      actions[action] = a;
+    }
+    rows.push_back({{"interval_seconds", options.intervals[i]},
+                    {"keyframe_max_angle_error_deg", key_error_deg[i]},
+                    {"methods", methods},
+                    {"actions", actions}});
+  }
+  nlohmann::json document = {{"takes", used_takes},
+                             {"take_seconds", options.take_seconds},
+                             {"rate_hz", kRate},
+                             {"decoder", decoder_name(options.decoder)},
+                             {"intervals", rows}};
+  std::string md = "\nKeyframes: one pose every interval, every other frame filled (" + std::to_string(used_takes) +
+                   " takes, their first " + number(options.take_seconds, "%.0f") +
+                   " s). MPJPE (mm) / speed ratio / skating ratio on the frames between keyframes:\n\n| interval (s) |";
+  for (const char* name : key_method_names) md += std::string(" ") + name + " |";
+  md += " keyframes returned (largest angle error, degrees) |\n|---:|";
+  for (int m = 0; m < kKeyMethods; ++m) md += "---|";
+  md += "---:|\n";
+  for (size_t i = 0; i < options.intervals.size(); ++i) {
+    md += "| " + number(options.intervals[i]) + " |";
+    for (int m = 0; m < kKeyMethods; ++m) {
+      const auto j = overall[i][static_cast<size_t>(m)].json();
+      md += " " + number(j["mpjpe_mm"].get<double>()) + " / " + number(j["speed_ratio"].get<double>(), "%.2f") + " / " +
+            number(j["skating_ratio"].get<double>(), "%.3f") + " |";
+    }
+    md += " " + number(key_error_deg[i], "%.4f") + " |\n";
+  }
+  for (size_t i = 0; i < options.intervals.size(); ++i) {
+    md += "\nKeyframes every " + number(options.intervals[i]) + " s, per action: MPJPE (mm) / speed ratio\n\n| action |";
+    for (const char* name : key_method_names) md += std::string(" ") + name + " |";
+    md += "\n|---|";
+    for (int m = 0; m < kKeyMethods; ++m) md += "---|";
+    md += "\n";
+    for (const auto& [action, sums] : per_action) {
+      md += "| " + action + " |";
+      for (int m = 0; m < kKeyMethods; ++m) {
+        const auto j = sums[i][static_cast<size_t>(m)].json();
         md += " " + number(j["mpjpe_mm"].get<double>()) + " / " + number(j["speed_ratio"].get<double>(), "%.2f") + " |";
       }
       md += "\n";

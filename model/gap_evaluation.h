@@ -30,6 +30,7 @@
 #include <vector>
 
 #include "format/motion_text.h"
+#include "gap_code_fit.h"
 #include "gap_interpolation.h"
 #include "motion_manifold.h"
 
@@ -48,7 +49,8 @@ struct GapBenchmarkOptions {
   double spacing_seconds = 6.5;  // at least this between gaps of one run
   uint64_t seed = 0;
   DecoderKind decoder = DecoderKind::kRotation;
-  GapFillOptions fill;  // the "matched" method's
+  GapFillOptions fill;  // the "fitted" method's
+  GapCodeFitOptions code_fit;
 };
 
 struct GapBenchmarkResult {
@@ -59,5 +61,26 @@ struct GapBenchmarkResult {
 // InputError when no take is long enough to hold a gap.
 GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vector<GapBenchmarkTake>& takes,
                                      const GapBenchmarkOptions& options);
+
+// In-betweening from sparse keyframes: each take (its first
+// `take_seconds`) keeps the pose of one frame every `interval` seconds (the
+// root translation of every frame, as a take's cannot be missing), every
+// other joint value is missing; filled through the same path as gaps
+// (process_take denoise, fit_gap_codes, fill_gaps) and by slerp and the
+// cubic (Catmull-Rom tangents from the neighbouring keyframes) of the same
+// keyframes. Measured on the frames between keyframes as above (MPJPE over
+// every joint but the root, angle error, speed ratio, skating), and the
+// largest angle (degrees) between a keyframe's given and returned rotations.
+struct KeyframeBenchmarkOptions {
+  std::vector<double> intervals = {0.5, 1.0, 2.0};  // seconds between keyframes
+  double take_seconds = 30;                         // of each take (at least one window)
+  DecoderKind decoder = DecoderKind::kRotation;
+  GapFillOptions fill;  // the "fitted" method's
+  GapCodeFitOptions code_fit;
+};
+
+// InputError when no take is one window long.
+GapBenchmarkResult run_keyframe_benchmark(const MotionManifold& model, const std::vector<GapBenchmarkTake>& takes,
+                                          const KeyframeBenchmarkOptions& options);
 
 }  // namespace mm

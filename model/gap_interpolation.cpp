@@ -63,6 +63,32 @@ Vector velocity(const MotionFrames& motion, int column, int64_t from, int64_t to
   return log_of(multiply(inverse(quaternion_of(a)), quaternion_of(b)));
 }
 
+bool observed_at(const MotionFrames& motion, int column, int64_t frame) {
+  if (frame < 0 || frame >= motion.frame_count()) return false;
+  const float* v = motion.frame(frame) + column;
+  return !std::isnan(v[0]) && !std::isnan(v[1]) && !std::isnan(v[2]);
+}
+
+// The angular velocity at a gap's border frame `border`, whose other border
+// is `other`: from the border and the frame beyond it where that is
+// observed; where it is missing too (sparse keyframes: a gap on each side),
+// the central difference between the nearest observed frame beyond (within
+// `reach` frames) and the other border, as Catmull-Rom's tangents are; zero
+// when nothing is observed beyond.
+Vector border_velocity(const MotionFrames& motion, int column, int64_t border, int64_t other, int64_t reach) {
+  const int64_t outward = border < other ? -1 : 1;
+  if (observed_at(motion, column, border + outward)) {
+    return outward < 0 ? velocity(motion, column, border - 1, border) : velocity(motion, column, border, border + 1);
+  }
+  for (int64_t beyond = border + 2 * outward; std::llabs(beyond - border) <= reach; beyond += outward) {
+    if (beyond < 0 || beyond >= motion.frame_count()) break;
+    if (!observed_at(motion, column, beyond)) continue;
+    const int64_t from = std::min(beyond, other), to = std::max(beyond, other);
+    return scaled(velocity(motion, column, from, to), 1.0 / static_cast<double>(to - from));
+  }
+  return {};
+}
+
 // A rotation path across a gap from frame `left` to frame `right`: the
 // cubic on quaternions with the given end velocities (Kim, Kim and Shin's
 // cumulative Bezier form, which meets both ends and their velocities
@@ -134,11 +160,17 @@ std::vector<JointGap> find_joint_gaps(const MotionFrames& motion) {
   return gaps;
 }
 
-double detail_weight(const GapFillOptions& options, double seconds) {
-  const double span = options.full_detail_seconds - options.interpolate_below_seconds;
+double detail_weight(const GapFillOptions& options, double seconds, bool most_joints) {
+  const auto& w = most_joints ? options.most_joints_detail : options.few_joints_detail;
   if (seconds <= options.interpolate_below_seconds) return 0.0;
-  if (span <= 0 || seconds >= options.full_detail_seconds) return options.full_detail;
-  return options.full_detail * (seconds - options.interpolate_below_seconds) / span;
+  if (seconds < 1.0) {
+    // From none at interpolate_below (all at once when that is 0 s).
+    if (options.interpolate_below_seconds <= 0) return w[0];
+    return w[0] * (seconds - options.interpolate_below_seconds) / (1.0 - options.interpolate_below_seconds);
+  }
+  if (seconds < 2.0) return w[0] + (w[1] - w[0]) * (seconds - 1.0);
+  if (seconds < 4.0) return w[1] + (w[2] - w[1]) * (seconds - 2.0) / 2.0;
+  return w[2];
 }
 
 void fill_gap(const MotionFrames& observed, const MotionFrames* manifold, const JointGap& gap,
@@ -171,12 +203,18 @@ void fill_gap(const MotionFrames& observed, const MotionFrames* manifold, const 
   const bool hold = options.method == GapMethod::kHold || one_border;
 
   const Quaternion observed_left = quaternion_of(left_value), observed_right = quaternion_of(right_value);
-  BorderPath observed_path(observed_left, observed_right, velocity(observed, column, left - 1, left),
-                           velocity(observed, column, right, right + 1), tangent_frames, cubic);
+  const auto reach = static_cast<int64_t>(std::lround(2 * rate_hz));
+  BorderPath observed_path(observed_left, observed_right, border_velocity(observed, column, left, right, reach),
+                           border_velocity(observed, column, right, left, reach), tangent_frames, cubic);
   double weight = 0;
   std::optional<BorderPath> manifold_path;
   if (options.method == GapMethod::kMatched) {
-    weight = detail_weight(options, static_cast<double>(gap.last - gap.first + 1) / rate_hz);
+    // Whether most joints are missing with this one, at the gap's middle.
+    const int joints = (observed.columns - kRootTranslationValues) / 3;
+    const float* middle = observed.frame((gap.first + gap.last) / 2);
+    int missing = 0;
+    for (int j = 0; j < joints; ++j) missing += std::isnan(middle[kRootTranslationValues + 3 * j]) ? 1 : 0;
+    weight = detail_weight(options, static_cast<double>(gap.last - gap.first + 1) / rate_hz, 2 * missing >= joints);
     const float* m_left = manifold->frame(has_left ? left : right) + column;
     const float* m_right = manifold->frame(has_right ? right : left) + column;
     manifold_path.emplace(quaternion_of(m_left), quaternion_of(m_right), velocity(*manifold, column, left - 1, left),

@@ -19,6 +19,7 @@
 // Torch-free and reentrant: pure functions over value types.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -46,26 +47,29 @@ enum class GapMethod {
 const char* gap_method_name(GapMethod method);  // "hold", "slerp", "cubic", "manifold", "matched"
 
 // How much of the manifold's detail the matched fill keeps, by the gap's
-// length and the share of the joints missing with it (chosen on the S5
-// benchmark, docs/RESULTS.md "Gaps"): interpolation for short gaps, where it
-// is better than any model fill, and the manifold's movement for long ones,
-// where interpolation freezes.
+// length and whether most joints are missing with it (in-betweening) or a
+// few: interpolation for short gaps, where it is better than any model
+// fill, and as much of the manifold's movement for longer ones as makes the
+// fill nearer the recording. The weights were chosen on the training
+// subjects' takes (S1, never the test subject S5; docs/RESULTS.md "Gaps").
 struct GapFillOptions {
   GapMethod method = GapMethod::kMatched;
-  // The detail weight rises linearly from 0 at `interpolate_below_seconds`
-  // to `full_detail` at `full_detail_seconds` of gap.
+  // No detail up to `interpolate_below_seconds`; from there the weight
+  // rises linearly to the weight at 1 s (is that weight from 0 s on when
+  // interpolate_below_seconds is 0), then linearly between the weights
+  // at 1, 2 and 4 s, and stays at the 4 s weight beyond.
   double interpolate_below_seconds = 0.6;
-  double full_detail_seconds = 2.0;
-  double full_detail = 1.0;
+  std::array<double, 3> few_joints_detail = {1.0, 1.0, 1.0};  // at 1, 2, 4 s: gaps of under half the joints
+  std::array<double, 3> most_joints_detail = {1.0, 1.0, 1.0}; // at 1, 2, 4 s: half the joints or more missing together
   // The cubic's tangents: each border's velocity carried for a third of
   // the gap, but at most this long (s), since a velocity carried across a
   // long gap overshoots far past where the motion went.
   double max_tangent_seconds = 0.2;
 };
 
-// The weight (0..full_detail) of the manifold's detail in a gap of
-// `seconds`.
-double detail_weight(const GapFillOptions& options, double seconds);
+// The weight of the manifold's detail in a gap of `seconds`, for a gap of
+// most joints or of a few.
+double detail_weight(const GapFillOptions& options, double seconds, bool most_joints);
 
 // `observed` with every gap filled as options.method says; `manifold` (the
 // model's output for the same frames, same columns) is read for kManifold

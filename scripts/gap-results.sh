@@ -1,11 +1,18 @@
 #!/usr/bin/env bash
-# The gap benchmark of docs/RESULTS.md ("Gaps: filling missing joints"):
-# every S5 take present, at 25 Hz, with joints made missing at seeded places
-# (gaps of 0.2, 0.5, 1, 2 and 4 s of 1 joint, 5 joints and every joint),
-# filled by hold, slerp, cubic, the manifold as it is and the border-matched
-# manifold, measured against the recording. Writes docs/results/gaps/.
-# Two runs of each take (about 8 gaps per take, 20 per configuration); on
-# two CPU cores it takes about 5 minutes. Needs the built tool and the
+# The gap, keyframe and transition benchmarks of docs/RESULTS.md ("Gaps:
+# filling missing joints"), on every S5 take present at 25 Hz:
+# - evaluate-gaps: joints made missing at seeded places (gaps of 0.2, 0.5,
+#   1, 2 and 4 s of 1 joint, 5 joints and every joint), filled by hold,
+#   slerp, cubic, the manifold as it is, the matched fill as it was and the
+#   fitted fill, measured against the recording (one run of each take,
+#   about 6 gaps a take);
+# - evaluate-keyframes: one pose every 0.5, 1 and 2 s of each take's first
+#   30 s, the rest filled;
+# - evaluate-transitions: a 5 s clip of each take joined to one of another
+#   action by transitions of 0.5 to 4 s, generated and crossfaded.
+# Writes docs/results/gaps/. On two busy CPU cores the three take about
+# 30 minutes, most of it the fitted codes (15 Adam steps through the
+# decoder for each gap of 0.6 s or more). Needs the built tool and the
 # extracted H3.6M.
 #   scripts/gap-results.sh [MODEL_DIR]
 set -euo pipefail
@@ -15,6 +22,17 @@ tool=build/model/tool/motion-manifold
 s5=data/h3.6m/dataset/S5
 inputs=()
 for file in "$s5"/*.txt; do inputs+=(--input "$file"); done
-mkdir -p docs/results/gaps
-"$tool" evaluate-gaps --model "$model" "${inputs[@]}" --rounds 2 --seed 0 \
-  --out docs/results/gaps/gaps.json --markdown docs/results/gaps/gaps.md
+# One take of each action for the transitions (the _1 take, or _2 where
+# there is no _1), paired across actions.
+firsts=()
+for file in "$s5"/*_1.txt "$s5"/directions_2.txt "$s5"/sittingdown_2.txt; do
+  [[ -f $file ]] && firsts+=(--input "$file")
+done
+out=docs/results/gaps
+mkdir -p "$out"
+"$tool" evaluate-gaps --model "$model" "${inputs[@]}" --rounds 1 --seed 0 \
+  --out "$out/gaps.json" --markdown "$out/gaps.md"
+"$tool" evaluate-keyframes --model "$model" "${inputs[@]}" --interval 0.5 1 2 --take-seconds 30 \
+  --out "$out/keyframes.json" --markdown "$out/keyframes.md"
+"$tool" evaluate-transitions --model "$model" "${firsts[@]}" --seconds 0.5 1 2 4 --seed 0 \
+  --out "$out/transitions.json" --markdown "$out/transitions.md"
