@@ -157,6 +157,11 @@ int parse_server_config(int argc, char** argv, ServerConfig& config) {
                "inflates a message whole before checking --max-message-bytes, so a few MB sent can cost GBs: "
                "trusted clients only")
       ->envname("MM_GRPC_ACCEPT_COMPRESSION");
+  app.add_option("--grpc-take-message-timeout-seconds", config.grpc.take_message_timeout_seconds,
+                 "a gRPC take stream's next message must arrive whole within this: its TakeHeader from the call's "
+                 "start, each chunk from the message before, and each reply message must be taken by the client; "
+                 "else the call ends with DEADLINE_EXCEEDED (0: no limit)")
+      ->envname("MM_GRPC_TAKE_MESSAGE_TIMEOUT_SECONDS")->capture_default_str()->check(CLI::Range(0, 86400));
   app.add_option("--max-watch-streams", config.core.watch_streams.max_streams,
                  "job watch streams (REST events, gRPC WatchJob) open at once, both protocols together; more are "
                  "refused (429, RESOURCE_EXHAUSTED), and each frontend keeps this many workers for them besides "

@@ -112,7 +112,8 @@ void GrpcFrontend::start() {
   if (server_) throw std::runtime_error("gRPC frontend already started");
   const std::string address = listen_address(options_);
   stopping_ = false;
-  service_ = std::make_unique<wire::ManifoldService>(core_, stopping_);
+  service_ = std::make_unique<wire::ManifoldService>(core_, stopping_,
+                                                     std::chrono::seconds(options_.take_message_timeout_seconds));
 
   // Both process-wide switches; they take effect for servers built after them.
   grpc::EnableDefaultHealthCheckService(true);
@@ -160,6 +161,13 @@ void GrpcFrontend::start() {
                options_.accept_compressed_messages
                    ? "taken (--grpc-accept-compression: gRPC inflates each whole before checking its size)"
                    : "refused before they are inflated (--grpc-accept-compression takes them)");
+  if (options_.take_message_timeout_seconds > 0) {
+    spdlog::info("gRPC: a take stream waits at most {} s for each message, then ends (--grpc-take-message-timeout-seconds)",
+                 options_.take_message_timeout_seconds);
+  } else {
+    spdlog::warn("gRPC: take streams wait for their messages without a limit (--grpc-take-message-timeout-seconds 0): "
+                 "a silent client holds a thread until it goes");
+  }
 }
 
 int GrpcFrontend::port() const { return port_; }

@@ -80,6 +80,16 @@ struct GrpcOptions {
   // message of a few MB on the wire can cost GBs of memory; only for
   // trusted clients.
   bool accept_compressed_messages = false;
+  // How long a take stream (EncodeTake, ReconstructTake, DenoiseTake,
+  // DecodeTrack) may wait for its next message: the header from the call's
+  // start, each chunk from the one before, each reply message for the client
+  // to take it. The synchronous API's reads and writes block without a limit
+  // of their own, so a stream opened and left silent would hold a thread
+  // (and past its header a take slot) for ever; past this the call ends
+  // with DEADLINE_EXCEEDED naming the option. A message must arrive whole
+  // within it: 64 MiB (--max-message-bytes) at 60 s needs 9 Mbit/s. 0: no
+  // limit.
+  int take_message_timeout_seconds = 60;
 };
 
 class GrpcFrontend {

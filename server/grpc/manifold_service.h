@@ -5,13 +5,15 @@
 // for both protocols.
 //
 // Thread safety: the handlers run concurrently on gRPC's synchronous thread
-// pool; the service holds no state of its own beyond the core's reference
-// and the stopping flag.
+// pool; the service holds no state of its own beyond the core's reference,
+// the stopping flag and the take streams' message deadlines.
 #pragma once
 
 #include <atomic>
+#include <chrono>
 
 #include "core/manifold_core.h"
+#include "grpc/stream_message_deadlines.h"
 #include "motionmanifold/v1/manifold.grpc.pb.h"
 
 namespace mm::service::wire {
@@ -27,8 +29,14 @@ class ManifoldService final : public v1::MotionManifold::Service {
   // `core` and `stopping` outlive the service. While `stopping` is true,
   // WatchJob streams end with UNAVAILABLE (the client watches again after
   // the restart) so that a shutdown never waits on a job that trains for an
-  // hour.
-  ManifoldService(ManifoldCore& core, const std::atomic<bool>& stopping) : core_(core), stopping_(stopping) {}
+  // hour. A take stream's next message (the header, each chunk, each reply
+  // message the client must take) may keep its call waiting for at most
+  // `take_message_timeout` (0: for ever), after which the call ends with
+  // DEADLINE_EXCEEDED naming --grpc-take-message-timeout-seconds. The
+  // service must outlive every call (gRPC's server shut down and waited for).
+  ManifoldService(ManifoldCore& core, const std::atomic<bool>& stopping,
+                  std::chrono::milliseconds take_message_timeout)
+      : core_(core), stopping_(stopping), take_deadlines_(take_message_timeout, "--grpc-take-message-timeout-seconds") {}
 
   grpc::Status Encode(grpc::ServerContext* context, const v1::EncodeRequest* request, v1::EncodeReply* reply) override;
   grpc::Status Decode(grpc::ServerContext* context, const v1::DecodeRequest* request,
@@ -83,6 +91,7 @@ class ManifoldService final : public v1::MotionManifold::Service {
  private:
   ManifoldCore& core_;
   const std::atomic<bool>& stopping_;
+  StreamMessageDeadlines take_deadlines_;
 };
 
 }  // namespace mm::service::wire

@@ -1,7 +1,9 @@
 // The take rpcs of ManifoldService: the client's TakeInput stream becomes the
 // core's TakeChunkReader (header first, then chunks, read as the core asks
 // for frames), and the core's TakeReplySink writes the reply as it becomes
-// final, frames in chunks of at most kReplyChunkFrames.
+// final, frames in chunks of at most kReplyChunkFrames. Every Read and Write
+// waits under the service's message deadline (stream_message_deadlines.h),
+// so a silent client holds its thread for that long at most.
 #include <algorithm>
 
 #include "grpc/error_status.h"
@@ -33,11 +35,18 @@ grpc::Status answer_take(grpc::ServerContext* context, Call&& call) {
 }
 
 // Reads the stream's header; INVALID_ARGUMENT "header" when the stream
-// starts with a chunk or ends before anything.
+// starts with a chunk or ends before anything. A header that has not come
+// within the deadline ends the call (DEADLINE_EXCEEDED, sent by the
+// deadline itself; what is thrown here only unwinds the handler).
 template <typename Stream>
-TakeRequest read_header(grpc::ServerContext* context, Stream* stream) {
+TakeRequest read_header(grpc::ServerContext* context, Stream* stream, StreamMessageDeadlines& deadlines) {
   v1::TakeInput first;
-  if (!stream->Read(&first)) {
+  const auto read = deadlines.wait(*context,
+                                   "no TakeHeader within " + deadlines.limit_text() +
+                                       " of the stream's start; a take stream sends its header first, then its chunks",
+                                   [&] { return stream->Read(&first); });
+  if (read.expired) throw invalid("header", "no TakeHeader within " + deadlines.limit_text());
+  if (!read.ok) {
     throw invalid("header", context->IsCancelled() ? "the stream was cancelled before its TakeHeader"
                                                    : "the stream ended before its TakeHeader, expected the header first");
   }
@@ -50,10 +59,15 @@ TakeRequest read_header(grpc::ServerContext* context, Stream* stream) {
 // The chunks after the header, one a call; the end of the client's stream
 // ends the take, a cancelled call breaks it off.
 template <typename Stream>
-TakeChunkReader chunk_reader(grpc::ServerContext* context, Stream* stream) {
-  return [context, stream](TakeChunk& chunk) {
+TakeChunkReader chunk_reader(grpc::ServerContext* context, Stream* stream, StreamMessageDeadlines& deadlines) {
+  return [context, stream, &deadlines](TakeChunk& chunk) {
     v1::TakeInput message;
-    if (!stream->Read(&message)) {
+    const auto read = deadlines.wait(*context,
+                                     "no chunk (nor the stream's end) within " + deadlines.limit_text() +
+                                         " of the take's previous message",
+                                     [&] { return stream->Read(&message); });
+    if (read.expired) throw invalid("take", "no chunk within " + deadlines.limit_text());
+    if (!read.ok) {
       if (context->IsCancelled()) throw invalid("take", "the stream was cancelled before the take's end");
       return false;
     }
@@ -67,11 +81,25 @@ TakeChunkReader chunk_reader(grpc::ServerContext* context, Stream* stream) {
 
 // Writes the reply of ReconstructTake, DenoiseTake and DecodeTrack: header,
 // chunks, and (by the caller) the summary with every window.
+// Writes one reply message, waiting for the client to take it for at most
+// the deadline.
 template <typename Writer>
-TakeReplySink streaming_sink(Writer* writer, int& columns, std::vector<TakeWindow>& windows) {
+void write_reply(grpc::ServerContext* context, Writer* writer, StreamMessageDeadlines& deadlines,
+                 const v1::TakeOutput& message) {
+  const auto written = deadlines.wait(*context,
+                                      "the client took no reply message within " + deadlines.limit_text() +
+                                          "; read the reply while the take is sent",
+                                      [&] { return writer->Write(message); });
+  if (written.expired) throw invalid("take", "the client took no reply message within " + deadlines.limit_text());
+  if (!written.ok) throw invalid("take", "the client has gone (the reply could not be written)");
+}
+
+template <typename Writer>
+TakeReplySink streaming_sink(grpc::ServerContext* context, Writer* writer, StreamMessageDeadlines& deadlines,
+                             int& columns, std::vector<TakeWindow>& windows) {
   TakeReplySink sink;
-  const auto write = [writer](const v1::TakeOutput& message) {
-    if (!writer->Write(message)) throw invalid("take", "the client has gone (the reply could not be written)");
+  const auto write = [context, writer, &deadlines](const v1::TakeOutput& message) {
+    write_reply(context, writer, deadlines, message);
   };
   sink.on_start = [write, &columns](const TakeReplyStart& start) {
     columns = start.columns;
@@ -95,22 +123,24 @@ TakeReplySink streaming_sink(Writer* writer, int& columns, std::vector<TakeWindo
 }
 
 template <typename Writer>
-void write_summary(Writer* writer, const TakeSummaryReply& summary, const std::vector<TakeWindow>& windows) {
+void write_summary(grpc::ServerContext* context, Writer* writer, StreamMessageDeadlines& deadlines,
+                   const TakeSummaryReply& summary, const std::vector<TakeWindow>& windows) {
   v1::TakeOutput message;
   to_wire(summary, message.mutable_summary());
   for (const TakeWindow& window : windows) to_wire(window, message.mutable_summary()->add_windows());
-  if (!writer->Write(message)) throw invalid("take", "the client has gone (the reply could not be written)");
+  write_reply(context, writer, deadlines, message);
 }
 
-grpc::Status frames_take(ManifoldCore& core, grpc::ServerContext* context, TakeKind kind,
-                         grpc::ServerReaderWriter<v1::TakeOutput, v1::TakeInput>* stream) {
+grpc::Status frames_take(ManifoldCore& core, StreamMessageDeadlines& deadlines, grpc::ServerContext* context,
+                         TakeKind kind, grpc::ServerReaderWriter<v1::TakeOutput, v1::TakeInput>* stream) {
   return answer_take(context, [&](const CallContext& ctx) {
-    const TakeRequest request = read_header(context, stream);
+    const TakeRequest request = read_header(context, stream, deadlines);
     int columns = 0;
     std::vector<TakeWindow> windows;
     const TakeSummaryReply summary =
-        core.run_take(ctx, kind, request, chunk_reader(context, stream), streaming_sink(stream, columns, windows));
-    write_summary(stream, summary, windows);
+        core.run_take(ctx, kind, request, chunk_reader(context, stream, deadlines),
+                      streaming_sink(context, stream, deadlines, columns, windows));
+    write_summary(context, stream, deadlines, summary, windows);
   });
 }
 
@@ -119,22 +149,23 @@ grpc::Status frames_take(ManifoldCore& core, grpc::ServerContext* context, TakeK
 grpc::Status ManifoldService::EncodeTake(grpc::ServerContext* context, grpc::ServerReader<v1::TakeInput>* reader,
                                          v1::CodeTrack* reply) {
   return answer_take(context, [&](const CallContext& ctx) {
-    const TakeRequest request = read_header(context, reader);
+    const TakeRequest request = read_header(context, reader, take_deadlines_);
     TakeReplySink sink;
     sink.on_start = [reply](const TakeReplyStart& start) { to_wire(start.answered_by, reply->mutable_answered_by()); };
     sink.on_window = [reply](const TakeWindow& window) { to_wire(window, reply->add_windows()); };
-    to_wire(core_.run_take(ctx, TakeKind::kEncode, request, chunk_reader(context, reader), sink), reply);
+    to_wire(core_.run_take(ctx, TakeKind::kEncode, request, chunk_reader(context, reader, take_deadlines_), sink),
+            reply);
   });
 }
 
 grpc::Status ManifoldService::ReconstructTake(grpc::ServerContext* context,
                                               grpc::ServerReaderWriter<v1::TakeOutput, v1::TakeInput>* stream) {
-  return frames_take(core_, context, TakeKind::kReconstruct, stream);
+  return frames_take(core_, take_deadlines_, context, TakeKind::kReconstruct, stream);
 }
 
 grpc::Status ManifoldService::DenoiseTake(grpc::ServerContext* context,
                                           grpc::ServerReaderWriter<v1::TakeOutput, v1::TakeInput>* stream) {
-  return frames_take(core_, context, TakeKind::kDenoise, stream);
+  return frames_take(core_, take_deadlines_, context, TakeKind::kDenoise, stream);
 }
 
 grpc::Status ManifoldService::DecodeTrack(grpc::ServerContext* context, const v1::DecodeTrackRequest* request,
@@ -143,8 +174,8 @@ grpc::Status ManifoldService::DecodeTrack(grpc::ServerContext* context, const v1
     int columns = 0;
     std::vector<TakeWindow> windows;
     const TakeSummaryReply summary =
-        core_.decode_track(ctx, to_api(*request), streaming_sink(writer, columns, windows));
-    write_summary(writer, summary, windows);
+        core_.decode_track(ctx, to_api(*request), streaming_sink(context, writer, take_deadlines_, columns, windows));
+    write_summary(context, writer, take_deadlines_, summary, windows);
   });
 }
 
