@@ -12,6 +12,7 @@
 #include <grpcpp/resource_quota.h>
 #include <spdlog/spdlog.h>
 
+#include "grpc/compression_refusal_log.h"
 #include "grpc/manifold_service.h"
 
 namespace mm::service {
@@ -115,7 +116,8 @@ void GrpcFrontend::start() {
   service_ = std::make_unique<wire::ManifoldService>(core_, stopping_,
                                                      std::chrono::seconds(options_.take_message_timeout_seconds));
 
-  // Both process-wide switches; they take effect for servers built after them.
+  // Process-wide switches; they take effect for servers built after them.
+  CompressionRefusalLog::install();
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
 
@@ -189,6 +191,7 @@ void GrpcFrontend::shutdown(std::chrono::milliseconds deadline) {
   server_->Wait();
   server_.reset();
   service_.reset();
+  CompressionRefusalLog::flush();
 }
 
 }  // namespace mm::service
