@@ -14,6 +14,7 @@
 #include "motion_io.h"
 #include "server_connection.h"
 #include "server_error.h"
+#include "take_progress.h"
 #include "wire/rest_json.h"
 
 namespace mm::client {
@@ -80,19 +81,45 @@ void add_upload(CLI::App* clips, const ClientSettings& settings, Action& action)
       if (to.empty()) throw InputError("--to is empty, expected a folder under the data root");
       const std::vector<Upload> uploads = uploads_of(o->locals, to);
       const auto server = connect(settings.connection);
-      nlohmann::json sent = nlohmann::json::array();
+      // A folder of recordings takes a while: on a terminal, the bytes sent
+      // so far of all the files' (a file counts once the server has it).
+      int64_t total_bytes = 0;
       for (const Upload& u : uploads) {
-        v1::UploadClipRequest request;
-        request.set_path(u.remote);
-        request.set_content(read_whole_file(u.local));
-        const v1::ClipFile clip = server->upload_clip(request);
-        if (settings.json) {
-          sent.push_back(to_json(clip));
-        } else {
-          std::printf("%-9s %10" PRId64 "  %s\n", clip.format().c_str(), static_cast<int64_t>(clip.size_bytes()),
-                      clip.path().c_str());
-        }
+        std::error_code error;
+        const auto size = fs::file_size(u.local, error);
+        if (!error) total_bytes += static_cast<int64_t>(size);
       }
+      TakeProgress progress(stderr, TakeProgress::stderr_is_terminal() && !settings.json,
+                            "clips upload to " + to, total_bytes, "bytes");
+      nlohmann::json sent = nlohmann::json::array();
+      // The files sent are listed once the line is cleared, a refusal's
+      // included (those before it stay on the server).
+      std::string listing;
+      const auto list_sent = [&] {
+        progress.finish();
+        std::fputs(listing.c_str(), stdout);
+      };
+      try {
+        for (const Upload& u : uploads) {
+          v1::UploadClipRequest request;
+          request.set_path(u.remote);
+          request.set_content(read_whole_file(u.local));
+          const v1::ClipFile clip = server->upload_clip(request);
+          progress.add(static_cast<int64_t>(request.content().size()));
+          if (settings.json) {
+            sent.push_back(to_json(clip));
+          } else {
+            char line[512];
+            std::snprintf(line, sizeof line, "%-9s %10" PRId64 "  ", clip.format().c_str(),
+                          static_cast<int64_t>(clip.size_bytes()));
+            listing += line + clip.path() + "\n";
+          }
+        }
+      } catch (...) {
+        list_sent();
+        throw;
+      }
+      list_sent();
       if (settings.json) print_json(nlohmann::json{{"clips", sent}});
       return kExitSuccess;
     };

@@ -166,7 +166,7 @@ void add_take_transform(CLI::App* take, const ClientSettings& settings, Action& 
                            : input_frames;
       TakeProgress progress(stderr, TakeProgress::stderr_is_terminal(),
                             std::string("take ") + (denoise ? "denoise " : "reconstruct ") + o->input.path, expected);
-      writer.on_frames = [&progress](int64_t frames) { progress.add_frames(frames); };
+      writer.on_frames = [&progress](int64_t frames) { progress.add(frames); };
       const v1::TakeSummary summary = server->transform_take(operation, take, writer);
       progress.finish();
       writer.finish();
@@ -211,7 +211,7 @@ void add_track_decode(CLI::App* track, const ClientSettings& settings, Action& a
       request.set_model(rigs.pinned(o->model));
       TakeFileWriter writer(o->out, "", skeleton, !settings.json);
       TakeProgress progress(stderr, TakeProgress::stderr_is_terminal(), "track decode " + o->in, o->frames);
-      writer.on_frames = [&progress](int64_t frames) { progress.add_frames(frames); };
+      writer.on_frames = [&progress](int64_t frames) { progress.add(frames); };
       const v1::TakeSummary summary = server->decode_track(request, writer);
       progress.finish();
       writer.finish();

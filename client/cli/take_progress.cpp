@@ -16,8 +16,8 @@ std::string grouped(int64_t value) {
 
 }  // namespace
 
-TakeProgress::TakeProgress(std::FILE* out, bool draw, std::string what, int64_t expected)
-    : out_(out), draw_(draw), what_(std::move(what)), expected_(expected) {
+TakeProgress::TakeProgress(std::FILE* out, bool draw, std::string what, int64_t expected, std::string unit)
+    : out_(out), draw_(draw), what_(std::move(what)), expected_(expected), unit_(std::move(unit)) {
   if (draw_) ticker_ = std::thread([this] { run(); });
 }
 
@@ -25,13 +25,14 @@ TakeProgress::~TakeProgress() { finish(); }
 
 bool TakeProgress::stderr_is_terminal() { return ::isatty(STDERR_FILENO) == 1; }
 
-std::string TakeProgress::line(const std::string& what, int64_t done, int64_t expected, double seconds) {
+std::string TakeProgress::line(const std::string& what, int64_t done, int64_t expected, double seconds,
+                               const std::string& unit) {
   std::string text = what + ": ";
   if (expected > 0) {
     const int64_t percent = done >= expected ? 100 : done * 100 / expected;
-    text += grouped(done) + " of " + grouped(expected) + " frames (" + std::to_string(percent) + "%), ";
+    text += grouped(done) + " of " + grouped(expected) + " " + unit + " (" + std::to_string(percent) + "%), ";
   } else if (done > 0) {
-    text += grouped(done) + " frames, ";
+    text += grouped(done) + " " + unit + ", ";
   } else {
     text += "waiting for the server, ";
   }
@@ -41,15 +42,16 @@ std::string TakeProgress::line(const std::string& what, int64_t done, int64_t ex
 void TakeProgress::run() {
   const auto start = std::chrono::steady_clock::now();
   std::unique_lock<std::mutex> lock(mutex_);
-  while (!wake_.wait_for(lock, std::chrono::milliseconds(500), [this] { return stop_; })) {
+  // Drawn at once, then twice a second: work shown from its start.
+  do {
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    const std::string text = line(what_, done_.load(), expected_, seconds);
+    const std::string text = line(what_, done_.load(), expected_, seconds, unit_);
     // Padded over a longer line drawn before.
     std::fprintf(out_, "\r%s%*s", text.c_str(), static_cast<int>(width_ > text.size() ? width_ - text.size() : 0),
                  "");
     std::fflush(out_);
     width_ = text.size();
-  }
+  } while (!wake_.wait_for(lock, std::chrono::milliseconds(500), [this] { return stop_; }));
 }
 
 void TakeProgress::finish() {

@@ -1,7 +1,7 @@
-// A long take's progress on a terminal: one line on stderr, redrawn in place
-// twice a second, with the frames that have come back (of those expected)
-// and the seconds since the call began, so that minutes of a server's work
-// are never silence. Nothing is drawn when stderr is not a terminal (a log,
+// Long work's progress on a terminal (a take's frames coming back, an
+// upload's bytes going out): one line on stderr, drawn at once and redrawn
+// in place twice a second, with what is done (of what is expected) and the seconds since the
+// work began, so that minutes of a server's work are never silence. Nothing is drawn when stderr is not a terminal (a log,
 // a pipe, the tests), so output that is read stays as it was.
 // Like the tool's progress line (model/tool/progress_line.h), redrawn with
 // \r and cleared before the command's own output; thread safe (a ticker
@@ -21,9 +21,10 @@ namespace mm::client {
 class TakeProgress {
  public:
   // `what` names the operation ("reconstruct walking_1.txt"); `expected`
-  // frames of the reply (0: unknown, only the time is shown). Draws on
-  // `out` when `draw` (by default: when stderr is a terminal).
-  TakeProgress(std::FILE* out, bool draw, std::string what, int64_t expected);
+  // `unit`s of the work (frames of a take's reply, bytes of an upload; 0:
+  // unknown, only the time is shown). Draws on `out` when `draw` (by
+  // default: when stderr is a terminal).
+  TakeProgress(std::FILE* out, bool draw, std::string what, int64_t expected, std::string unit = "frames");
   ~TakeProgress();
   TakeProgress(const TakeProgress&) = delete;
   TakeProgress& operator=(const TakeProgress&) = delete;
@@ -31,13 +32,14 @@ class TakeProgress {
   // Whether stderr is a terminal: the default for `draw`.
   static bool stderr_is_terminal();
 
-  // Frames of the reply received so far (any thread).
-  void add_frames(int64_t frames) { done_ += frames; }
+  // Units done so far (any thread): frames of the reply received, bytes sent.
+  void add(int64_t units) { done_ += units; }
   // Stops drawing and clears the line (also done by the destructor).
   void finish();
 
   // The line drawn: "reconstruct walking_1.txt: 1,024 of 3,000 frames (34%), 12 s".
-  static std::string line(const std::string& what, int64_t done, int64_t expected, double seconds);
+  static std::string line(const std::string& what, int64_t done, int64_t expected, double seconds,
+                          const std::string& unit = "frames");
 
  private:
   void run();
@@ -46,6 +48,7 @@ class TakeProgress {
   bool draw_;
   std::string what_;
   int64_t expected_;
+  std::string unit_;
   std::atomic<int64_t> done_{0};
   std::mutex mutex_;
   std::condition_variable wake_;

@@ -650,6 +650,32 @@ TEST_F(ClientTest, DeleteCommandsRemoveAModelAFinishedJobAndAnUploadAndNeedTheTo
   }
 }
 
+// On a terminal (script(1) gives the client one) an upload shows the bytes
+// sent of all its files' on stderr from its start, the line cleared before
+// the files are listed; off a terminal nothing is drawn.
+TEST_F(ClientTest, OnATerminalAnUploadShowsTheBytesSent) {
+  const fs::path folder = dir_.path() / "takes";
+  fs::create_directories(folder / "b");
+  fs::copy_file(s5("walking_1.txt"), folder / "a.txt");
+  fs::copy_file(s5("walking_2.txt"), folder / "b" / "c.txt");
+  const auto total = fs::file_size(folder / "a.txt") + fs::file_size(folder / "b" / "c.txt");
+  const std::string command = std::string(MM_CLIENT_PATH) + " " + grpc() + " " + token() + " clips upload " +
+                              folder.string() + " --to terminal-up";
+  const std::string typescript = dir_.file("typescript");
+  const auto run = test::run_command("script", "-qec '" + command + "' " + typescript);
+  ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
+  const std::string shown = test::read_text(typescript);
+  std::string grouped = std::to_string(total);
+  for (int at = static_cast<int>(grouped.size()) - 3; at > 0; at -= 3) grouped.insert(static_cast<size_t>(at), ",");
+  // Drawn at once and twice a second after: a fast upload may show 0%.
+  EXPECT_NE(shown.find("clips upload to terminal-up: "), std::string::npos) << shown;
+  EXPECT_NE(shown.find(" of " + grouped + " bytes ("), std::string::npos) << shown;
+  EXPECT_NE(shown.find("terminal-up/b/c.txt"), std::string::npos) << shown;
+  const auto piped = run_client(grpc() + " " + token() + " clips upload " + s5("walking_1.txt") + " --to piped-up");
+  ASSERT_EQ(piped.exit_code, 0) << piped.err;
+  EXPECT_EQ(piped.err.find("bytes ("), std::string::npos) << piped.err;
+}
+
 // A job watch outlives the server: killed and started again at the same
 // address, it resumes the job from its checkpoint and the watch follows it
 // to the end.
