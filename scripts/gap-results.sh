@@ -6,8 +6,8 @@
 #   slerp, cubic, the manifold as it is, the matched fill as it was and the
 #   fitted fill, measured against the recording (one run of each take,
 #   about 6 gaps a take);
-# - evaluate-keyframes: one pose every 0.5, 1 and 2 s of each take's first
-#   30 s, the rest filled;
+# - evaluate-keyframes: one pose every 0.5, 1 and 2 s of the first 12 s of
+#   one take of each action, the rest filled;
 # - evaluate-transitions: a 5 s clip of each take joined to one of another
 #   action by transitions of 0.5 to 4 s, generated and crossfaded.
 # Writes docs/results/gaps/. On two busy CPU cores the three take about
@@ -22,7 +22,7 @@ tool=build/model/tool/motion-manifold
 s5=data/h3.6m/dataset/S5
 inputs=()
 for file in "$s5"/*.txt; do inputs+=(--input "$file"); done
-# One take of each action for the transitions (the _1 take, or _2 where
+# One take of each action for the keyframes and transitions (the _1 take, or _2 where
 # there is no _1), paired across actions.
 firsts=()
 for file in "$s5"/*_1.txt "$s5"/directions_2.txt "$s5"/sittingdown_2.txt; do
@@ -32,7 +32,7 @@ out=docs/results/gaps
 mkdir -p "$out"
 "$tool" evaluate-gaps --model "$model" "${inputs[@]}" --rounds 1 --seed 0 \
   --out "$out/gaps.json" --markdown "$out/gaps.md"
-"$tool" evaluate-keyframes --model "$model" "${inputs[@]}" --interval 0.5 1 2 --take-seconds 30 \
+"$tool" evaluate-keyframes --model "$model" "${firsts[@]}" --interval 0.5 1 2 --take-seconds 12 \
   --out "$out/keyframes.json" --markdown "$out/keyframes.md"
 "$tool" evaluate-transitions --model "$model" "${firsts[@]}" --seconds 0.5 1 2 4 --seed 0 \
   --out "$out/transitions.json" --markdown "$out/transitions.md"
