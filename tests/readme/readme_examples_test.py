@@ -179,8 +179,17 @@ def main():
             script.append(f"echo \">>> README.md:{line} ({heading}) at $(date +%s.%N)\" >&2")
             script.append(on_ports(text, grpc_port, rest_port))
         started = time.monotonic()
-        shell = subprocess.run(["bash", "-c", "\n".join(script)], cwd=checkout, env=env, text=True,
-                               capture_output=True, timeout=900)
+        try:
+            shell = subprocess.run(["bash", "-c", "\n".join(script)], cwd=checkout, env=env, text=True,
+                                   capture_output=True, timeout=900)
+        except subprocess.TimeoutExpired as timeout:
+            # Name the block it was in and what it had printed.
+            def text_of(stream):
+                return stream.decode(errors="replace") if isinstance(stream, bytes) else (stream or "")
+            announced = re.findall(r">>> (README\.md:\d+ \([^)]*\))", text_of(timeout.stderr))
+            print(f"sh blocks: still running after 900 s, in {announced[-1] if announced else 'the first block'}\n"
+                  f"--- stderr (last 4000 characters)\n{text_of(timeout.stderr)[-4000:]}")
+            raise
         ended = time.time()
         print(f"sh blocks: exit {shell.returncode} after {time.monotonic() - started:.1f} s")
         # Each block's seconds, from its announcement to the next one's.
