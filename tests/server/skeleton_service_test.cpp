@@ -429,7 +429,7 @@ TEST(SkeletonService, TheClientReadsAndWritesBvhAndTextOfTheModelsRigOverEitherP
   };
   const auto expect_code = [](const CommandRun& run, const std::vector<double>& want, double tolerance = 1e-5) {
     ASSERT_EQ(run.exit_code, 0) << run.err;
-    const auto code = json::parse(run.out)["code"].get<std::vector<double>>();
+    const auto code = json::parse(run.out)["codes"][0].get<std::vector<double>>();  // the one code-file shape
     ASSERT_EQ(code.size(), want.size());
     for (size_t i = 0; i < code.size(); ++i) EXPECT_NEAR(code[i], want[i], tolerance) << i;
     EXPECT_EQ(json::parse(run.out)["model"], "dances");
@@ -469,7 +469,7 @@ TEST(SkeletonService, TheClientReadsAndWritesBvhAndTextOfTheModelsRigOverEitherP
     ASSERT_EQ(from_text.exit_code, 0) << from_text.err;
     ASSERT_EQ(from_bvh.exit_code, 0) << from_bvh.err;
     // BVH holds Euler angles in degrees with a few decimals: near, not equal.
-    expect_code(from_bvh, json::parse(from_text.out)["code"].get<std::vector<double>>(), 1e-3);
+    expect_code(from_bvh, json::parse(from_text.out)["codes"][0].get<std::vector<double>>(), 1e-3);
   }
 
   // Samples as BVH files of the rig: one is REST's sample of the same seed
