@@ -3,10 +3,10 @@
 // compression bomb, a rapid-reset burst (streams opened and reset at once,
 // written as raw HTTP/2 frames so that no client library's manners soften
 // it), and connections kept idle, pinged or held past their age. Another
-// client's gRPC Sample and REST /healthz are answered within 2 s through
+// client's gRPC Sample and REST /healthz are answered within 5 s through
 // the flood and the bomb, and once a burst has been digested. The server's
 // CPU time, peak memory and threads are read from /proc/PID and printed;
-// peak memory, served calls, threads and the 2 s answers are asserted.
+// peak memory, served calls, threads and the 5 s answers are asserted.
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
@@ -77,7 +77,7 @@ v1::SampleRequest one_sample(uint64_t seed) {
 }
 
 // A first Sample with time to spare: the first inference after the start
-// loads what the model needs, which is not what the 2 s bounds measure.
+// loads what the model needs, which is not what the 5 s bounds measure.
 void warm_up(const test::ServerProcess& server) {
   auto stub = test::grpc_stub(server.grpc_target());
   auto context = test::grpc_context();
@@ -87,14 +87,16 @@ void warm_up(const test::ServerProcess& server) {
 }
 
 // What another client sees: a gRPC Sample on a channel of its own and a
-// REST /healthz, each given 2 s (the deadline and the socket timeouts). An
-// empty string when both were answered, else what went wrong.
+// REST /healthz, each given 5 s (the deadline and the socket timeouts: with
+// 2 s, a Sample of the default model missed it beside other tests under
+// ctest -j2, flood or no flood). An empty string when both were answered,
+// else what went wrong.
 std::string other_client_problem(const test::ServerProcess& server) {
   std::string problem;
   {
     auto stub = test::grpc_stub(server.grpc_target());
     grpc::ClientContext context;
-    context.set_deadline(std::chrono::system_clock::now() + 2s);
+    context.set_deadline(std::chrono::system_clock::now() + 5s);
     v1::MotionsReply reply;
     const auto status = stub->Sample(&context, one_sample(7), &reply);
     if (!status.ok()) {
@@ -102,9 +104,9 @@ std::string other_client_problem(const test::ServerProcess& server) {
     }
   }
   httplib::Client client("127.0.0.1", server.rest_port());
-  client.set_connection_timeout(2);
-  client.set_read_timeout(2);
-  client.set_write_timeout(2);
+  client.set_connection_timeout(5);
+  client.set_read_timeout(5);
+  client.set_write_timeout(5);
   const auto result = client.Get("/healthz");
   if (!result || result->status != 200) {
     problem += "REST /healthz: " + (result ? std::to_string(result->status) : httplib::to_string(result.error()));
@@ -466,7 +468,7 @@ TEST(GrpcHostileTraffic, RefusedCompressedRequestsAreLoggedOnceAMinute) {
 // (README, "Security"). What is asserted is what holds: the withdrawn calls
 // cost no inference, the burst's threads stay within the quota, and once
 // the server has digested the burst another client's Sample and /healthz
-// are answered within 2 s. The CPU per reset stream is printed.
+// are answered within 5 s. The CPU per reset stream is printed.
 TEST(GrpcHostileTraffic, RapidResetBurstCostsNoInferenceAndServerRecovers) {
   test::ServerProcess server(server_args());
   warm_up(server);
