@@ -354,7 +354,8 @@ TEST(ClipsUpload, BothProtocolsWriteNewFilesThatAreListedAndReadAndNeedTheToken)
   EXPECT_EQ(test::read_text((root / "mine" / "S5" / "walking_1.txt").string()), text);
   // Refusals name the field alike.
   for (const auto& [path, content, field] : std::vector<std::tuple<std::string, std::string, std::string>>{
-           {"../escape.txt", text, "path"}, {"mine/x.fbx", text, "path"}, {"mine/bad.bvh", "HIERARCHY\n", "content"}}) {
+           {"../escape.txt", text, "path"}, {"mine/x.obj", text, "path"}, {"mine/bad.bvh", "HIERARCHY\n", "content"},
+           {"mine/x.fbx", text, "content"}}) {
     grpc::ClientContext refused;
     EXPECT_EQ(upload_grpc(path, content, "upload-token", &clip, &refused).error_code(),
               grpc::StatusCode::INVALID_ARGUMENT) << path;
