@@ -39,26 +39,38 @@ std::string action_of(const std::string& name) {
   return underscore == std::string::npos ? name : name.substr(0, underscore);
 }
 
-int run_evaluate_gaps(GapsOptions o) {
+// Each input at the model's rate, named and told its action.
+std::vector<GapBenchmarkTake> read_benchmark_takes(const std::vector<std::string>& inputs,
+                                                   const std::vector<int>& rates, const MotionManifold& model) {
   std::vector<GapBenchmarkTake> takes;
-  const MotionManifold model = MotionManifold::load(o.model_dir);
-  c10::InferenceMode inference;
-  for (size_t i = 0; i < o.inputs.size(); ++i) {
-    const int rate = per_input(o.rates, i, kDataSetRate, "--rate", o.inputs.size());
+  for (size_t i = 0; i < inputs.size(); ++i) {
+    const int rate = per_input(rates, i, kDataSetRate, "--rate", inputs.size());
     GapBenchmarkTake take;
-    take.name = std::filesystem::path(o.inputs[i]).stem().string();
+    take.name = std::filesystem::path(inputs[i]).stem().string();
     take.action = action_of(take.name);
-    take.frames = motion_at_model_rate(read_input_file(o.inputs[i], "--input"), o.inputs[i], rate, model.skeleton());
+    take.frames = motion_at_model_rate(read_input_file(inputs[i], "--input"), inputs[i], rate, model.skeleton());
     takes.push_back(std::move(take));
   }
+  return takes;
+}
+
+// The tables on stdout, and the JSON and Markdown where asked.
+int report(const GapBenchmarkResult& result, const std::string& out_json, const std::string& out_md) {
+  std::fputs(result.markdown.c_str(), stdout);
+  if (!out_json.empty()) write_file_atomically(out_json, result.json);
+  if (!out_md.empty()) write_file_atomically(out_md, result.markdown);
+  return kExitSuccess;
+}
+
+int run_evaluate_gaps(GapsOptions o) {
+  const MotionManifold model = MotionManifold::load(o.model_dir);
+  c10::InferenceMode inference;
+  const std::vector<GapBenchmarkTake> takes = read_benchmark_takes(o.inputs, o.rates, model);
   o.benchmark.decoder = o.decoder.empty() ? model.default_decoder() : parse_decoder_kind(o.decoder);
   if (o.few_joints_detail.size() == 3) std::copy_n(o.few_joints_detail.begin(), 3, o.benchmark.fill.few_joints_detail.begin());
   if (o.most_joints_detail.size() == 3) std::copy_n(o.most_joints_detail.begin(), 3, o.benchmark.fill.most_joints_detail.begin());
   const GapBenchmarkResult result = run_gap_benchmark(model, takes, o.benchmark);
-  std::fputs(result.markdown.c_str(), stdout);
-  if (!o.out_json.empty()) write_file_atomically(o.out_json, result.json);
-  if (!o.out_md.empty()) write_file_atomically(o.out_md, result.markdown);
-  return kExitSuccess;
+  return report(result, o.out_json, o.out_md);
 }
 
 struct KeyframesOptions {
@@ -72,25 +84,14 @@ struct KeyframesOptions {
 };
 
 int run_evaluate_keyframes(KeyframesOptions o) {
-  std::vector<GapBenchmarkTake> takes;
   // Loaded outside inference mode: the fitted fill differentiates through
   // the decoder (gap_code_fit.h).
   const MotionManifold model = MotionManifold::load(o.model_dir);
   c10::InferenceMode inference;
-  for (size_t i = 0; i < o.inputs.size(); ++i) {
-    const int rate = per_input(o.rates, i, kDataSetRate, "--rate", o.inputs.size());
-    GapBenchmarkTake take;
-    take.name = std::filesystem::path(o.inputs[i]).stem().string();
-    take.action = action_of(take.name);
-    take.frames = motion_at_model_rate(read_input_file(o.inputs[i], "--input"), o.inputs[i], rate, model.skeleton());
-    takes.push_back(std::move(take));
-  }
+  const std::vector<GapBenchmarkTake> takes = read_benchmark_takes(o.inputs, o.rates, model);
   o.benchmark.decoder = o.decoder.empty() ? model.default_decoder() : parse_decoder_kind(o.decoder);
   const GapBenchmarkResult result = run_keyframe_benchmark(model, takes, o.benchmark);
-  std::fputs(result.markdown.c_str(), stdout);
-  if (!o.out_json.empty()) write_file_atomically(o.out_json, result.json);
-  if (!o.out_md.empty()) write_file_atomically(o.out_md, result.markdown);
-  return kExitSuccess;
+  return report(result, o.out_json, o.out_md);
 }
 
 struct TransitionsOptions {
@@ -104,23 +105,12 @@ struct TransitionsOptions {
 };
 
 int run_evaluate_transitions(TransitionsOptions o) {
-  std::vector<GapBenchmarkTake> takes;
   const MotionManifold model = MotionManifold::load(o.model_dir);  // outside inference mode: see evaluate-keyframes
   c10::InferenceMode inference;
-  for (size_t i = 0; i < o.inputs.size(); ++i) {
-    const int rate = per_input(o.rates, i, kDataSetRate, "--rate", o.inputs.size());
-    GapBenchmarkTake take;
-    take.name = std::filesystem::path(o.inputs[i]).stem().string();
-    take.action = action_of(take.name);
-    take.frames = motion_at_model_rate(read_input_file(o.inputs[i], "--input"), o.inputs[i], rate, model.skeleton());
-    takes.push_back(std::move(take));
-  }
+  const std::vector<GapBenchmarkTake> takes = read_benchmark_takes(o.inputs, o.rates, model);
   o.benchmark.decoder = o.decoder.empty() ? model.default_decoder() : parse_decoder_kind(o.decoder);
   const GapBenchmarkResult result = run_transition_benchmark(model, takes, o.benchmark);
-  std::fputs(result.markdown.c_str(), stdout);
-  if (!o.out_json.empty()) write_file_atomically(o.out_json, result.json);
-  if (!o.out_md.empty()) write_file_atomically(o.out_md, result.markdown);
-  return kExitSuccess;
+  return report(result, o.out_json, o.out_md);
 }
 
 struct JoinOptions {
@@ -213,7 +203,7 @@ void add_gap_commands(CLI::App& app, Action& action) {
       "is filled by slerp, cubic interpolation of the keyframes, the manifold (take denoise) as it is and the fitted "
       "fill; MPJPE, joint-angle error, speed ratio and foot skating on the frames between keyframes at 25 Hz, and the "
       "largest change of a keyframe. Prints Markdown tables; --out writes JSON.");
-  keyframes->add_option("--model", keys->model_dir, "model folder")->capture_default_str();
+  keyframes->add_option("--model", keys->model_dir, "model folder (default: $MM_MODEL_DIR or the shipped model)");
   keyframes->add_option("--input", keys->inputs, "takes (motion text or BVH of the model's skeleton)")->required();
   add_rate_option(keyframes, keys->rates, kDataSetRate, "the text inputs");
   keyframes->add_option("--decoder", keys->decoder, "rotation or velocity")->check(CLI::IsMember({"rotation", "velocity"}));
@@ -235,7 +225,7 @@ void add_gap_commands(CLI::App& app, Action& action) {
       "Transitions between clips of two takes: each take's clip joined to another take's by a transition of each "
       "--seconds length, generated by the manifold and crossfaded; border jump, foot skating and the transition's "
       "distance from the manifold's reconstructions of the takes. Prints a Markdown table; --out writes JSON.");
-  evaluate_transitions->add_option("--model", transitions->model_dir, "model folder")->capture_default_str();
+  evaluate_transitions->add_option("--model", transitions->model_dir, "model folder (default: $MM_MODEL_DIR or the shipped model)");
   evaluate_transitions->add_option("--input", transitions->inputs, "takes (motion text or BVH of the model's skeleton)")
       ->required();
   add_rate_option(evaluate_transitions, transitions->rates, kDataSetRate, "the text inputs");
@@ -260,7 +250,7 @@ void add_gap_commands(CLI::App& app, Action& action) {
       "Join two clips by a transition: --a's last --seconds and --b's first overlap and become the transition, "
       "generated by the manifold (it meets both clips exactly) or crossfaded. Writes the joined motion at 25 Hz "
       "(text, or BVH for a path ending in .bvh).");
-  join_command->add_option("--model", join->model_dir, "model folder")->capture_default_str();
+  join_command->add_option("--model", join->model_dir, "model folder (default: $MM_MODEL_DIR or the shipped model)");
   join_command->add_option("--a", join->a, "the first clip (motion text or an animation file)")->required();
   join_command->add_option("--b", join->b, "the second clip")->required();
   join_command->add_option("--out", join->out, "the joined motion ('-': standard output)")->required();
