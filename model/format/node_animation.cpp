@@ -6,6 +6,7 @@
 #include <set>
 
 #include "format/input_error.h"
+#include "format/skeleton_bvh.h"
 
 namespace mm {
 namespace {
@@ -47,21 +48,6 @@ Mat3 rotation_part(const Mat3& m) {
     for (int i = 0; i < 3; ++i) r[i][j] = c[j][i];
   }
   return r;
-}
-
-// The Euler order whose first axes are the rotation channels in their order,
-// completed by the axes they lack (as skeleton_bvh.cpp writes such joints).
-EulerOrder rotation_order_of(const std::vector<BvhChannel>& channels) {
-  std::vector<int> axes;
-  for (BvhChannel channel : channels) {
-    if (!bvh_channel_is_position(channel)) axes.push_back(bvh_channel_axis(channel));
-  }
-  for (int axis = 0; axis < 3; ++axis) {
-    if (std::find(axes.begin(), axes.end(), axis) == axes.end()) axes.push_back(axis);
-  }
-  EulerOrder order;
-  for (int k = 0; k < 3; ++k) order.axes[k] = axes[k];
-  return order;
 }
 
 // A node name as a BVH word: no whitespace or braces (they end a token).
@@ -247,7 +233,7 @@ BvhFile bvh_from_node_animation(const NodeAnimation& animation, double millimetr
   }
 
   std::vector<EulerOrder> orders(nodes);
-  for (size_t j = 0; j < nodes; ++j) orders[j] = rotation_order_of(file.joints[j].channels);
+  for (size_t j = 0; j < nodes; ++j) orders[j] = bvh_rotation_order(file.joints[j].channels);
   const int channels = file.channel_count();
   if (channels == 0) throw InputError(source_name + ": no animated joint");
   file.values.resize(static_cast<size_t>(animation.frames) * channels);

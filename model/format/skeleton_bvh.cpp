@@ -45,14 +45,14 @@ std::vector<BvhChannel> parsed_channels(const std::vector<std::string>& names) {
   return channels;
 }
 
-// The Euler order whose first axes are the joint's rotation channels in
-// their order, completed by the axes it lacks.
-EulerOrder rotation_order_of(const std::vector<BvhChannel>& channels, int* rotation_count) {
+}  // namespace
+
+EulerOrder bvh_rotation_order(const std::vector<BvhChannel>& channels, int* rotation_count) {
   std::vector<int> axes;
   for (BvhChannel channel : channels) {
     if (!bvh_channel_is_position(channel)) axes.push_back(bvh_channel_axis(channel));
   }
-  *rotation_count = static_cast<int>(axes.size());
+  if (rotation_count != nullptr) *rotation_count = static_cast<int>(axes.size());
   for (int axis = 0; axis < 3; ++axis) {
     if (std::find(axes.begin(), axes.end(), axis) == axes.end()) axes.push_back(axis);
   }
@@ -60,8 +60,6 @@ EulerOrder rotation_order_of(const std::vector<BvhChannel>& channels, int* rotat
   for (int k = 0; k < 3; ++k) order.axes[k] = axes[k];
   return order;
 }
-
-}  // namespace
 
 int skeleton_motion_columns(const Skeleton& skeleton) { return kRootTranslationValues + 3 * skeleton.joint_count(); }
 
@@ -117,7 +115,7 @@ BvhFile skeleton_motion_to_bvh(const Skeleton& skeleton, const BvhLayout& layout
       joint.name = skeleton.joints[j].name;
       joint.channels = parsed_channels(layout.channels[j]);
     }
-    orders[j] = rotation_order_of(joint.channels, &rotation_counts[j]);
+    orders[j] = bvh_rotation_order(joint.channels, &rotation_counts[j]);
     file.joints.push_back(std::move(joint));
   }
   const int64_t frames = motion.frame_count();

@@ -37,6 +37,11 @@ namespace mm {
 // Columns of a motion of `skeleton`: 3 + 3 x joint_count() (99 for H3.6M).
 int skeleton_motion_columns(const Skeleton& skeleton);
 
+// The Euler order whose first axes are a joint's rotation channels in their
+// order, completed by the axes it lacks; `rotation_count`, where given,
+// receives how many rotation channels the joint has.
+EulerOrder bvh_rotation_order(const std::vector<BvhChannel>& channels, int* rotation_count = nullptr);
+
 // A BVH layout for a skeleton that came from no BVH file: leaves as End
 // Sites, the root with Xposition Yposition Zposition then the rotation
 // channels in `rotation_order`, every other joint the rotation channels only
