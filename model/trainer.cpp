@@ -105,6 +105,16 @@ Trainer::Trainer(const TrainConfig& config, const PreparedDataset& data, at::Dev
                                 .to(device_);
     position_counted_joints_ = kept.any(-1).nonzero().flatten().to(device_);
   }
+  if (config_.weights.root_rotation != 1.0) {
+    // Columns 3..5 are the root's rotation in every layout (H3.6M's and a
+    // rig's exp-map layout alike, format/skeleton_bvh.h).
+    std::vector<float> weights(data.normalization.kept_columns.size(), 1.0f);
+    for (size_t d = 0; d < weights.size(); ++d) {
+      const int column = data.normalization.kept_columns[d];
+      if (column >= 3 && column < 6) weights[d] = static_cast<float>(config_.weights.root_rotation);
+    }
+    angle_value_weights_ = at::tensor(weights).to(device_);
+  }
 }
 
 double Trainer::learning_rate() const {
@@ -156,7 +166,11 @@ LossValues Trainer::step() {
   // Generator (Eq. 15): every term summed over the decoders.
   auto zero = at::zeros({}, motion.options());
   auto l_ang = zero, l_pos = zero, l_m = zero, l_g = zero, l_w = zero;
-  for (const auto& q_hat : decoded) l_ang = l_ang + angle_loss(q_hat, motion, config_.losses.angle);
+  // A weight on some values scales their difference: both sides alike.
+  const auto weighted = [this](const at::Tensor& q) {
+    return angle_value_weights_.defined() ? q * angle_value_weights_ : q;
+  };
+  for (const auto& q_hat : decoded) l_ang = l_ang + angle_loss(weighted(q_hat), weighted(motion), config_.losses.angle);
   if (w.position > 0) {
     // The truth and every decoder's output through FK as one batch: FK is
     // 32 dependent joint steps, so one pass instead of three saves launches.

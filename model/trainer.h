@@ -94,6 +94,9 @@ class Trainer {
   // For PositionReduction::kStandardizedTripletMean: 1/std per coordinate
   // (J, 3), 0 where dropped, and the joints with a kept coordinate.
   at::Tensor position_inverse_std_, position_counted_joints_;
+  // (D,) each normalised value's weight in the angle loss (weights.root_rotation
+  // on the root's rotation values); undefined when every weight is 1.
+  at::Tensor angle_value_weights_;
   int64_t iteration_ = 0;
 };
 

@@ -24,11 +24,14 @@ json model_to_json(const ModelConfig& m) {
 }
 
 json weights_to_json(const LossWeights& w) {
-  return {{"position", w.position},
-          {"manifold", w.manifold},
-          {"wasserstein", w.wasserstein},
-          {"adversarial", w.adversarial},
-          {"prior_variance", w.prior_variance}};
+  json weights = {{"position", w.position},
+                  {"manifold", w.manifold},
+                  {"wasserstein", w.wasserstein},
+                  {"adversarial", w.adversarial},
+                  {"prior_variance", w.prior_variance}};
+  // Absent means 1: the configurations of earlier models read, and write, as before.
+  if (w.root_rotation != 1.0) weights["root_rotation"] = w.root_rotation;
+  return weights;
 }
 
 json losses_to_json(const LossForms& f) {
@@ -252,6 +255,7 @@ TrainConfig train_config_from_json_text(const std::string& text, const std::stri
     wr.read("wasserstein", c.weights.wasserstein, 0, 1e6);
     wr.read("adversarial", c.weights.adversarial, 0, 1e6);
     wr.read("prior_variance", c.weights.prior_variance, 1e-6, 1e6);
+    wr.read("root_rotation", c.weights.root_rotation, 0, 1e6);
   }
   if (const json* l = r.child("losses")) {
     // The preset first, then any form named beside it overrides its part.

@@ -30,6 +30,13 @@ struct LossWeights {
   double wasserstein = 0.1;    // lambda_W
   double adversarial = 0.001;  // lambda_G, Eq. 15 and 16
   double prior_variance = 1.0;  // sigma_z^2 of the prior N(0, sigma_z^2 I)
+  // Not in the paper: the angle loss's weight on the root's rotation values
+  // (input columns 3..5, the body's turn from one frame to the next), every
+  // other value weighing 1. The decoders smooth that turn (docs/RESULTS.md,
+  // "Motions that travel"), so a generated path turns less than the
+  // recording's; more weight here is the remedy to try. 1 (the paper, and
+  // every shipped model) leaves it out of the configuration's JSON.
+  double root_rotation = 1.0;
 };
 
 // How each loss term is reduced. The paper's text and its public reference

@@ -67,6 +67,24 @@ TEST(Trainer, AblatedTermsStayZero) {
   EXPECT_FALSE(trainer.model().has_decoder(DecoderKind::kVelocity));
 }
 
+// The first step's outputs are the same for every weight (same seed); only
+// how the angle loss counts the root's rotation values differs.
+TEST(Trainer, TheRootRotationWeightScalesTheAngleLossOnlyWhereTheRootTurns) {
+  MM_REQUIRE_H36M();
+  const auto first_angle_loss = [](double root_rotation) {
+    TrainConfig config = tiny_config("DKGM");
+    config.weights.root_rotation = root_rotation;
+    Trainer trainer(config, small_h36m(), at::kCPU);
+    return trainer.step().at("L_ang");
+  };
+  const double without = first_angle_loss(0.0), paper = first_angle_loss(1.0), heavier = first_angle_loss(4.0);
+  EXPECT_EQ(paper, Trainer(tiny_config("DKGM"), small_h36m(), at::kCPU).step().at("L_ang"));
+  EXPECT_LT(without, paper);
+  EXPECT_GT(heavier, paper);
+  // Three of the 51 values: the others still carry most of the loss.
+  EXPECT_GT(without, 0.5 * paper);
+}
+
 TEST(Trainer, SameSeedGivesTheSameRun) {
   MM_REQUIRE_H36M();
   Trainer a(tiny_config(), small_h36m(), at::kCPU), b(tiny_config(), small_h36m(), at::kCPU);

@@ -51,6 +51,21 @@ TEST(TrainingConfig, JsonRoundTrips) {
   EXPECT_EQ(to_json_text(back), to_json_text(c));
 }
 
+TEST(TrainingConfig, TheRootRotationWeightIsWrittenOnlyWhenItIsNotOne) {
+  TrainConfig c = variant_config("DKGM");
+  EXPECT_EQ(to_json_text(c).find("root_rotation"), std::string::npos);
+  c.weights.root_rotation = 8.0;
+  const TrainConfig back = train_config_from_json_text(to_json_text(c), "x");
+  EXPECT_EQ(back.weights.root_rotation, 8.0);
+  EXPECT_EQ(to_json_text(back), to_json_text(c));
+  try {
+    train_config_from_json_text(R"({"weights": {"root_rotation": -1}})", "c.json");
+    FAIL() << "a negative weight was read";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("weights.root_rotation"), std::string::npos) << e.what();
+  }
+}
+
 TEST(TrainingConfig, FileOverridesTheVariantDefaults) {
   const TrainConfig c = train_config_from_json_text(R"({"variant": "DK", "batch": 4, "model": {"hidden": 128}})", "c");
   EXPECT_EQ(c.batch, 4);
