@@ -17,8 +17,8 @@ namespace mm {
 namespace {
 
 // Runs of frames where any joint value is missing (NaN), first..last inclusive.
-std::vector<std::pair<int64_t, int64_t>> missing_spans(const MotionFrames& motion) {
-  std::vector<std::pair<int64_t, int64_t>> spans;
+std::vector<FrameSpan> missing_spans(const MotionFrames& motion) {
+  std::vector<FrameSpan> spans;
   int64_t start = -1;
   for (int64_t f = 0; f <= motion.frame_count(); ++f) {
     bool missing = false;
@@ -28,7 +28,7 @@ std::vector<std::pair<int64_t, int64_t>> missing_spans(const MotionFrames& motio
     }
     if (missing && start < 0) start = f;
     if (!missing && start >= 0) {
-      spans.emplace_back(start, f - 1);
+      spans.push_back({start, f - 1});
       start = -1;
     }
   }
@@ -43,7 +43,7 @@ class DifferentiableDecoder {
  public:
   explicit DifferentiableDecoder(const DecoderImpl& decoder) : shape_(decoder.shape()) {
     const auto parameters = decoder.named_parameters();
-    auto copy = [&](const char* name) { return parameters[name].detach().clone(); };
+    auto copy = [&](const char* name) { return parameters[name].detach().to(at::kFloat).clone(); };
     from_code_weight_ = copy("from_code.weight");
     from_code_bias_ = copy("from_code.bias");
     weights_.gru = GruWeights{copy("cell.weight_ih").unsqueeze(0), copy("cell.bias_ih").unsqueeze(0),
@@ -67,39 +67,29 @@ class DifferentiableDecoder {
 
 }  // namespace
 
-MotionFrames fit_gap_codes(const MotionManifold& model, const MotionFrames& observed, const MotionFrames& decoded,
-                           DecoderKind kind, const GapCodeFitOptions& options) {
-  if (decoded.columns != observed.columns || decoded.frame_count() != observed.frame_count()) {
-    throw InputError("decoded: expected the observed motion's shape");
-  }
-  MotionFrames result = decoded;
-  const int64_t window = model.config().frames, frames = observed.frame_count();
+bool gap_gets_fitted(const FrameSpan& span, int64_t window, const GapCodeFitOptions& options) {
   const int64_t context = static_cast<int64_t>(2 * kTakeModelRate);
-  if (frames < window) return result;
-  // Gaps near each other share a window (sparse keyframes make a gap
-  // between every two): a window takes gaps while they span at most the
-  // clip less `context`, and is centred on them.
-  struct Fit {
-    std::vector<std::pair<int64_t, int64_t>> spans;
-    int64_t start = 0;
-  };
-  std::vector<Fit> fits;
-  for (const auto& span : missing_spans(observed)) {
-    const int64_t length = span.second - span.first + 1;
-    if (length > window - context || static_cast<double>(length) < options.min_seconds * kTakeModelRate) continue;
-    if (fits.empty() || span.second - fits.back().spans.front().first + 1 > window - context) fits.emplace_back();
-    fits.back().spans.push_back(span);
-  }
-  for (Fit& fit : fits) {
-    const int64_t first = fit.spans.front().first, last = fit.spans.back().second;
-    fit.start = std::clamp<int64_t>((first + last + 1) / 2 - window / 2, 0, frames - window);
-  }
-  if (fits.empty()) return result;
+  return span.length() <= window - context && static_cast<double>(span.length()) >= options.min_seconds * kTakeModelRate;
+}
 
-  const int64_t columns = observed.columns, batch = static_cast<int64_t>(fits.size());
+bool gap_joins_window(const GapFitWindow& fit, const FrameSpan& span, int64_t window) {
+  const int64_t context = static_cast<int64_t>(2 * kTakeModelRate);
+  return !fit.spans.empty() && span.last - fit.spans.front().first + 1 <= window - context;
+}
+
+int64_t centred_window_start(const GapFitWindow& fit, int64_t frames, int64_t window) {
+  const int64_t first = fit.spans.front().first, last = fit.spans.back().last;
+  return std::clamp<int64_t>((first + last + 1) / 2 - window / 2, 0, frames - window);
+}
+
+std::vector<std::vector<float>> fit_window_clips(const MotionManifold& model, const std::vector<const float*>& windows,
+                                                 DecoderKind kind, const GapCodeFitOptions& options) {
+  if (windows.empty()) return {};
+  const int64_t window = model.config().frames, columns = model.normalization().input_columns();
+  const auto batch = static_cast<int64_t>(windows.size());
   auto raw = at::empty({batch, window, columns});
   for (int64_t b = 0; b < batch; ++b) {
-    std::memcpy(raw[b].data_ptr<float>(), observed.frame(fits[static_cast<size_t>(b)].start),
+    std::memcpy(raw[b].data_ptr<float>(), windows[static_cast<size_t>(b)],
                 sizeof(float) * static_cast<size_t>(window * columns));
   }
   at::Tensor normalized, missing, code;
@@ -119,7 +109,7 @@ MotionFrames fit_gap_codes(const MotionManifold& model, const MotionFrames& obse
     const auto target = normalized.clone().masked_fill(missing, 0.0);
     const auto seen = missing.logical_not().to(at::kFloat);
     const auto seen_count = seen.sum({1, 2}).clamp_min(1.0);  // (B)
-    auto z = code.clone().detach().requires_grad_(true);
+    auto z = code.clone().detach().to(at::kFloat).requires_grad_(true);
     auto first_moment = at::zeros_like(z), second_moment = at::zeros_like(z);
     const DifferentiableDecoder decoder(*model.decoder(kind));
     constexpr double kBeta1 = 0.9, kBeta2 = 0.999, kEpsilon = 1e-8;
@@ -141,24 +131,71 @@ MotionFrames fit_gap_codes(const MotionManifold& model, const MotionFrames& obse
   at::Tensor clips;
   {
     c10::InferenceMode inference;
-    clips = model.to_raw(model.decode(fitted, kind)).cpu().contiguous();
+    clips = model.to_raw(model.decode(fitted.to(code.scalar_type()), kind)).to(at::kFloat).cpu().contiguous();
   }
-  // Each gap's frames and two either side (the matched fill reads the
-  // manifold's borders and their velocities); the gaps' own frames last,
-  // so that a gap's frames are never another window's border frames.
+  std::vector<std::vector<float>> out(static_cast<size_t>(batch));
+  for (int64_t b = 0; b < batch; ++b) {
+    const float* clip = clips[b].data_ptr<float>();
+    out[static_cast<size_t>(b)].assign(clip, clip + window * columns);
+  }
+  return out;
+}
+
+void write_fitted_window(const GapFitWindow& fit, const float* clip, int64_t window, bool gap_frames,
+                         MotionFrames& out, int64_t out_first, std::vector<bool>& written) {
+  const int64_t columns = out.columns;
+  for (const FrameSpan& span : fit.spans) {
+    const int64_t from = gap_frames ? span.first : std::max(fit.start, span.first - 2);
+    const int64_t to = gap_frames ? span.last : std::min(fit.start + window - 1, span.last + 2);
+    for (int64_t f = from; f <= to; ++f) {
+      const auto at = static_cast<size_t>(f - out_first);
+      if (!gap_frames && written[at]) continue;
+      if (gap_frames) written[at] = true;
+      std::memcpy(out.frame(f - out_first) + kRootTranslationValues,
+                  clip + (f - fit.start) * columns + kRootTranslationValues,
+                  sizeof(float) * static_cast<size_t>(columns - kRootTranslationValues));
+    }
+  }
+}
+
+MotionFrames fit_gap_codes(const MotionManifold& model, const MotionFrames& observed, const MotionFrames& decoded,
+                           DecoderKind kind, const GapCodeFitOptions& options, GapFitCounts* counts) {
+  if (decoded.columns != observed.columns || decoded.frame_count() != observed.frame_count()) {
+    throw InputError("decoded: expected the observed motion's shape");
+  }
+  MotionFrames result = decoded;
+  GapFitCounts counted;
+  const int64_t window = model.config().frames, frames = observed.frame_count();
+  if (frames < window) {
+    if (counts) *counts = counted;
+    return result;
+  }
+  std::vector<GapFitWindow> fits;
+  for (const FrameSpan& span : missing_spans(observed)) {
+    if (!gap_gets_fitted(span, window, options)) continue;
+    if (fits.empty() || !gap_joins_window(fits.back(), span, window)) fits.emplace_back();
+    fits.back().spans.push_back(span);
+  }
+  if (options.max_windows > 0 && static_cast<int64_t>(fits.size()) > options.max_windows) {
+    for (size_t i = static_cast<size_t>(options.max_windows); i < fits.size(); ++i) {
+      counted.gaps_over_limit += static_cast<int>(fits[i].spans.size());
+    }
+    fits.resize(static_cast<size_t>(options.max_windows));
+  }
+  std::vector<const float*> windows;
+  for (GapFitWindow& fit : fits) {
+    fit.start = centred_window_start(fit, frames, window);
+    windows.push_back(observed.frame(fit.start));
+    ++counted.windows_fitted;
+    counted.gaps_fitted += static_cast<int>(fit.spans.size());
+  }
+  if (counts) *counts = counted;
+  if (fits.empty()) return result;
+  const auto clips = fit_window_clips(model, windows, kind, options);
+  std::vector<bool> written(static_cast<size_t>(frames), false);
   for (const bool gap_frames : {false, true}) {
-    for (int64_t b = 0; b < batch; ++b) {
-      const Fit& fit = fits[static_cast<size_t>(b)];
-      const float* clip = clips[b].data_ptr<float>();
-      for (const auto& [first, last] : fit.spans) {
-        const int64_t from = gap_frames ? first : std::max(fit.start, first - 2);
-        const int64_t to = gap_frames ? last : std::min(fit.start + window - 1, last + 2);
-        for (int64_t f = from; f <= to; ++f) {
-          std::memcpy(result.frame(f) + kRootTranslationValues,
-                      clip + (f - fit.start) * columns + kRootTranslationValues,
-                      sizeof(float) * static_cast<size_t>(columns - kRootTranslationValues));
-        }
-      }
+    for (size_t b = 0; b < fits.size(); ++b) {
+      write_fitted_window(fits[b], clips[b].data(), window, gap_frames, result, 0, written);
     }
   }
   return result;

@@ -23,6 +23,9 @@
 // two CPU cores about 60 ms each), all gaps of a motion in one batch.
 #pragma once
 
+#include <cstdint>
+#include <vector>
+
 #include "format/motion_text.h"
 #include "motion_manifold.h"
 
@@ -37,15 +40,71 @@ struct GapCodeFitOptions {
   // lays no detail over them (GapFillOptions::interpolate_below_seconds),
   // so a fit would be spent for nothing.
   double min_seconds = 0.6;
+  // The most windows fitted in one motion (0: no limit), in order of time:
+  // the gaps of later windows keep the take path's frames (the matched fill
+  // over the take's own windows). A fit costs about `iterations` decoder
+  // passes forward and back, 5 to 10 s of CPU on the two busy cores here,
+  // so this bounds what a take of many gaps costs before the work is done:
+  // at most about 3 minutes of CPU whatever the take (docs/RESULTS.md,
+  // "Gaps").
+  int max_windows = 20;
 };
+
+// A run of frames where any joint value is missing, first..last inclusive.
+struct FrameSpan {
+  int64_t first = 0, last = 0;
+  int64_t length() const { return last - first + 1; }
+};
+
+// One window of the model's clip fitted to the observed values around the
+// gaps it holds: the gaps (in order) and the window's first frame.
+struct GapFitWindow {
+  std::vector<FrameSpan> spans;
+  int64_t start = 0;
+};
+
+// The rules by which gaps get windows, shared by the whole-motion fit below
+// and the take path's streaming one (take_gap_fitter.h), so that both make
+// the same windows. `window`: the model's clip in frames (25 Hz).
+// A gap is fitted when it lasts options.min_seconds up to the clip less 2 s.
+bool gap_gets_fitted(const FrameSpan& span, int64_t window, const GapCodeFitOptions& options);
+// Gaps near each other share a window (sparse keyframes make a gap between
+// every two): a window takes gaps while they span at most the clip less 2 s.
+bool gap_joins_window(const GapFitWindow& fit, const FrameSpan& span, int64_t window);
+// The window centred on the fit's gaps, within a motion of `frames` frames.
+int64_t centred_window_start(const GapFitWindow& fit, int64_t frames, int64_t window);
+
+// Fits one code to each of `windows` (each the model's clip of observed
+// values, raw, window x columns, NaN where missing) and returns each
+// code's decoded clip (raw, window x columns). All windows in one batch.
+std::vector<std::vector<float>> fit_window_clips(const MotionManifold& model, const std::vector<const float*>& windows,
+                                                 DecoderKind kind, const GapCodeFitOptions& options);
+
+// Writes a fitted window's clip into `out` (frame f of the motion is
+// out.frame(f - out_first)): the frames two either side of each gap (the
+// matched fill reads the manifold's borders and their velocities) when
+// `gap_frames` is false, skipping those `written` marks; the gaps' own
+// frames when true, marking them in `written` (same indexing). Written in
+// that order over every window, a gap's frames are never another window's
+// border frames.
+void write_fitted_window(const GapFitWindow& fit, const float* clip, int64_t window, bool gap_frames,
+                         MotionFrames& out, int64_t out_first, std::vector<bool>& written);
 
 // `decoded` (the take path's output for `observed`, same shape, 25 Hz) with
 // the frames of each gap and two frames either side replaced by the decoded
 // clip of the gap's centred window, its code fitted as described above.
-// Gaps shorter than options.min_seconds, or longer than the clip less 2 s, keep `decoded`'s frames (too little
-// observed to fit to). A motion shorter than one clip is returned as
-// `decoded`. InputError when shapes differ.
+// Gaps shorter than options.min_seconds, or longer than the clip less 2 s,
+// and those of windows beyond options.max_windows keep `decoded`'s frames.
+// A motion shorter than one clip is returned as `decoded`. InputError when
+// shapes differ. `windows_fitted`, when given, gets the windows fitted and
+// `gaps_fitted` the gaps they held; `gaps_over_limit` the gaps of windows
+// beyond max_windows.
+struct GapFitCounts {
+  int windows_fitted = 0;
+  int gaps_fitted = 0;
+  int gaps_over_limit = 0;
+};
 MotionFrames fit_gap_codes(const MotionManifold& model, const MotionFrames& observed, const MotionFrames& decoded,
-                           DecoderKind kind, const GapCodeFitOptions& options = {});
+                           DecoderKind kind, const GapCodeFitOptions& options = {}, GapFitCounts* counts = nullptr);
 
 }  // namespace mm

@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "format/expmap_slerp.h"
+#include "format/input_error.h"
 
 namespace mm {
 namespace {
@@ -133,9 +134,21 @@ const char* gap_method_name(GapMethod method) {
     case GapMethod::kCubic: return "cubic";
     case GapMethod::kManifold: return "manifold";
     case GapMethod::kMatched: return "matched";
+    case GapMethod::kFitted: return "fitted";
   }
   return "?";
 }
+
+GapMethod parse_gap_method(const std::string& name, const std::string& field) {
+  for (GapMethod method : {GapMethod::kFitted, GapMethod::kMatched, GapMethod::kCubic, GapMethod::kSlerp,
+                           GapMethod::kHold, GapMethod::kManifold}) {
+    if (name == gap_method_name(method)) return method;
+  }
+  throw InputError(field + ": expected \"fitted\", \"matched\", \"cubic\", \"slerp\", \"hold\" or \"manifold\", found \"" +
+                   name + "\"");
+}
+
+bool lays_manifold_detail(GapMethod method) { return method == GapMethod::kMatched || method == GapMethod::kFitted; }
 
 std::vector<JointGap> find_joint_gaps(const MotionFrames& motion) {
   std::vector<JointGap> gaps;
@@ -179,7 +192,7 @@ void fill_gap(const MotionFrames& observed, const MotionFrames* manifold, const 
   const int64_t frames = observed.frame_count();
   const int64_t left = gap.first - 1, right = gap.last + 1;
   const bool has_left = left >= 0, has_right = right < frames;
-  const bool uses_manifold = options.method == GapMethod::kManifold || options.method == GapMethod::kMatched;
+  const bool uses_manifold = options.method == GapMethod::kManifold || lays_manifold_detail(options.method);
   if (uses_manifold && (!manifold || manifold->columns != observed.columns || manifold->frame_count() != frames)) {
     throw std::invalid_argument("fill_gap: the manifold's frames are needed, of the observed motion's shape");
   }
@@ -208,7 +221,7 @@ void fill_gap(const MotionFrames& observed, const MotionFrames* manifold, const 
                            border_velocity(observed, column, right, left, reach), tangent_frames, cubic);
   double weight = 0;
   std::optional<BorderPath> manifold_path;
-  if (options.method == GapMethod::kMatched) {
+  if (lays_manifold_detail(options.method)) {
     // Whether most joints are missing with this one, at the gap's middle.
     const int joints = (observed.columns - kRootTranslationValues) / 3;
     const float* middle = observed.frame((gap.first + gap.last) / 2);

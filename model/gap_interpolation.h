@@ -21,6 +21,7 @@
 
 #include <array>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "format/motion_text.h"
@@ -43,24 +44,36 @@ enum class GapMethod {
   kCubic,     // cubic Hermite on quaternions with the border frames' angular velocities
   kManifold,  // the manifold's fill as it is (what keep_observed did before)
   kMatched,   // the manifold's detail over the cubic, scaled by detail_weight()
+  // kMatched over the frames of a code fitted to each gap's centred window
+  // (gap_code_fit.h): fill_gaps() fills it as kMatched from the frames it is
+  // given; the take path (take_processor.h) gives it the fitted frames.
+  kFitted,
 };
-const char* gap_method_name(GapMethod method);  // "hold", "slerp", "cubic", "manifold", "matched"
+const char* gap_method_name(GapMethod method);  // "hold", "slerp", "cubic", "manifold", "matched", "fitted"
+// The method of that name; InputError naming `field`, the value and the names.
+GapMethod parse_gap_method(const std::string& name, const std::string& field);
+// kMatched and kFitted: the manifold's detail over the cubic.
+bool lays_manifold_detail(GapMethod method);
 
 // How much of the manifold's detail the matched fill keeps, by the gap's
 // length and whether most joints are missing with it (in-betweening) or a
 // few: interpolation for short gaps, where it is better than any model
 // fill, and as much of the manifold's movement for longer ones as makes the
-// fill nearer the recording. The weights were chosen on the training
-// subjects' takes (S1, never the test subject S5; docs/RESULTS.md "Gaps").
+// fill nearer the recording. The weights were chosen for the fitted fill on
+// the training subjects' takes (S1 and S6, never the test subject S5;
+// docs/RESULTS.md "Gaps"): the weight of least MPJPE in each length and
+// joint count, which is full weight but for most joints at 4 s, where half
+// was best of the weights both subjects were measured at (S1: 106.8 mm at
+// 0.5 against 119.2 at 1; S6: 122.8 against 121.2).
 struct GapFillOptions {
-  GapMethod method = GapMethod::kMatched;
+  GapMethod method = GapMethod::kFitted;
   // No detail up to `interpolate_below_seconds`; from there the weight
   // rises linearly to the weight at 1 s (is that weight from 0 s on when
   // interpolate_below_seconds is 0), then linearly between the weights
   // at 1, 2 and 4 s, and stays at the 4 s weight beyond.
   double interpolate_below_seconds = 0.6;
   std::array<double, 3> few_joints_detail = {1.0, 1.0, 1.0};  // at 1, 2, 4 s: gaps of under half the joints
-  std::array<double, 3> most_joints_detail = {1.0, 1.0, 1.0}; // at 1, 2, 4 s: half the joints or more missing together
+  std::array<double, 3> most_joints_detail = {1.0, 1.0, 0.5}; // at 1, 2, 4 s: half the joints or more missing together
   // The cubic's tangents: each border's velocity carried for a third of
   // the gap, but at most this long (s), since a velocity carried across a
   // long gap overshoots far past where the motion went.
@@ -73,7 +86,7 @@ double detail_weight(const GapFillOptions& options, double seconds, bool most_jo
 
 // `observed` with every gap filled as options.method says; `manifold` (the
 // model's output for the same frames, same columns) is read for kManifold
-// and kMatched only and may be null otherwise. Values outside gaps (and the
+// kMatched and kFitted only and may be null otherwise. Values outside gaps (and the
 // root translation columns) are the observed ones. `rate_hz` converts gap
 // lengths to seconds. std::invalid_argument when `manifold` is needed and
 // missing or of another shape.

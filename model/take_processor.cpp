@@ -16,6 +16,7 @@
 #include "format/input_error.h"
 #include "format/motion_resampling.h"
 #include "take_gap_filler.h"
+#include "take_gap_fitter.h"
 
 namespace mm {
 namespace {
@@ -133,6 +134,10 @@ struct TakeProcessor::State {
     if (answers() && !options.at_model_rate) to_output.emplace(columns, kTakeModelRate, options.frame_rate);
     if (denoises() && options.denoise.keep_observed) {
       gap_filler.emplace(columns, options.gap_fill, options.at_model_rate ? kTakeModelRate : options.frame_rate);
+      if (options.gap_fill.method == GapMethod::kFitted) {
+        gap_fitter.emplace(model, options.decoder, options.gap_fit,
+                           [this](const std::function<void()>& work) { run_tensor_work(run, work); });
+      }
     }
   }
 
@@ -147,7 +152,7 @@ struct TakeProcessor::State {
   void take_model_frames(const MotionFrames& frames);
   void run_ready_windows(size_t at_least);
   void run_batch(const std::vector<int64_t>& starts);
-  void hand_out_assembled(const MotionFrames& final_frames, bool last);
+  void hand_out_assembled(const MotionFrames& assembled, bool last);
   void answer(MotionFrames& output, bool last);
   void note_held(int64_t extra = 0) {
     const int64_t held = model_frames.size() + reference.size() + (assembler.assembled_frames() - assembled_out) + extra;
@@ -178,8 +183,10 @@ struct TakeProcessor::State {
   // levelling the whole path).
   std::optional<RootPathIntegrator> root_path;
   std::optional<StreamingFloor> floor;
-  // Denoise with keep_observed: the frames of gaps not yet final.
+  // Denoise with keep_observed: the frames of gaps not yet final, and with
+  // the fitted fill the 25 Hz frames of gaps whose windows are not fitted yet.
   std::optional<TakeGapFiller> gap_filler;
+  std::optional<TakeGapFitter> gap_fitter;
   int64_t held_peak = 0;
   bool finished = false;
 };
@@ -234,6 +241,7 @@ void TakeProcessor::State::take_input(const float* values, int64_t frames) {
 
 void TakeProcessor::State::take_model_frames(const MotionFrames& frames) {
   if (answers() && reference_at_model_rate()) reference.append(frames.values.data(), frames.frame_count());
+  if (gap_fitter) gap_fitter->observe(frames);
   model_frames.append(frames.values.data(), frames.frame_count());
   while (next_start + windowing.window_frames <= model_frames.end()) {
     ready_starts.push_back(next_start);
@@ -312,8 +320,16 @@ void TakeProcessor::State::run_batch(const std::vector<int64_t>& starts) {
   if (answers()) hand_out_assembled(final_frames, false);
 }
 
-void TakeProcessor::State::hand_out_assembled(const MotionFrames& final_frames, bool last) {
-  assembled_out += final_frames.frame_count();
+void TakeProcessor::State::hand_out_assembled(const MotionFrames& assembled, bool last) {
+  assembled_out += assembled.frame_count();
+  // The fitted fill's frames replace the assembled ones around each gap
+  // (at 25 Hz, as the model's clips are) before they go to the output rate.
+  MotionFrames fitted;
+  if (gap_fitter) {
+    fitted.columns = columns;
+    gap_fitter->push(assembled, last, fitted);
+  }
+  const MotionFrames& final_frames = gap_fitter ? fitted : assembled;
   MotionFrames output;
   output.columns = columns;
   if (!to_output) {
@@ -326,7 +342,7 @@ void TakeProcessor::State::hand_out_assembled(const MotionFrames& final_frames, 
   }
   // The batch's final frames, their reply and its copy for the error.
   note_held(final_frames.frame_count() + 2 * output.frame_count() +
-            (gap_filler ? 2 * gap_filler->held_frames() : 0));
+            (gap_filler ? 2 * gap_filler->held_frames() : 0) + (gap_fitter ? gap_fitter->held_frames() : 0));
   answer(output, last);
 }
 
@@ -389,6 +405,13 @@ TakeProcessor::TakeProcessor(const MotionManifold& model, TakeOptions options, T
     if (d.iterations < 1) throw InputError("iterations: expected at least 1, found " + std::to_string(d.iterations));
     if (d.zeros_are_missing && d.means_are_missing) {
       throw InputError("means_are_missing: expected either zeros_are_missing or means_are_missing, found both");
+    }
+    const auto& fit = options.gap_fit;
+    if (fit.iterations < 0 || fit.max_windows < 0 || fit.encoder_rounds < 1 || !(fit.learning_rate > 0) ||
+        !std::isfinite(fit.learning_rate) || !(fit.prior_weight >= 0) || !std::isfinite(fit.prior_weight) ||
+        !(fit.min_seconds >= 0) || !std::isfinite(fit.min_seconds)) {
+      throw InputError("gap_fit: expected iterations and max_windows of 0 or more, encoder_rounds of at least 1, a "
+                       "positive finite learning_rate and finite prior_weight and min_seconds of 0 or more");
     }
   }
   if (options.root == TakeRoot::kGenerated && !model.has_trajectory()) {
@@ -463,6 +486,11 @@ TakeSummary TakeProcessor::finish() {
   summary.hop_seconds = s.windowing.hop_frames / kTakeModelRate;
   summary.mean_error_mm = s.output_frames > 0 ? s.error_sum / static_cast<double>(s.output_frames) : 0.0;
   summary.max_error_mm = s.error_max;
+  if (s.gap_fitter) {
+    summary.gap_windows_fitted = s.gap_fitter->counts().windows_fitted;
+    summary.gaps_fitted = s.gap_fitter->counts().gaps_fitted;
+    summary.gaps_over_fit_limit = s.gap_fitter->counts().gaps_over_limit;
+  }
   return summary;
 }
 

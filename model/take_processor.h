@@ -38,6 +38,7 @@
 #include <vector>
 
 #include "format/motion_text.h"
+#include "gap_code_fit.h"
 #include "gap_interpolation.h"
 #include "latent_operations.h"
 #include "motion_manifold.h"
@@ -77,12 +78,17 @@ struct TakeOptions {
   DenoiseOptions denoise;
   // Denoise with keep_observed: how each joint's gap (a run of frames where
   // it is NaN) is filled, at the output's rate (gap_interpolation.h). The
-  // default, kMatched, meets the observed frames at both borders: the cubic
-  // across the gap for short gaps, the manifold's movement laid over it for
-  // long ones; kManifold is the manifold's output as it is. The frames of a
-  // gap are handed out once the frame after it has arrived
-  // (take_gap_filler.h).
+  // default, kFitted, meets the observed frames at both borders: the cubic
+  // across the gap for short gaps, and for gaps of gap_fit.min_seconds or
+  // more the movement of a code fitted to the observed values of a window
+  // centred on the gap (gap_code_fit.h) laid over it; kMatched lays the
+  // movement of the take's own windows instead, and is what gaps beyond
+  // gap_fit.max_windows get; kManifold is the manifold's output as it is.
+  // The frames of a gap are handed out once the frame after it has arrived
+  // (take_gap_filler.h), and with kFitted once its window is fitted, at most
+  // half a window after the gap (take_gap_fitter.h).
   GapFillOptions gap_fill;
+  GapCodeFitOptions gap_fit;
   int batch_windows = 32;  // windows run through the model at once
   // The longest take accepted, seconds (0: no limit), and the name a refusal
   // gives that limit (e.g. "--max-take-seconds").
@@ -123,6 +129,13 @@ struct TakeSummary {
   double hop_seconds = 0;       // as rounded to 25 Hz frames
   double mean_error_mm = 0;     // over all output frames (reconstruct, denoise)
   double max_error_mm = 0;
+  // Denoise with keep_observed and the fitted fill: the windows fitted, the
+  // gaps (runs of frames where any joint is missing, at 25 Hz) they held,
+  // and the gaps left to the matched fill because the take had more windows
+  // to fit than gap_fit.max_windows.
+  int gap_windows_fitted = 0;
+  int gaps_fitted = 0;
+  int gaps_over_fit_limit = 0;
 };
 
 class TakeProcessor {

@@ -10,15 +10,18 @@
 #   one take of each action, the rest filled;
 # - evaluate-transitions: a 5 s clip of each take joined to one of another
 #   action by transitions of 0.5 to 4 s, generated and crossfaded.
+# The fitted fill is measured with its defaults (GapFillOptions and
+# GapCodeFitOptions, the detail weights chosen on S1 and S6), as the take
+# path and the service's DenoiseTake fill with keep_observed.
 # Writes docs/results/gaps/. On two busy CPU cores the three take about
 # 30 minutes, most of it the fitted codes (15 Adam steps through the
-# decoder for each gap of 0.6 s or more). Needs the built tool and the
-# extracted H3.6M.
+# decoder for each gap of 0.6 s or more). Needs the built tool (or
+# MM_TOOL naming a copy of it) and the extracted H3.6M.
 #   scripts/gap-results.sh [MODEL_DIR]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 model=${1:-models/h36m-dkgm-h100}
-tool=build/model/tool/motion-manifold
+tool=${MM_TOOL:-build/model/tool/motion-manifold}
 s5=data/h3.6m/dataset/S5
 inputs=()
 for file in "$s5"/*.txt; do inputs+=(--input "$file"); done

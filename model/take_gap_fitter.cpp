@@ -1,0 +1,140 @@
+#include "take_gap_fitter.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+#include "take_windows.h"
+
+namespace mm {
+
+TakeGapFitter::TakeGapFitter(const MotionManifold& model, DecoderKind kind, GapCodeFitOptions options,
+                             std::function<void(const std::function<void()>&)> run)
+    : model_(model),
+      kind_(kind),
+      options_(options),
+      run_(std::move(run)),
+      columns_(model.normalization().input_columns()),
+      window_(model.config().frames) {
+  decoded_.columns = columns_;
+}
+
+void TakeGapFitter::observe(const MotionFrames& observed) {
+  const int64_t count = observed.frame_count();
+  observed_.insert(observed_.end(), observed.values.begin(), observed.values.end());
+  for (int64_t i = 0; i < count; ++i) {
+    const int64_t f = observed_end_ + i;
+    const float* v = observed.frame(i);
+    bool missing = false;
+    for (int c = kRootTranslationValues; c < columns_ && !missing; ++c) missing = std::isnan(v[c]);
+    if (missing && open_span_first_ < 0) open_span_first_ = f;
+    if (!missing && open_span_first_ >= 0) {
+      take_span({open_span_first_, f - 1});
+      open_span_first_ = -1;
+    }
+  }
+  observed_end_ += count;
+  // No gap still to come can join the open window once every frame up to
+  // the last a joining gap may end at, and the one after it, has arrived.
+  if (!open_.spans.empty()) {
+    const int64_t last_joining = open_.spans.front().first + window_ - static_cast<int64_t>(2 * kTakeModelRate) - 1;
+    if (observed_end_ >= last_joining + 2) close_open_window();
+  }
+  // Keep what a window not fitted yet may read: it is centred on gaps from
+  // the earliest pending one on, or (at the take's end) its last clip.
+  int64_t pending = open_span_first_ >= 0 ? open_span_first_ : observed_end_;
+  if (!open_.spans.empty()) pending = std::min(pending, open_.spans.front().first);
+  if (!closed_.empty()) pending = std::min(pending, closed_.front().spans.front().first);
+  const int64_t keep_from = std::max<int64_t>(observed_first_, std::min(pending, observed_end_) - window_);
+  if (keep_from > observed_first_) {
+    observed_.erase(observed_.begin(), observed_.begin() + static_cast<std::ptrdiff_t>((keep_from - observed_first_) * columns_));
+    observed_first_ = keep_from;
+  }
+}
+
+void TakeGapFitter::take_span(const FrameSpan& span) {
+  if (!gap_gets_fitted(span, window_, options_)) return;
+  if (!gap_joins_window(open_, span, window_)) close_open_window();
+  open_.spans.push_back(span);
+}
+
+void TakeGapFitter::close_open_window() {
+  if (open_.spans.empty()) return;
+  closed_.push_back(std::move(open_));
+  open_ = {};
+}
+
+void TakeGapFitter::fit_ready_windows(bool ended) {
+  const int64_t decoded_end = decoded_first_ + decoded_.frame_count();
+  std::vector<GapFitWindow> ready;
+  while (!closed_.empty()) {
+    GapFitWindow& fit = closed_.front();
+    if (options_.max_windows > 0 && windows_planned_ >= options_.max_windows) {
+      counts_.gaps_over_limit += static_cast<int>(fit.spans.size());
+      ++windows_planned_;
+      closed_.pop_front();
+      continue;
+    }
+    // The centred window's start is final once its end has arrived: the
+    // take is at least that long, so the clamp to its end cannot move it.
+    const int64_t first = fit.spans.front().first, last = fit.spans.back().last;
+    const int64_t centred = std::max<int64_t>(0, (first + last + 1) / 2 - window_ / 2);
+    if (!ended && centred + window_ > observed_end_) break;
+    fit.start = ended ? centred_window_start(fit, observed_end_, window_) : centred;
+    // Its writes reach two frames past its last gap.
+    if (std::min(fit.start + window_ - 1, last + 2) >= decoded_end) break;
+    ready.push_back(std::move(fit));
+    closed_.pop_front();
+    ++windows_planned_;
+  }
+  if (ready.empty()) return;
+  std::vector<const float*> windows;
+  for (const GapFitWindow& fit : ready) windows.push_back(observed_frame(fit.start));
+  std::vector<std::vector<float>> clips;
+  auto work = [&] { clips = fit_window_clips(model_, windows, kind_, options_); };
+  if (run_) {
+    run_(work);
+  } else {
+    work();
+  }
+  // In order, each window's borders then its gaps: write_fitted_window's
+  // marks keep a gap's frames from a later window's borders, which gives
+  // what fit_gap_codes() writes on the whole take.
+  for (size_t i = 0; i < ready.size(); ++i) {
+    for (const bool gap_frames : {false, true}) {
+      write_fitted_window(ready[i], clips[i].data(), window_, gap_frames, decoded_, decoded_first_, written_);
+    }
+    ++counts_.windows_fitted;
+    counts_.gaps_fitted += static_cast<int>(ready[i].spans.size());
+  }
+}
+
+void TakeGapFitter::push(const MotionFrames& decoded, bool last, MotionFrames& out) {
+  decoded_.values.insert(decoded_.values.end(), decoded.values.begin(), decoded.values.end());
+  written_.resize(static_cast<size_t>(decoded_.frame_count()), false);
+  if (last) {
+    // A gap running to the take's end ends there.
+    if (open_span_first_ >= 0) take_span({open_span_first_, observed_end_ - 1});
+    open_span_first_ = -1;
+    close_open_window();
+  }
+  fit_ready_windows(last);
+  // Hand out the frames no window still to fit writes: those before two
+  // frames ahead of the earliest gap that may still get a window.
+  int64_t end = decoded_first_ + decoded_.frame_count();
+  if (!last) {
+    end = std::min(end, observed_end_ - 2);
+    if (open_span_first_ >= 0) end = std::min(end, open_span_first_ - 2);
+    if (!open_.spans.empty()) end = std::min(end, open_.spans.front().first - 2);
+    if (!closed_.empty()) end = std::min(end, closed_.front().spans.front().first - 2);
+  }
+  const int64_t count = std::max<int64_t>(0, end - decoded_first_);
+  if (count == 0) return;
+  const auto floats = static_cast<std::ptrdiff_t>(count * columns_);
+  out.values.insert(out.values.end(), decoded_.values.begin(), decoded_.values.begin() + floats);
+  decoded_.values.erase(decoded_.values.begin(), decoded_.values.begin() + floats);
+  written_.erase(written_.begin(), written_.begin() + static_cast<std::ptrdiff_t>(count));
+  decoded_first_ += count;
+}
+
+}  // namespace mm
