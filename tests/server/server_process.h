@@ -60,6 +60,13 @@ class ServerProcess {
       argv.push_back("--model-store");
       argv.push_back(model_store_);
     }
+    // One LibTorch thread unless the test asks otherwise: its OpenMP threads
+    // spin, and two servers of two threads each on a 2-core machine (ctest
+    // -j2) slow each other several times over; no test here times them.
+    if (std::find(args.begin(), args.end(), "--threads") == args.end()) {
+      argv.push_back("--threads");
+      argv.push_back("1");
+    }
     argv.insert(argv.end(), args.begin(), args.end());
     argv_ = argv;
     start(argv_, timeout);

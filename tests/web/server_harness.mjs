@@ -106,7 +106,9 @@ export async function startServer({ models = {}, defaultModel = 'h36m-dkgm-cpu' 
   const args = ['--grpc-port', '0', '--rest-port', '0', '--address', '127.0.0.1', '--ready-file', ready,
                 '--model-store', store, '--default-model', defaultModel, '--auth-token', TOKEN, '--public-clips',
                 '--state-dir', path.join(scratch, 'state'), '--data-root', smallDataRoot(scratch),
-                '--web-root', path.join(source, 'web'), '--training-threads', '1',
+                // One LibTorch thread: its OpenMP threads spin, and beside
+                // another test's they slow each other several times over.
+                '--web-root', path.join(source, 'web'), '--threads', '1', '--training-threads', '1',
                 // At the default (idle) priority a job waits for a core that no
                 // other test keeps busy: under ctest -j2 the page's one job
                 // waited over 500 s.
