@@ -238,6 +238,14 @@ TEST_F(TrainingJobsTest, SubmissionRefusesDatasetsOutsideTheDataRootOrNotDataset
     EXPECT_NE(message.find("expected"), std::string::npos) << message;
     EXPECT_EQ(message.find("outside"), std::string::npos) << dataset << ": " << message;
   }
+  // A rig's folder whose files name one sequence twice (a file's name
+  // without its extension names it), at submission, before any is read.
+  fs::create_directories(data_root_ / "twins");
+  for (const char* name : {"a.bvh", "a.glb", "b.fbx"}) std::ofstream(data_root_ / "twins" / name) << "not read\n";
+  JobSpec twins = tiny_spec();
+  twins.dataset = "twins";
+  const std::string message = refusal([&] { jobs->submit(twins); }, ErrorCode::kInvalidArgument, "dataset");
+  EXPECT_NE(message.find("a.bvh and a.glb are two files of the name \"a\""), std::string::npos) << message;
   EXPECT_TRUE(jobs->list().empty());
   EXPECT_EQ(jobs->counts()[JobState::kQueued], 0);
 }
@@ -661,6 +669,15 @@ TEST_F(TrainingJobsTest, AModelStagedBeforeACrashIsPublishedAtStartAndStaleOnesA
 }
 
 TEST_F(TrainingJobsTest, CancelStopsQueuedAndRunningJobsAndRefusesFinishedOnes) {
+  // The child's OMP_NUM_THREADS=1 below must be the service's doing, not
+  // inherited from a test run that bounds every process (.ci/run does).
+  const char* const inherited = std::getenv("OMP_NUM_THREADS");
+  const std::string restore = inherited != nullptr ? inherited : "";
+  setenv("OMP_NUM_THREADS", "2", 1);
+  struct Restore {
+    std::string value;
+    ~Restore() { value.empty() ? unsetenv("OMP_NUM_THREADS") : setenv("OMP_NUM_THREADS", value.c_str(), 1); }
+  } restore_afterwards{restore};
   config_.max_queued = 1;
   auto jobs = make_jobs();
   const std::string running = jobs->submit(tiny_spec(1'000'000)).id;
