@@ -161,7 +161,7 @@ void save_prepared_dataset(const PreparedDataset& data, const std::string& path)
   header["dims"] = dims;
   header["levels_per_std"] = kLevelsPerStd;
   header["skeleton"] = json::parse(data.skeleton.to_json_text());
-  if (!data.bvh_folder.empty()) header["bvh_folder"] = data.bvh_folder;
+  if (!data.rig_folder.empty()) header["bvh_folder"] = data.rig_folder;
   json sequences = json::array();
   for (const PreparedSequence& sequence : data.sequences) {
     sequences.push_back({{"subject", sequence.subject},
@@ -281,7 +281,7 @@ PreparedDataset load_prepared_dataset(const std::string& path) {
   }
   if (header.contains("bvh_folder")) {
     if (!header["bvh_folder"].is_string()) throw InputError(path + ": header field \"bvh_folder\" is not a string");
-    data.bvh_folder = header["bvh_folder"].get<std::string>();
+    data.rig_folder = header["bvh_folder"].get<std::string>();
   }
   if (3 + 3 * data.skeleton.joint_count() != data.normalization.input_columns()) {
     throw InputError(path + ": the skeleton \"" + data.skeleton.name + "\" has " +

@@ -12,7 +12,8 @@
 //                           "frame_rate": 25, "dims": D, "levels_per_std": 8192,
 //                           "skeleton": <Skeleton JSON object> (absent in
 //                             files of H3.6M written before it: H3.6M's),
-//                           "bvh_folder": "..." (only for a BVH folder's),
+//                           "bvh_folder": "..." (only for a rig folder's;
+//                             the name from when it held BVH only),
 //                           "sequences": [{"subject", "action", "take", "phase",
 //                                          "frames"}, ...]}
 //     20 + H   uint64    R = payload length before compression (bytes)
@@ -51,12 +52,13 @@ struct PreparedDataset {
   std::vector<std::string> train_subjects, test_subjects;
   int frame_rate = 25;              // Hz of every sequence
   // The skeleton the frames are motions of (its exp-map layout, skeleton_bvh.h):
-  // H3.6M's, or a user's own from prepare_bvh_folder (bvh_corpus.h).
+  // H3.6M's, or a user's own from prepare_rig_folder (rig_folder_dataset.h).
   Skeleton skeleton = Skeleton::h36m();
-  // The folder prepare_bvh_folder read, absolute (header "bvh_folder"), whose
-  // files hold the root's path the normalised frames drop: a rig's root
-  // trajectory network is trained from them. Empty for H3.6M.
-  std::string bvh_folder;
+  // The folder prepare_rig_folder read, absolute (header "bvh_folder", so
+  // that files written when it held BVH only still read), whose files hold
+  // the root's path the normalised frames drop: a rig's root trajectory
+  // network is trained from them. Empty for H3.6M.
+  std::string rig_folder;
   std::vector<PreparedSequence> sequences;  // train and test subjects, sorted as load_h36m_corpus
 
   // The sequences of the listed subjects, in stored order. Pointers are valid

@@ -1,5 +1,5 @@
-// `prepare`: H3.6M text files, or a folder of BVH files of one's own
-// skeleton, to one prepared dataset file (Sec. 4): at 25 Hz, normalised on
+// `prepare`: H3.6M text files, or a folder of animation files (BVH, glTF,
+// FBX) of one's own skeleton, to one prepared dataset file (Sec. 4): at 25 Hz, normalised on
 // the training subjects (files), with the position-loss scale measured on them.
 #include <CLI/CLI.hpp>
 #include <algorithm>
@@ -10,7 +10,7 @@
 
 #include "commands.h"
 #include "file_arguments.h"
-#include "format/bvh_dataset.h"
+#include "format/rig_folder_dataset.h"
 #include "format/input_error.h"
 #include "format/prepared_dataset.h"
 #include "format/skeleton.h"
@@ -20,9 +20,9 @@ namespace mm::tool {
 namespace {
 
 struct PrepareOptions {
-  std::string data_dir, bvh_dir, out, unit = "auto";
+  std::string data_dir, rig_dir, out, unit = "auto";
   SplitOptions split;
-  BvhFolderOptions bvh;
+  RigFolderOptions rig;
 };
 
 // Millimetres per unit of a --unit value; 0 for auto (detected).
@@ -45,10 +45,10 @@ int run_prepare(const PrepareOptions& options) {
   check_output_file(options.out, "--out", "a prepared dataset is a binary file read by path");
   const auto started = std::chrono::steady_clock::now();
   PreparedDataset data;
-  if (!options.bvh_dir.empty()) {
-    BvhFolderOptions bvh = options.bvh;
-    bvh.millimetres_per_unit = millimetres_per_unit(options.unit);
-    data = prepare_bvh_folder(options.bvh_dir, bvh);
+  if (!options.rig_dir.empty()) {
+    RigFolderOptions rig = options.rig;
+    rig.millimetres_per_unit = millimetres_per_unit(options.unit);
+    data = prepare_rig_folder(options.rig_dir, rig);
   } else {
     // "--test ''" means no test subjects (a dataset of the user's own
     // subjects, none held out): CLI11 reads it as one empty name.
@@ -82,23 +82,26 @@ void add_prepare_command(CLI::App& app, Action& action) {
   auto options = std::make_shared<PrepareOptions>();
   auto* command = app.add_subcommand(
       "prepare",
-      "Bring H3.6M (--data) or a folder of BVH files of one skeleton (--bvh) to 25 Hz, fit the normalisation on the "
-      "training subjects or files and write a prepared dataset file.");
+      "Bring H3.6M (--data) or a folder of animation files of one skeleton (--rig: BVH, glTF, FBX) to 25 Hz, fit the "
+      "normalisation on the training subjects or files and write a prepared dataset file.");
   auto* data = command->add_option("--data", options->data_dir, "H3.6M folder: holds S1, S5, ... (or h3.6m/dataset/S1, ...)");
-  auto* bvh = command->add_option(
-      "--bvh", options->bvh_dir,
-      "folder of BVH files of one hierarchy (searched recursively): the skeleton, its channel layout, the kept "
-      "dimensions and the statistics come from them; split into train and test by file (--test-files)");
-  data->excludes(bvh);
-  bvh->excludes(data);
-  command->add_option("--test-files", options->bvh.test_files,
-                      "with --bvh: test files or folders relative to it, comma-separated (default: every fifth file)")
+  auto* rig = command->add_option(
+      "--rig,--bvh", options->rig_dir,
+      "folder of animation files of one hierarchy (.bvh, .glb, .gltf, .fbx, any case, mixed; searched "
+      "recursively; --bvh is its former name): the skeleton (the first file's in path order), its channel layout, "
+      "the kept dimensions and the statistics come from them; split into train and test by file (--test-files)");
+  data->excludes(rig);
+  rig->excludes(data);
+  command->add_option("--test-files", options->rig.test_files,
+                      "with --rig: test files or folders relative to it, comma-separated (default: every fifth file)")
       ->delimiter(',');
   command->add_option("--unit", options->unit,
-                      "with --bvh: the files' length unit, auto (from the rest pose's height), mm, cm, m or in")
+                      "with --rig: the BVH files' length unit, and the skeleton's: auto (from the first BVH file's "
+                      "rest pose height; mm for a folder of glTF and FBX only, whose files carry their unit), mm, "
+                      "cm, m or in")
       ->check(CLI::IsMember({"auto", "mm", "cm", "m", "in"}))
       ->capture_default_str();
-  command->add_option("--name", options->bvh.skeleton_name, "with --bvh: the skeleton's name (default: the folder's)");
+  command->add_option("--name", options->rig.skeleton_name, "with --rig: the skeleton's name (default: the folder's)");
   command->add_option("--out", options->out, "prepared dataset file to write")->required();
   command->add_option("--train", options->split.train_subjects, "training subjects, comma-separated")
       ->delimiter(',')
@@ -106,8 +109,8 @@ void add_prepare_command(CLI::App& app, Action& action) {
   command->add_option("--test", options->split.test_subjects, "test subjects, comma-separated ('' for none)")
       ->delimiter(',')
       ->capture_default_str();
-  command->callback([options, &action, data, bvh] {
-    if (data->count() == 0 && bvh->count() == 0) throw CLI::RequiredError("--data or --bvh");
+  command->callback([options, &action, data, rig] {
+    if (data->count() == 0 && rig->count() == 0) throw CLI::RequiredError("--data or --rig");
     action = [options] { return run_prepare(*options); };
   });
 }

@@ -21,7 +21,7 @@
 #include "device_option.h"
 #include "file_arguments.h"
 #include "format/atomic_file.h"
-#include "format/bvh_dataset.h"
+#include "format/rig_folder_dataset.h"
 #include "format/input_error.h"
 #include "motion_files.h"
 #include "progress_line.h"
@@ -109,19 +109,19 @@ void print_progress_json(const TrainProgress& p) {
 // Runs the trainer to its end or to a signal, then exports the model to
 // <output_dir>/model with its provenance, to which `origin` (where the run
 // started from, if not from scratch) is added. Returns the exit code.
-// A model of one's own rig learns where its root goes from the BVH files
+// A model of one's own rig learns where its root goes from the animation files
 // its dataset was prepared from (model/root_trajectory.h), so that what it
 // generates travels: as many iterations as the manifold's, 100 to 3000 (the
 // default H3.6M model's took 3000, 100 s on 2 cores). The model folder is
 // saved again with it.
 void train_rig_trajectory(MotionManifold& model, const PreparedDataset& data, int64_t manifold_iterations,
                           const std::string& model_dir) {
-  const std::vector<MotionFrames> motions = read_bvh_training_motions(data);
+  const std::vector<MotionFrames> motions = read_rig_training_motions(data);
   TrajectoryTrainingOptions options;
   options.iterations = static_cast<int>(std::clamp<int64_t>(manifold_iterations, 100, 3000));
   options.windows = 1024;
   std::fprintf(stderr, "training the root trajectory of the skeleton \"%s\" on %zu files of %s: %d iterations\n",
-               data.skeleton.name.c_str(), motions.size(), data.bvh_folder.c_str(), options.iterations);
+               data.skeleton.name.c_str(), motions.size(), data.rig_folder.c_str(), options.iterations);
   const TrajectoryTrainingReport report = train_root_trajectory(model, motions, options);
   model.save(model_dir, model.provenance_json());
   std::fprintf(stderr, "root trajectory: %d iterations in %.0f s, final loss %.4f\n", report.iterations, report.seconds,
@@ -185,13 +185,13 @@ int train_and_export(Trainer& trainer, const PreparedDataset& data, c10::Device 
   trainer.model().to(c10::kCPU);
   const std::string model_dir = config.output_dir + "/model";
   trainer.model().save(model_dir, provenance.dump());
-  if (!cancelled && !data.bvh_folder.empty()) {
+  if (!cancelled && !data.rig_folder.empty()) {
     // The manifold is exported whatever happens here: its files may have
     // moved since they were prepared.
     try {
       train_rig_trajectory(trainer.model(), data, trainer.iteration(), model_dir);
     } catch (const InputError& e) {
-      std::fprintf(stderr, "warning: no root trajectory network: %s (train-trajectory --bvh FOLDER gives it one)\n",
+      std::fprintf(stderr, "warning: no root trajectory network: %s (train-trajectory --rig FOLDER gives it one)\n",
                    e.what());
     }
   }

@@ -12,7 +12,7 @@
 #include "commands.h"
 #include "default_model.h"
 #include "format/atomic_file.h"
-#include "format/bvh_dataset.h"
+#include "format/rig_folder_dataset.h"
 #include "format/skeleton_bvh.h"
 #include "format/foot_contacts.h"
 #include "format/h36m_corpus.h"
@@ -43,19 +43,19 @@ std::vector<MotionSequence> sequences_keeping_root(const std::string& data, cons
   return result;
 }
 
-// The recordings of a rig's own BVH files (every .bvh under `folder`) at
-// 25 Hz in the model's world layout (skeleton_bvh.h).
+// The recordings of a rig's own animation files (every .bvh, .glb, .gltf
+// and .fbx under `folder`) at 25 Hz in the model's world layout
+// (skeleton_bvh.h).
 std::vector<MotionFrames> rig_recordings(const std::string& folder, const Skeleton& skeleton) {
   std::vector<MotionFrames> motions;
-  for (const auto& relative : list_bvh_files(folder)) {
-    const std::string path = folder + "/" + relative;
-    motions.push_back(skeleton_motion_from_bvh(skeleton, read_bvh_file(path), path));
+  for (const auto& relative : list_animation_files(folder)) {
+    motions.push_back(read_rig_motion(skeleton, folder + "/" + relative));
   }
   return motions;
 }
 
 struct TrainTrajectoryOptions {
-  std::string model_dir, data = "data", bvh, out;
+  std::string model_dir, data = "data", rig, out;
   std::vector<std::string> subjects{"S1", "S6", "S7", "S8", "S9", "S11"};
   TrajectoryTrainingOptions training;
 };
@@ -64,16 +64,16 @@ int run_train_trajectory(const TrainTrajectoryOptions& o) {
   MotionManifold model = MotionManifold::load(o.model_dir);
   const bool rig = trajectory_frame_of(model.skeleton()) == TrajectoryFrame::kHeadingMoves;
   std::vector<MotionFrames> motions;
-  if (!o.bvh.empty()) {
+  if (!o.rig.empty()) {
     if (!rig) {
-      throw InputError("--bvh: " + o.model_dir + " is a model of H3.6M's skeleton, whose recordings are the text "
-                       "files of --data; --bvh is for a model of a rig read from BVH (prepare --bvh)");
+      throw InputError("--rig: " + o.model_dir + " is a model of H3.6M's skeleton, whose recordings are the text "
+                       "files of --data; --rig is for a model of a rig read from its animation files (prepare --rig)");
     }
-    motions = rig_recordings(o.bvh, model.skeleton());
+    motions = rig_recordings(o.rig, model.skeleton());
   } else {
     if (rig || model.normalization().input_columns() != kH36mColumns) {
       throw InputError("--model: " + o.model_dir + " is a model of the skeleton \"" + model.skeleton().name +
-                       "\", not H3.6M's: give its BVH folder with --bvh");
+                       "\", not H3.6M's: give its folder of animation files with --rig");
     }
     for (auto& sequence : sequences_keeping_root(o.data, o.subjects)) motions.push_back(std::move(sequence.frames));
   }
@@ -331,11 +331,13 @@ void add_trajectory_commands(CLI::App& app, Action& action) {
   auto train = std::make_shared<TrainTrajectoryOptions>();
   auto* t = app.add_subcommand("train-trajectory",
                                "train a model's root trajectory network on H3.6M's training subjects (or, for a "
-                               "model of one's own rig, on its BVH files), so that its generated motion travels "
+                               "model of one's own rig, on its animation files), so that its generated motion travels "
                                "(the model folder is rewritten with it, or --out)");
   t->add_option("--model", train->model_dir, "model folder")->required();
   t->add_option("--data", train->data, "the H3.6M folder (holding S1, S5, ...)")->capture_default_str();
-  t->add_option("--bvh", train->bvh, "for a model of one's own rig: the folder of its BVH files (every .bvh under it)");
+  t->add_option("--rig,--bvh", train->rig,
+                "for a model of one's own rig: the folder of its animation files (every .bvh, .glb, .gltf and .fbx under "
+                "it; --bvh is its former name)");
   t->add_option("--out", train->out, "write the model here instead of over --model");
   t->add_option("--iterations", train->training.iterations, "training iterations")->capture_default_str()->check(CLI::Range(1, 1000000));
   t->add_option("--seed", train->training.seed, "random seed")->capture_default_str();

@@ -22,7 +22,7 @@
 #include <spdlog/spdlog.h>
 
 #include "api/data_root_path.h"
-#include "format/bvh_dataset.h"
+#include "format/rig_folder_dataset.h"
 #include "format/bvh_file.h"
 #include "format/input_error.h"
 #include "format/motion_text.h"

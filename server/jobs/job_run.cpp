@@ -38,9 +38,9 @@ RunEnd TrainingJobs::State::run_job(JobInfo& job) {
     // The prepared file is written atomically by the tool, so one that
     // exists is whole: a resumed job does not prepare again.
     dataset_file = (dir / "dataset.mmd").string();
-    if (!fs::exists(dataset_file) && dataset.bvh_folder) {
+    if (!fs::exists(dataset_file) && dataset.rig_folder) {
       const RunEnd end = run_child(
-          job, {config.tool_path, "prepare", "--bvh", dataset.path.string(), "--out", dataset_file}, "prepare");
+          job, {config.tool_path, "prepare", "--rig", dataset.path.string(), "--out", dataset_file}, "prepare");
       if (end != RunEnd::kSucceeded) return end;
     } else if (!fs::exists(dataset_file)) {
       std::string train, test;

@@ -7,7 +7,7 @@
 #include <regex>
 
 #include "api/data_root_path.h"
-#include "format/bvh_dataset.h"
+#include "format/rig_folder_dataset.h"
 #include "format/input_error.h"
 #include "format/json_text.h"
 #include "training_config.h"
@@ -73,7 +73,7 @@ const std::vector<std::string>& job_variants() {
 JobDataset resolve_job_dataset(const std::string& data_root, const std::string& dataset) {
   if (dataset.empty()) {
     refuse("dataset", "dataset is empty, expected a prepared dataset file (.mmd), an H3.6M text tree or a folder of "
-                      "BVH files under the data root");
+                      "animation files (.bvh, .glb, .gltf, .fbx) of one skeleton under the data root");
   }
   const fs::path root = canonical_data_root(data_root);
   const auto resolved = resolve_under_data_root(root, dataset, "dataset");
@@ -111,24 +111,29 @@ JobDataset resolve_job_dataset(const std::string& data_root, const std::string& 
     result.subjects = std::move(subjects);
     return result;
   }
-  std::vector<std::string> bvh_files;
+  std::vector<std::string> rig_files;
   try {
-    bvh_files = list_bvh_files(path.string());
+    rig_files = list_animation_files(path.string());
   } catch (const InputError&) {
     // Neither kind of folder: the message below says what was expected.
   }
-  if (bvh_files.size() == 1) {
-    refuse("dataset", "dataset " + quoted(dataset) +
-                          " holds one .bvh file, expected at least two (split by file into training and test)");
+  if (rig_files.size() == 1) {
+    refuse("dataset", "dataset " + quoted(dataset) + " holds one animation file (" + rig_files.front() +
+                          "), expected at least two (split by file into training and test)");
   }
-  if (!bvh_files.empty()) {
-    result.bvh_folder = true;
+  if (!rig_files.empty()) {
+    try {
+      check_one_file_per_name(rig_files, quoted(dataset));
+    } catch (const InputError& e) {
+      refuse("dataset", std::string("dataset ") + e.what());
+    }
+    result.rig_folder = true;
     return result;
   }
   refuse("dataset", "dataset " + quoted(dataset) +
-                        " is a folder without H3.6M motion files or BVH files, expected S1, S5, ... folders holding "
-                        "<action>_<n>.txt files (in it, in h3.6m/dataset or in dataset below it) or .bvh files of "
-                        "one skeleton");
+                        " is a folder without H3.6M motion files or animation files, expected S1, S5, ... folders "
+                        "holding <action>_<n>.txt files (in it, in h3.6m/dataset or in dataset below it) or .bvh, "
+                        ".glb, .gltf or .fbx files of one skeleton");
 }
 
 // The spec's fields as overrides of its configuration: 0 is the

@@ -5,7 +5,8 @@
 //
 // Torch-free: a prepared dataset is recognised by its magic bytes and
 // version (format/prepared_dataset.h), a text tree by its S*/<action>_<n>.txt
-// files, a BVH folder by its .bvh files, without reading any. Thread safe (no shared state).
+// files, a rig's folder by its animation files (.bvh, .glb, .gltf, .fbx),
+// without reading any. Thread safe (no shared state).
 #pragma once
 
 #include <cstdint>
@@ -22,9 +23,9 @@ namespace mm::service {
 struct JobDataset {
   std::filesystem::path path;  // the .mmd file, or the folder holding S1, S5, ...
   bool prepared = false;       // a prepared dataset file, not a text tree
-  // A folder of BVH files of one skeleton (format/bvh_dataset.h), prepared
-  // with the default split by file and the unit detected.
-  bool bvh_folder = false;
+  // A folder of animation files of one skeleton (format/rig_folder_dataset.h),
+  // prepared with the default split by file and the unit detected.
+  bool rig_folder = false;
   // A text tree's subjects that hold motion files, sorted (S1, S5, S6, ...).
   std::vector<std::string> subjects;
 };
@@ -33,9 +34,10 @@ struct JobDataset {
 // symbolic links followed, and checks that it lies under the data root and
 // is a prepared dataset file, an H3.6M text tree with at least one
 // training subject (any subject but the test subject S5), or a folder
-// holding at least two .bvh files (one for training, one for testing; their
-// content is checked when the job prepares them). ApiError INVALID_ARGUMENT
-// with field "dataset" otherwise.
+// holding at least two animation files of distinct names without their
+// extensions (one for training, one for testing; their content is checked
+// when the job prepares them). ApiError INVALID_ARGUMENT with field
+// "dataset" otherwise.
 JobDataset resolve_job_dataset(const std::string& data_root, const std::string& dataset);
 
 // The limits of a job's size, whether the spec or its configuration sets it.

@@ -2,30 +2,26 @@
 // 120 Hz): BVH -> the skeleton's exp-map layout -> BVH keeps the world
 // positions a BVH reader computes, in the rig's own channel layout or any
 // other rotation order; a BVH of another hierarchy is refused naming what
-// differs; a folder of them becomes a prepared dataset split by file.
+// differs (a folder of them as training data: rig_folder_dataset_test.cpp).
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <random>
 #include <string>
 
 #include "cmu_dance.h"
-#include "format/bvh_dataset.h"
 #include "format/bvh_file.h"
 #include "format/h36m_bvh.h"
 #include "format/input_error.h"
-#include "format/prepared_dataset.h"
 #include "format/skeleton_bvh.h"
 #include "test_environment.h"
 
 namespace mm {
 namespace {
 
-namespace fs = std::filesystem;
 using ::testing::AllOf;
 using ::testing::HasSubstr;
 
@@ -200,81 +196,6 @@ TEST(SkeletonBvh, SkeletonKeepsItsBvhLayoutThroughJson) {
   text.replace(at, 11, "\"Wrotation\"");
   EXPECT_THAT(error_of([&] { Skeleton::from_json_text(text, "bad.json"); }),
               AllOf(HasSubstr("bad.json: field \"bvh\" joint 0 (\"hip\")"), HasSubstr("\"Wrotation\"")));
-}
-
-TEST(BvhFolder, CmuDancesPrepareSplitByFile) {
-  const PreparedDataset data = prepare_bvh_folder(test::cmu_dance_dir().string(), BvhFolderOptions{});
-  EXPECT_EQ(data.skeleton.name, "cmu-dance-bvh");
-  EXPECT_EQ(data.skeleton.joint_count(), 57);
-  ASSERT_TRUE(data.skeleton.bvh.has_value());
-  EXPECT_EQ(data.skeleton.bvh->millimetres_per_unit, 10.0);  // detected: a person about 170 units tall
-  EXPECT_EQ(data.normalization.input_columns(), 174);
-  EXPECT_EQ(data.frame_rate, 25);
-  ASSERT_EQ(data.sequences.size(), 15u);
-  std::vector<std::string> test_files;
-  for (const auto* s : data.subset(data.test_subjects)) test_files.push_back(s->action);
-  // Every fifth file in path order.
-  EXPECT_EQ(test_files, (std::vector<std::string>{"indian/13", "martial/05", "martial/10"}));
-  EXPECT_EQ(data.subset(data.train_subjects).size(), 12u);
-  // Root translation and the End Sites' zeros are not modelled.
-  for (int column : data.normalization.kept_columns) {
-    EXPECT_GE(column, 3);
-    EXPECT_FALSE(data.skeleton.bvh->end_site[(column - 3) / 3]) << data.skeleton.joints[(column - 3) / 3].name;
-  }
-  // The rig's eyes, fingers and toes never turn in these files: 17 joints x 3.
-  EXPECT_EQ(data.normalization.dims(), 51);
-
-  // The file keeps the skeleton with its layout.
-  test::ScratchDir dir;
-  save_prepared_dataset(data, dir.file("cmu.mmd"));
-  const PreparedDataset loaded = load_prepared_dataset(dir.file("cmu.mmd"));
-  EXPECT_EQ(loaded.skeleton.to_json_text(), data.skeleton.to_json_text());
-  EXPECT_EQ(loaded.sequences[0].action, "indian/04");
-}
-
-TEST(BvhFolder, TestFilesNameFilesOrFolders) {
-  BvhFolderOptions options;
-  options.test_files = {"martial/", "indian/15.bvh"};
-  options.skeleton_name = "dancer";
-  options.millimetres_per_unit = 10;
-  const PreparedDataset data = prepare_bvh_folder(test::cmu_dance_dir().string(), options);
-  EXPECT_EQ(data.skeleton.name, "dancer");
-  EXPECT_EQ(data.subset(data.test_subjects).size(), 9u);
-  EXPECT_EQ(data.subset(data.train_subjects).size(), 6u);
-
-  options.test_files = {"ballet"};
-  EXPECT_THAT(error_of([&] { prepare_bvh_folder(test::cmu_dance_dir().string(), options); }),
-              HasSubstr("test file \"ballet\" names no .bvh file under"));
-  options.test_files = {"indian", "martial"};
-  EXPECT_THAT(error_of([&] { prepare_bvh_folder(test::cmu_dance_dir().string(), options); }),
-              HasSubstr("expected at least one training file"));
-}
-
-TEST(BvhFolder, AFileOfAnotherHierarchyOrMalformedIsNamed) {
-  test::ScratchDir dir;
-  fs::copy_file(cmu("indian/04.bvh"), dir.file("a.bvh"));
-  MotionFrames h36m;
-  h36m.values.assign(2 * kH36mColumns, 0.0f);
-  std::ofstream(dir.file("b.bvh")) << h36m_motion_to_bvh_text(h36m, 25);
-  EXPECT_THAT(error_of([&] { prepare_bvh_folder(dir.path().string(), {}); }),
-              AllOf(HasSubstr(dir.file("b.bvh") + ": not the skeleton \""), HasSubstr("missing joints: hip")));
-
-  // Cut inside the motion: the file and the line.
-  std::ifstream in(cmu("indian/06.bvh"));
-  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  const size_t frames = text.find("Frame Time");
-  const size_t cut = text.find('\n', frames + 2000);
-  std::ofstream(dir.file("b.bvh"), std::ios::trunc) << text.substr(0, cut) << "\n1 2 three\n";
-  EXPECT_THAT(error_of([&] { prepare_bvh_folder(dir.path().string(), {}); }),
-              AllOf(HasSubstr(dir.file("b.bvh") + ":"), HasSubstr("\"three\" is not a number")));
-
-  // A folder without BVH, a unit that cannot be told.
-  test::ScratchDir empty;
-  EXPECT_THAT(error_of([&] { prepare_bvh_folder(empty.path().string(), {}); }), HasSubstr("holds no .bvh file"));
-  BvhFile tiny = read_bvh_file(cmu("indian/04.bvh"));
-  for (auto& j : tiny.joints) j.offset = {j.offset[0] * 1e-3, j.offset[1] * 1e-3, j.offset[2] * 1e-3};
-  EXPECT_THAT(error_of([&] { detect_bvh_millimetres_per_unit(tiny, "tiny.bvh"); }),
-              AllOf(HasSubstr("tiny.bvh: its rest pose spans"), HasSubstr("--unit")));
 }
 
 }  // namespace

@@ -155,7 +155,7 @@ TEST(SkeletonService, AJobOnABvhFolderPublishesAModelThatSpeaksBvhOfThatSkeleton
   auto refused = rest.post("/v1/jobs", json{{"dataset", "dances/martial"}}.dump(), "application/json");
   ASSERT_NE(refused.status, 0);
   EXPECT_EQ(refused.status, 400);
-  EXPECT_THAT(refused.body, HasSubstr("holds one .bvh file"));
+  EXPECT_THAT(refused.body, HasSubstr("holds one animation file (03.bvh), expected at least two"));
 
   train_dances_model(rest, server);
   if (HasFatalFailure()) return;
