@@ -149,6 +149,22 @@ struct DenoiseRequest {
   bool keep_observed = false;
 };
 
+// Two clips joined by a transition (model/clip_transition.h). The clips are
+// motions as Encode takes them but of any frame count; the reply's motion is
+// at 25 Hz, root "input".
+struct JoinClipsRequest {
+  std::string model;
+  Motion a, b;
+  double transition_seconds = 1;   // 0.5 to 4
+  std::string method = "generated";  // or "crossfade"
+  std::string decoder;
+};
+struct JoinClipsReply {
+  AnsweredBy answered_by;
+  Motion motion;
+  int transition_first_frame = 0, transition_last_frame = 0;  // in `motion`, both included
+};
+
 struct ModelInfo {
   std::string name;     // the folder's name in the store
   std::string version;  // content hash of its manifest and .pt files, 16 hex digits

@@ -3,6 +3,8 @@
 #include <spdlog/spdlog.h>
 
 #include <chrono>
+#include <cmath>
+#include <cstdio>
 #include <condition_variable>
 #include <cstring>
 #include <filesystem>
@@ -21,6 +23,7 @@
 #include "format/foot_contacts.h"
 #include "format/input_error.h"
 #include "jobs/training_jobs.h"
+#include "clip_transition.h"
 #include "latent_operations.h"
 
 namespace mm::service {
@@ -444,6 +447,55 @@ MotionsReply ManifoldCore::denoise(const CallContext& ctx, const DenoiseRequest&
     MotionsReply reply;
     reply.answered_by = {model->name, model->version};
     for (const auto& motion : denoised) reply.motions.push_back(to_wire_motion(motion, model->shape, "input"));
+    return written(*model, std::move(reply), translation);
+  });
+}
+
+JoinClipsReply ManifoldCore::join_clips(const CallContext& ctx, const JoinClipsRequest& given,
+                                       const ShapedTranslation<JoinClipsRequest, JoinClipsReply>& translation) {
+  return state_->call("join_clips", ctx, true, [&] {
+    const auto model = state_->store.get(given.model);
+    std::optional<JoinClipsRequest> read;
+    const JoinClipsRequest& request = read_for(*model, given, translation, read);
+    TransitionOptions options;
+    options.decoder = state_->decoder_for(*model, request.decoder);
+    const double seconds = request.transition_seconds;
+    if (!(seconds >= kMinTransitionSeconds && seconds <= kMaxTransitionSeconds)) {
+      char found[32];
+      std::snprintf(found, sizeof found, "%g", seconds);
+      throw invalid("transition_seconds", "expected 0.5 to 4 (s), found " + std::string(found));
+    }
+    options.seconds = seconds;
+    if (request.method != "generated" && request.method != "crossfade") {
+      throw invalid("method", "expected \"generated\" or \"crossfade\", found \"" + request.method + "\"");
+    }
+    options.method = parse_transition_method(request.method, "method");
+    // As the library counts them (clip_transition.h): n transition frames
+    // at 25 Hz, and a second of each clip beside them for the fit to see.
+    constexpr double kModelRate = 25;
+    const auto n = static_cast<int64_t>(std::lround(seconds * kModelRate));
+    const auto shortest = n + static_cast<int64_t>(kModelRate);
+    const auto longest = static_cast<int64_t>(state_->config.takes.max_seconds * kModelRate);
+    const std::string why = "the transition's " + std::to_string(n) + " frames and 1 s more";
+    const MotionFrames a =
+        clip_to_model_frames(request.a, model->shape, "a", shortest, why, longest, "--max-take-seconds");
+    const MotionFrames b =
+        clip_to_model_frames(request.b, model->shape, "b", shortest, why, longest, "--max-take-seconds");
+    const int64_t joined_frames = a.frame_count() + b.frame_count() - n;
+    if (joined_frames < model->shape.frames) {
+      throw invalid("b.frames", "expected a and b to make at least " + std::to_string(model->shape.frames) +
+                                    " frames at 25 Hz joined (one clip of the model, which the transition is "
+                                    "fitted in), found " + std::to_string(a.frame_count()) + " + " +
+                                    std::to_string(b.frame_count()) + " less the transition's " + std::to_string(n) +
+                                    " = " + std::to_string(joined_frames));
+    }
+    JoinedClips joined;
+    state_->executor.run([&] { joined = ::mm::join_clips(model->model, a, b, options); });
+    JoinClipsReply reply;
+    reply.answered_by = {model->name, model->version};
+    reply.motion = to_wire_motion(joined.frames, model->shape, "input");
+    reply.transition_first_frame = static_cast<int>(joined.transition_first);
+    reply.transition_last_frame = static_cast<int>(joined.transition_last);
     return written(*model, std::move(reply), translation);
   });
 }

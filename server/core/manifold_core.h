@@ -128,6 +128,15 @@ class ManifoldCore {
                        const ShapedTranslation<AnalogyRequest, MotionsReply>& translation = {});
   MotionsReply denoise(const CallContext& ctx, const DenoiseRequest& request,
                        const ShapedTranslation<DenoiseRequest, MotionsReply>& translation = {});
+  // Clips a and b joined by a transition (model/clip_transition.h). Checked
+  // before any work: decoder, transition_seconds (0.5 to 4), method, then
+  // each clip as Encode checks a motion but of any length, from the
+  // transition and 1 s more to --max-take-seconds (RESOURCE_EXHAUSTED,
+  // 413, above), and the two joined making one clip of the model. The
+  // generated transition's code fit (15 decoder passes forward and back on
+  // one window, whatever the clips' length) runs on the inference executor.
+  JoinClipsReply join_clips(const CallContext& ctx, const JoinClipsRequest& request,
+                            const ShapedTranslation<JoinClipsRequest, JoinClipsReply>& translation = {});
 
   // Takes (core/take_session.h): the take's frames come from `read`, or
   // from the data-root file request.path (which needs the clip-read

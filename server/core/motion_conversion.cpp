@@ -4,6 +4,7 @@
 #include "format/root_path.h"
 #include "format/skeleton_bvh.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -32,7 +33,11 @@ std::string layout_name(int columns) {
   return columns == kH36mColumns ? std::string(kH36mLayout) : "expmap-" + std::to_string(columns);
 }
 
-MotionFrames to_model_frames(const Motion& motion, const ModelShape& shape, const std::string& field) {
+namespace {
+
+// The layout and columns checked; the step that takes the motion's rate to
+// 25 Hz (1 or 2).
+int checked_rate_step(const Motion& motion, const ModelShape& shape, const std::string& field) {
   if (motion.layout != shape.layout) {
     throw invalid(field + ".layout", "expected \"" + shape.layout + "\", found \"" + motion.layout + "\"");
   }
@@ -40,20 +45,14 @@ MotionFrames to_model_frames(const Motion& motion, const ModelShape& shape, cons
     throw invalid(field + ".columns", "expected " + std::to_string(shape.columns) + " values per frame (" +
                                           shape.layout + "), found " + std::to_string(motion.columns));
   }
-  int step = 0;
-  if (motion.frame_rate == 25) {
-    step = 1;
-  } else if (motion.frame_rate == 50) {
-    step = 2;
-  } else {
-    throw invalid(field + ".frame_rate", "expected 25 or 50 (Hz), found " + number(motion.frame_rate));
-  }
-  const int expected_frames = shape.frames * step;
-  if (motion.frames != expected_frames) {
-    throw invalid(field + ".frames", "expected " + std::to_string(expected_frames) + " frames at " +
-                                         number(motion.frame_rate) + " Hz (" + std::to_string(shape.frames) +
-                                         " at the model's 25 Hz), found " + std::to_string(motion.frames));
-  }
+  if (motion.frame_rate == 25) return 1;
+  if (motion.frame_rate == 50) return 2;
+  throw invalid(field + ".frame_rate", "expected 25 or 50 (Hz), found " + number(motion.frame_rate));
+}
+
+// The values checked and every `step`-th frame kept, the root brought back
+// to the model's (the frame count already checked).
+MotionFrames checked_frames(const Motion& motion, const ModelShape& shape, const std::string& field, int step) {
   const size_t expected_values = static_cast<size_t>(motion.frames) * static_cast<size_t>(motion.columns);
   if (motion.values.size() != expected_values) {
     throw invalid(field + ".values", "expected frames x columns = " + std::to_string(expected_values) +
@@ -73,7 +72,7 @@ MotionFrames to_model_frames(const Motion& motion, const ModelShape& shape, cons
   }
   MotionFrames frames;
   frames.columns = motion.columns;
-  frames.values.reserve(static_cast<size_t>(shape.frames) * motion.columns);
+  frames.values.reserve(static_cast<size_t>((motion.frames + step - 1) / step) * motion.columns);
   for (int f = 0; f < motion.frames; f += step) {
     const float* row = motion.values.data() + static_cast<size_t>(f) * motion.columns;
     frames.values.insert(frames.values.end(), row, row + motion.columns);
@@ -82,6 +81,38 @@ MotionFrames to_model_frames(const Motion& motion, const ModelShape& shape, cons
   // reads (the H3.6M layout's changes: two 50 Hz steps a 25 Hz frame).
   if (motion.root == "generated") model_root_from_world(shape.skeleton, frames, 2.0);
   return frames;
+}
+
+}  // namespace
+
+MotionFrames to_model_frames(const Motion& motion, const ModelShape& shape, const std::string& field) {
+  const int step = checked_rate_step(motion, shape, field);
+  const int expected_frames = shape.frames * step;
+  if (motion.frames != expected_frames) {
+    throw invalid(field + ".frames", "expected " + std::to_string(expected_frames) + " frames at " +
+                                         number(motion.frame_rate) + " Hz (" + std::to_string(shape.frames) +
+                                         " at the model's 25 Hz), found " + std::to_string(motion.frames));
+  }
+  return checked_frames(motion, shape, field, step);
+}
+
+MotionFrames clip_to_model_frames(const Motion& motion, const ModelShape& shape, const std::string& field,
+                                  int64_t min_frames, const std::string& min_why, int64_t max_frames,
+                                  const std::string& max_option) {
+  const int step = checked_rate_step(motion, shape, field);
+  const int64_t at_model_rate = (static_cast<int64_t>(std::max(motion.frames, 0)) + step - 1) / step;
+  if (at_model_rate > max_frames) {
+    throw ApiError(ErrorCode::kResourceExhausted, field + ".frames",
+                   "at most " + std::to_string(max_frames) + " frames at 25 Hz allowed (the server's " + max_option +
+                       "), found " + std::to_string(motion.frames) + " at " + number(motion.frame_rate) + " Hz",
+                   /*too_large=*/true);
+  }
+  if (at_model_rate < min_frames) {
+    throw invalid(field + ".frames", "expected at least " + std::to_string(min_frames) + " frames at 25 Hz (" +
+                                         min_why + "), found " + std::to_string(motion.frames) + " at " +
+                                         number(motion.frame_rate) + " Hz");
+  }
+  return checked_frames(motion, shape, field, step);
 }
 
 Motion to_wire_motion(const MotionFrames& frames, const ModelShape& shape, const std::string& root) {

@@ -6,6 +6,7 @@
 // Thread safety: pure functions.
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -38,6 +39,15 @@ std::string layout_name(int columns);
 // A motion whose root is "generated" (a reply's, in world layout) is
 // brought back to the root changes the model reads (format/root_path.h).
 MotionFrames to_model_frames(const Motion& motion, const ModelShape& shape, const std::string& field);
+
+// The same for a clip of any length (JoinClips' clips): `motion` at 25 Hz
+// with at least `min_frames` and at most `max_frames` frames at 25 Hz.
+// Fewer is INVALID_ARGUMENT "<field>.frames" saying `min_why` (what the
+// minimum is for); more is RESOURCE_EXHAUSTED (413) "<field>.frames" naming
+// `max_option`, checked before a value is read.
+MotionFrames clip_to_model_frames(const Motion& motion, const ModelShape& shape, const std::string& field,
+                                  int64_t min_frames, const std::string& min_why, int64_t max_frames,
+                                  const std::string& max_option);
 
 // A motion of the model's output (25 Hz, its layout) for the wire, with
 // `root` saying where its root path comes from ("generated", "input",

@@ -74,6 +74,11 @@ grpc::Status ManifoldService::Denoise(grpc::ServerContext* context, const v1::De
   return answer(context, [&](const CallContext& ctx) { to_wire(core_.denoise(ctx, to_api(*request)), reply); });
 }
 
+grpc::Status ManifoldService::JoinClips(grpc::ServerContext* context, const v1::JoinClipsRequest* request,
+                                        v1::JoinClipsReply* reply) {
+  return answer(context, [&](const CallContext& ctx) { to_wire(core_.join_clips(ctx, to_api(*request)), reply); });
+}
+
 grpc::Status ManifoldService::ListModels(grpc::ServerContext* context, const v1::ListModelsRequest*,
                                          v1::ListModelsReply* reply) {
   return answer(context, [&](const CallContext& ctx) {

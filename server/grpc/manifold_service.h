@@ -49,6 +49,8 @@ class ManifoldService final : public v1::MotionManifold::Service {
                        v1::MotionsReply* reply) override;
   grpc::Status Denoise(grpc::ServerContext* context, const v1::DenoiseRequest* request,
                        v1::MotionsReply* reply) override;
+  grpc::Status JoinClips(grpc::ServerContext* context, const v1::JoinClipsRequest* request,
+                         v1::JoinClipsReply* reply) override;
 
   // Takes (grpc/take_rpcs.cpp): the client's stream read as the take
   // arrives, the reply written as it becomes final.

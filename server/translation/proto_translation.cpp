@@ -99,6 +99,17 @@ DenoiseRequest to_api(const v1::DenoiseRequest& request) {
   return out;
 }
 
+JoinClipsRequest to_api(const v1::JoinClipsRequest& request) {
+  JoinClipsRequest out;
+  out.model = request.model();
+  out.a = to_api(request.a());
+  out.b = to_api(request.b());
+  if (request.transition_seconds() != 0) out.transition_seconds = request.transition_seconds();
+  if (!request.method().empty()) out.method = request.method();
+  out.decoder = request.decoder();
+  return out;
+}
+
 JobSpec to_api(const v1::JobSpec& spec) {
   JobSpec out;
   out.dataset = spec.dataset();
@@ -165,6 +176,14 @@ void to_wire(const MotionsReply& reply, v1::MotionsReply* out) {
   for (const auto& motion : reply.motions) to_wire(motion, out->add_motions());
   out->mutable_codes()->Reserve(static_cast<int>(reply.codes.size()));
   for (const auto& code : reply.codes) to_wire(code, out->add_codes());
+}
+
+void to_wire(const JoinClipsReply& reply, v1::JoinClipsReply* out) {
+  out->Clear();
+  to_wire(reply.answered_by, out->mutable_answered_by());
+  to_wire(reply.motion, out->mutable_motion());
+  out->set_transition_first_frame(reply.transition_first_frame);
+  out->set_transition_last_frame(reply.transition_last_frame);
 }
 
 void to_wire(const ModelInfo& info, v1::ModelInfo* out) {
@@ -267,6 +286,7 @@ TakeRequest to_api(const v1::TakeHeader& header) {
   request.means_are_missing = header.means_are_missing();
   request.iterations = header.iterations();
   request.keep_observed = header.keep_observed();
+  request.gap_fill = header.gap_fill();
   request.root = header.root();
   return request;
 }

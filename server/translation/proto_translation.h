@@ -8,7 +8,7 @@
 // Proto3 cannot tell an unset field from one set to its zero value, so where
 // the core's default is not the zero value (SampleRequest.count,
 // InterpolateRequest.steps and method, DenoiseRequest.iterations,
-// JobSpec.variant) the zero value stands for the core's default; every other
+// JoinClipsRequest.transition_seconds and method, JobSpec.variant) the zero value stands for the core's default; every other
 // value, zero included, reaches the core as sent. (REST can tell them apart
 // and reads a zero that is there as zero: server/rest/json_translation.cpp.)
 //
@@ -33,6 +33,7 @@ SampleRequest to_api(const v1::SampleRequest& request);
 InterpolateRequest to_api(const v1::InterpolateRequest& request);
 AnalogyRequest to_api(const v1::AnalogyRequest& request);
 DenoiseRequest to_api(const v1::DenoiseRequest& request);
+JoinClipsRequest to_api(const v1::JoinClipsRequest& request);
 ReadClipRequest to_api(const v1::ReadClipRequest& request);
 UploadClipRequest to_api(const v1::UploadClipRequest& request);
 JobSpec to_api(const v1::JobSpec& spec);
@@ -46,6 +47,7 @@ void to_wire(const Code& code, v1::Code* out);
 void to_wire(const AnsweredBy& answered_by, v1::AnsweredBy* out);
 void to_wire(const EncodeReply& reply, v1::EncodeReply* out);
 void to_wire(const MotionsReply& reply, v1::MotionsReply* out);
+void to_wire(const JoinClipsReply& reply, v1::JoinClipsReply* out);
 void to_wire(const ModelInfo& info, v1::ModelInfo* out);
 void to_wire(const ClipFile& clip, v1::ClipFile* out);
 void to_wire(const ListClipsReply& reply, v1::ListClipsReply* out);
