@@ -10,8 +10,9 @@
 // Short, because Blender takes seconds a few hundred frames; one Blender
 // run a format.
 //
-// Needs MM_BLENDER_CONVERT_SCRIPT (the script's path) defined by the build,
-// and Blender (MM_BLENDER, default "blender").
+// Needs the script's path, MM_BLENDER_CONVERT_SCRIPT or else below
+// MM_SOURCE_DIR, defined by the build, and Blender (MM_BLENDER, default
+// "blender").
 #pragma once
 
 #include <cstdlib>
@@ -26,6 +27,10 @@
 #include "command_run.h"
 #include "format/bvh_file.h"
 #include "test_environment.h"
+
+#ifndef MM_BLENDER_CONVERT_SCRIPT
+#define MM_BLENDER_CONVERT_SCRIPT MM_SOURCE_DIR "/tests/format/blender_convert_bvh.py"
+#endif
 
 namespace mm::test {
 

@@ -6,7 +6,8 @@
 // a BVH of another hierarchy or a malformed one naming what is wrong. The
 // tool decodes with the published model into BVH of the same rig too, and
 // the command-line client reads and writes BVH and text of that rig over
-// either protocol, as REST converts them.
+// either protocol, as REST converts them. A job on a folder of Blender's
+// glTF exports of dances publishes a model of the same rig, in mm.
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -24,6 +25,7 @@
 #include <thread>
 #include <vector>
 
+#include "blender_dances.h"
 #include "cmu_dance.h"
 #include "command_run.h"
 #include "format/bvh_file.h"
@@ -128,11 +130,13 @@ std::vector<std::string> job_server_args(const ScratchDir& scratch, const fs::pa
   return {"--state-dir", (scratch.path() / "state").string(), "--data-root", data_root.string(), "--training-threads", "2"};
 }
 
-// Trains a tiny manifold of the dances under dances/ of the data root through
-// a job and publishes it as "dances" (not activated).
-void train_dances_model(Rest& rest, const ServerProcess& server) {
-  const json job = rest.post_json("/v1/jobs", {{"dataset", "dances"}, {"variant", "DKGM"}, {"iterations", 3},
-                                               {"hidden", 16}, {"batch", 2}, {"seed", 1}, {"model_name", "dances"}});
+// Trains a tiny manifold of the dances under `dataset` (dances/) of the data
+// root through a job and publishes it as `model_name` ("dances"), not
+// activated.
+void train_dances_model(Rest& rest, const ServerProcess& server, const std::string& dataset = "dances",
+                        const std::string& model_name = "dances") {
+  const json job = rest.post_json("/v1/jobs", {{"dataset", dataset}, {"variant", "DKGM"}, {"iterations", 3},
+                                               {"hidden", 16}, {"batch", 2}, {"seed", 1}, {"model_name", model_name}});
   const std::string id = job.value("id", "");
   json record;
   for (int i = 0; i < 300 * 5; ++i) {
@@ -142,7 +146,7 @@ void train_dances_model(Rest& rest, const ServerProcess& server) {
     std::this_thread::sleep_for(std::chrono::milliseconds(200));
   }
   ASSERT_EQ(record.value("state", ""), "succeeded") << record.dump() << "\n" << server.log();
-  EXPECT_EQ(record["published_model"], "dances");
+  EXPECT_EQ(record["published_model"], model_name);
 }
 
 TEST(SkeletonService, AJobOnABvhFolderPublishesAModelThatSpeaksBvhOfThatSkeleton) {
@@ -255,6 +259,63 @@ TEST(SkeletonService, AJobOnABvhFolderPublishesAModelThatSpeaksBvhOfThatSkeleton
   ASSERT_EQ(std::system(command.c_str()), 0) << command;
   std::ifstream in(out);
   expect_cmu_rig(std::string(std::istreambuf_iterator<char>(in), {}), rig);
+}
+
+// A job on a data-root folder of .glb files (Blender's exports of three
+// dances, blender_dances.h): the job prepares it as it does BVH, and the
+// model it publishes has the rig's skeleton, in mm (glTF carries metres),
+// and reconstructs a .glb take of it.
+TEST(SkeletonService, AJobOnAGlbFolderPublishesAModelOfThatSkeletonInMillimetres) {
+  const test::BlenderDances& dances = blender_dances();
+  ScratchDir scratch;
+  const fs::path data_root = scratch.path() / "data";
+  fs::create_directories(data_root);
+  fs::copy(dances.glb, data_root / "glb-dances", fs::copy_options::recursive);
+  ServerProcess server(job_server_args(scratch, data_root));
+  Rest rest(server);
+  const auto started = std::chrono::steady_clock::now();
+  train_dances_model(rest, server, "glb-dances", "glb-dances");
+  if (HasFatalFailure()) return;
+  std::printf("job on 3 glb files (3 iterations, its root path 100): %.1f s\n",
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count());
+
+  // Blender drops the End Sites: the rig's 43 joints.
+  const json activated = rest.post_json("/v1/models/glb-dances:activate", json::object());
+  EXPECT_EQ(activated["columns"], 3 + 3 * 43) << activated.dump();
+  EXPECT_EQ(activated["layout"], "expmap-132");
+
+  // A glb take in, BVH of the rig out: the CMU joints with their parents and
+  // bone offsets in mm (the recording's cm times 10), at the take's 60 Hz.
+  const std::string take = read_text((dances.glb / "martial/03.glb").string());
+  auto reply = rest.post("/v1/takes:reconstruct", take, "model/gltf-binary", "application/x-bvh");
+  ASSERT_NE(reply.status, 0);
+  ASSERT_EQ(reply.status, 200) << reply.body;
+  const BvhFile got = parse_bvh_text(reply.body, "reply.bvh");
+  const BvhFile recording = read_bvh_file((dances.bvh / "martial/03.bvh").string());
+  EXPECT_EQ(got.named_joint_count(), recording.named_joint_count());
+  EXPECT_EQ(got.frame_count(), recording.frame_count());
+  EXPECT_NEAR(got.frame_time_s, recording.frame_time_s, 1e-6);
+  auto parent_name = [](const BvhFile& file, const BvhJoint& joint) {
+    return joint.parent < 0 ? std::string() : file.joints[joint.parent].name;
+  };
+  for (const BvhJoint& joint : recording.joints) {
+    if (joint.end_site) continue;
+    const auto found = std::find_if(got.joints.begin(), got.joints.end(),
+                                    [&](const BvhJoint& j) { return !j.end_site && j.name == joint.name; });
+    if (found == got.joints.end()) {
+      ADD_FAILURE() << "no joint " << joint.name;
+      continue;
+    }
+    EXPECT_EQ(parent_name(got, *found), parent_name(recording, joint)) << joint.name;
+    for (int a = 0; a < 3; ++a) EXPECT_NEAR(found->offset[a], joint.offset[a] * 10, 0.01) << joint.name;
+  }
+  for (double value : got.values) ASSERT_TRUE(std::isfinite(value));
+  // Its root about as high as the recording's (mm, not cm or m).
+  const RootTravel recorded = root_travel(recording), generated = root_travel(got);
+  std::printf("hips %.0f mm high reconstructed, %.0f mm recorded\n", generated.mean_height,
+              recorded.mean_height * 10);
+  EXPECT_GT(generated.mean_height, 0.5 * recorded.mean_height * 10);
+  EXPECT_LT(generated.mean_height, 2.0 * recorded.mean_height * 10);
 }
 
 // The sum of the metric lines `name{...}` holding every one of `labels`.
