@@ -178,6 +178,11 @@ int parse_server_config(int argc, char** argv, ServerConfig& config) {
                  "take operations running at once, both protocols together; more are refused (429, "
                  "RESOURCE_EXHAUSTED)")
       ->envname("MM_MAX_TAKE_STREAMS")->capture_default_str()->check(CLI::Range(1, 4096));
+  app.add_option("--max-take-gap-fits", config.core.takes.max_gap_fits,
+                 "windows a DenoiseTake with keep_observed fits to its gaps (gap_fill \"fitted\": each about 15 "
+                 "decoder passes forward and back); the gaps of later windows are filled as gap_fill \"matched\" "
+                 "and the take's summary counts them (0: no limit)")
+      ->envname("MM_MAX_TAKE_GAP_FITS")->capture_default_str()->check(CLI::Range(0, 1000000));
   app.add_option("--max-take-bytes", config.core.max_take_bytes,
                  "largest take sent whole, in bytes: a REST body of /v1/takes:* (refused by its declared length, "
                  "413) or a data-root file named by path=")

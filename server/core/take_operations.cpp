@@ -131,6 +131,18 @@ TakeSummaryReply run_take_on_model(const LoadedModel& model, DecoderKind decoder
     options.denoise.means_are_missing = request.means_are_missing;
     options.denoise.iterations = iterations;
     options.denoise.keep_observed = request.keep_observed;
+    options.gap_fit.max_windows = bounds.limits.max_gap_fits;
+    if (!request.gap_fill.empty()) {
+      try {
+        options.gap_fill.method = parse_gap_method(request.gap_fill, "gap_fill");
+      } catch (const InputError& e) {
+        throw from_input_error(e, "gap_fill");
+      }
+    }
+  }
+  if (!request.gap_fill.empty() && !(kind == TakeKind::kDenoise && request.keep_observed)) {
+    throw invalid("gap_fill", "applies to DenoiseTake with keep_observed only, found \"" + request.gap_fill +
+                                  "\"; expected it empty");
   }
   if (!request.root.empty() && request.root != "input" && request.root != "generated") {
     throw invalid("root", "expected \"input\" or \"generated\" (or empty: input), found \"" + request.root + "\"");
@@ -209,6 +221,9 @@ TakeSummaryReply run_take_on_model(const LoadedModel& model, DecoderKind decoder
   reply.window_seconds = window_seconds(shape);
   reply.hop_seconds = summary.hop_seconds;
   reply.windows = summary.windows;
+  reply.gap_windows_fitted = summary.gap_windows_fitted;
+  reply.gaps_fitted = summary.gaps_fitted;
+  reply.gaps_over_fit_limit = summary.gaps_over_fit_limit;
   return reply;
 }
 

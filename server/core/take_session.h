@@ -32,6 +32,10 @@ const char* take_kind_name(TakeKind kind);  // "encode_take", "reconstruct_take"
 struct TakeLimits {
   double max_seconds = 7200;  // --max-take-seconds: the longest take, and DecodeTrack's reply
   int max_streams = 4;        // --max-take-streams: take operations running at once, server-wide
+  // --max-take-gap-fits: windows a DenoiseTake with keep_observed and the
+  // fitted fill fits to its gaps (each about 15 decoder passes forward and
+  // back); the gaps of later windows get the matched fill (0: no limit).
+  int max_gap_fits = 20;
 };
 
 // What a take operation is asked to do (the wire's TakeHeader).
@@ -49,6 +53,10 @@ struct TakeRequest {
   bool means_are_missing = false;
   int iterations = 0;  // 0: four
   bool keep_observed = false;
+  // With keep_observed, how a gap is filled (model/gap_interpolation.h):
+  // "fitted" (empty means this), "matched", "cubic", "slerp", "hold" or
+  // "manifold".
+  std::string gap_fill;
   // Reconstruct and denoise: the reply's root path, "input" (empty) or
   // "generated" (the model's trajectory network).
   std::string root;
@@ -94,6 +102,12 @@ struct TakeSummaryReply {
   double window_seconds = 0;
   double hop_seconds = 0;
   int windows = 0;
+  // DenoiseTake with keep_observed and the fitted fill: the windows fitted,
+  // the gaps they held, and the gaps left to the matched fill beyond the
+  // bound on fitted windows a take (model/take_processor.h's TakeSummary).
+  int gap_windows_fitted = 0;
+  int gaps_fitted = 0;
+  int gaps_over_fit_limit = 0;
 };
 
 // Where the reply goes, in order: start once (before anything else), then

@@ -11,6 +11,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <functional>
+#include <limits>
 #include <mutex>
 #include <set>
 #include <thread>
@@ -254,6 +255,51 @@ TEST_F(CoreTest, InterpolateAnalogyAndDenoiseEqualTheLibrary) {
   const auto denoised = core_->denoise(kCall, denoise);
   const auto expected_denoised = denoise_motions(model, {frames}, DecoderKind::kVelocity, {false, 2, false, false});
   EXPECT_LT(max_difference(denoised.motions.at(0).values, expected_denoised[0].values), 1e-4);
+}
+
+// DenoiseTake with keep_observed fits at most takes.max_gap_fits windows a
+// take (--max-take-gap-fits; here 1) to its gaps: a take of three gaps of
+// every joint (1 s each, 5 s apart) is answered whole, and its summary
+// counts one window and one gap fitted and two gaps left to the matched
+// fill; with gap_fill "matched" nothing is fitted. 62 s at a load of 8 on
+// two cores (36 s of CPU).
+TEST_F(CoreTest, ATakeWithMoreGapsThanTheFitBoundIsAnsweredAndItsSummaryCountsThem) {
+  CoreConfig config;
+  config.takes.max_gap_fits = 1;
+  start(config);
+  if (!test::has_h36m()) GTEST_SKIP() << "H3.6M not found";
+  MotionFrames take = read_motion_text((test::h36m_dataset_dir() / "S5" / "walking_1.txt").string());
+  take.values.resize(static_cast<size_t>(800 * take.columns));  // 16 s at 50 Hz
+  for (int64_t first : {100, 350, 600}) {
+    for (int64_t f = first; f < first + 50; ++f) {
+      std::fill(take.frame(f) + 3, take.frame(f) + take.columns, std::numeric_limits<float>::quiet_NaN());
+    }
+  }
+  TakeRequest request;
+  request.frame_rate = 50;
+  request.keep_observed = true;
+  int64_t frames = 0;
+  TakeReplySink sink;
+  sink.on_frames = [&frames](const float*, const float*, int64_t count) { frames += count; };
+  auto run = [&] {
+    bool sent = false;
+    frames = 0;
+    return core_->run_take(kCall, TakeKind::kDenoise, request, [&](TakeChunk& chunk) {
+      if (sent) return false;
+      chunk.frames = take.frame_count();
+      chunk.values = take.values;
+      return sent = true;
+    }, sink);
+  };
+  const TakeSummaryReply bounded = run();
+  EXPECT_EQ(frames, 800);
+  EXPECT_EQ(bounded.gap_windows_fitted, 1);
+  EXPECT_EQ(bounded.gaps_fitted, 1);
+  EXPECT_EQ(bounded.gaps_over_fit_limit, 2);
+  request.gap_fill = "matched";
+  const TakeSummaryReply matched = run();
+  EXPECT_EQ(matched.gap_windows_fitted, 0);
+  EXPECT_EQ(matched.gaps_over_fit_limit, 0);
 }
 
 TEST_F(CoreTest, BadMotionsAreRefusedNamingTheFieldAndWhatWasExpected) {
