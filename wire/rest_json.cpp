@@ -327,6 +327,16 @@ FloatJson to_json(const v1::DenoiseRequest& request) {
   return out;
 }
 
+FloatJson to_json(const v1::JoinClipsRequest& request) {
+  FloatJson out{{"model", request.model()},
+                {"a", motion_json(request.a())},
+                {"b", motion_json(request.b())},
+                {"decoder", request.decoder()}};
+  if (request.transition_seconds() != 0) out["transition_seconds"] = request.transition_seconds();
+  if (!request.method().empty()) out["method"] = request.method();
+  return out;
+}
+
 Json to_json(const v1::JobSpec& spec) {
   Json out{{"dataset", spec.dataset()}, {"iterations", spec.iterations()}, {"seed", spec.seed()},
            {"hidden", spec.hidden()},   {"batch", spec.batch()},           {"model_name", spec.model_name()}};
@@ -412,6 +422,19 @@ void from_json(const Json& body, v1::DenoiseRequest& out, UnknownFields unknown)
   reader.finish();
 }
 
+void from_json(const Json& body, v1::JoinClipsRequest& out, UnknownFields unknown) {
+  out.Clear();
+  ObjectReader reader(body, "", unknown);
+  out.set_model(reader.string("model"));
+  // A clip left out stays an empty motion, which the core refuses naming it.
+  if (const Json* a = reader.find("a")) read_motion(*a, reader.path("a"), reader.unknown(), out.mutable_a());
+  if (const Json* b = reader.find("b")) read_motion(*b, reader.path("b"), reader.unknown(), out.mutable_b());
+  out.set_transition_seconds(reader.number("transition_seconds"));
+  out.set_method(reader.string("method"));
+  out.set_decoder(reader.string("decoder"));
+  reader.finish();
+}
+
 void from_json(const Json& body, v1::JobSpec& out, UnknownFields unknown) {
   out.Clear();
   ObjectReader reader(body, "", unknown);
@@ -443,6 +466,13 @@ FloatJson to_json(const v1::MotionsReply& reply) {
   return FloatJson{{"answered_by", answered_by_json(reply.answered_by())},
                    {"motions", motions_json(reply.motions())},
                    {"codes", codes_json(reply.codes())}};
+}
+
+FloatJson to_json(const v1::JoinClipsReply& reply) {
+  return FloatJson{{"answered_by", answered_by_json(reply.answered_by())},
+                   {"motion", motion_json(reply.motion())},
+                   {"transition_first_frame", reply.transition_first_frame()},
+                   {"transition_last_frame", reply.transition_last_frame()}};
 }
 
 Json to_json(const v1::ModelInfo& model) {
@@ -568,6 +598,18 @@ void from_json(const Json& body, v1::MotionsReply& out, UnknownFields unknown) {
   read_answered_by(reader, out.mutable_answered_by());
   read_motions(reader, "motions", out.mutable_motions());
   read_codes(reader, "codes", out.mutable_codes());
+  reader.finish();
+}
+
+void from_json(const Json& body, v1::JoinClipsReply& out, UnknownFields unknown) {
+  out.Clear();
+  ObjectReader reader(body, "", unknown);
+  read_answered_by(reader, out.mutable_answered_by());
+  if (const Json* motion = reader.find("motion")) {
+    read_motion(*motion, reader.path("motion"), reader.unknown(), out.mutable_motion());
+  }
+  out.set_transition_first_frame(reader.int32("transition_first_frame"));
+  out.set_transition_last_frame(reader.int32("transition_last_frame"));
   reader.finish();
 }
 

@@ -14,7 +14,7 @@
 //   itself, named without "_json" ("config", "provenance", ...);
 // - where the proto's zero value means "the default" (SampleRequest.count,
 //   InterpolateRequest.steps and method, DenoiseRequest.iterations,
-//   JobSpec.variant) a zero value is left out, which is how REST asks for the
+//   JoinClipsRequest.transition_seconds and method, JobSpec.variant) a zero value is left out, which is how REST asks for the
 //   default (REST reads a 0 that is there as 0: the server's business,
 //   server/rest/json_translation.cpp);
 // - a POST /v1/jobs body is the JobSpec itself; a take's JSON reply is
@@ -70,6 +70,7 @@ FloatJson to_json(const v1::DecodeRequest& request);
 FloatJson to_json(const v1::InterpolateRequest& request);
 FloatJson to_json(const v1::AnalogyRequest& request);
 FloatJson to_json(const v1::DenoiseRequest& request);
+FloatJson to_json(const v1::JoinClipsRequest& request);
 Json to_json(const v1::JobSpec& spec);  // also a Job's "spec"
 FloatJson to_json(const v1::DecodeTrackRequest& request);
 
@@ -81,6 +82,8 @@ void from_json(const Json& body, v1::DecodeRequest& out, UnknownFields unknown =
 void from_json(const Json& body, v1::InterpolateRequest& out, UnknownFields unknown = UnknownFields::kRefuse);
 void from_json(const Json& body, v1::AnalogyRequest& out, UnknownFields unknown = UnknownFields::kRefuse);
 void from_json(const Json& body, v1::DenoiseRequest& out, UnknownFields unknown = UnknownFields::kRefuse);
+// `a` and `b` are motions themselves, as in the proto: {"a": {"frames", ...}}.
+void from_json(const Json& body, v1::JoinClipsRequest& out, UnknownFields unknown = UnknownFields::kRefuse);
 void from_json(const Json& body, v1::JobSpec& out, UnknownFields unknown = UnknownFields::kRefuse);
 void from_json(const Json& body, v1::DecodeTrackRequest& out, UnknownFields unknown = UnknownFields::kRefuse);
 // The body of a call that takes no fields (activate, cancel): {}.
@@ -89,6 +92,8 @@ void empty_from_json(const Json& body, UnknownFields unknown = UnknownFields::kR
 // ---- Replies (the server writes them, the client reads them)
 FloatJson to_json(const v1::EncodeReply& reply);
 FloatJson to_json(const v1::MotionsReply& reply);
+// {"answered_by", "motion", "transition_first_frame", "transition_last_frame"}
+FloatJson to_json(const v1::JoinClipsReply& reply);
 Json to_json(const v1::ModelInfo& model);
 Json to_json(const v1::ListModelsReply& reply);  // {"models": [...]}
 Json to_json(const v1::ClipFile& clip);
@@ -103,6 +108,7 @@ FloatJson to_json(const v1::TakeSummary& summary);
 
 void from_json(const Json& body, v1::EncodeReply& out, UnknownFields unknown = UnknownFields::kIgnore);
 void from_json(const Json& body, v1::MotionsReply& out, UnknownFields unknown = UnknownFields::kIgnore);
+void from_json(const Json& body, v1::JoinClipsReply& out, UnknownFields unknown = UnknownFields::kIgnore);
 void from_json(const Json& body, v1::ModelInfo& out, UnknownFields unknown = UnknownFields::kIgnore);
 void from_json(const Json& body, v1::ListModelsReply& out, UnknownFields unknown = UnknownFields::kIgnore);
 void from_json(const Json& body, v1::ClipFile& out, UnknownFields unknown = UnknownFields::kIgnore);

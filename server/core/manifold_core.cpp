@@ -477,6 +477,11 @@ JoinClipsReply ManifoldCore::join_clips(const CallContext& ctx, const JoinClipsR
     const auto shortest = n + static_cast<int64_t>(kModelRate);
     const auto longest = static_cast<int64_t>(state_->config.takes.max_seconds * kModelRate);
     const std::string why = "the transition's " + std::to_string(n) + " frames and 1 s more";
+    for (const auto& [clip, name] : {std::pair<const Motion*, const char*>{&request.a, "a"}, {&request.b, "b"}}) {
+      if (clip->frames == 0 && clip->values.empty() && clip->layout.empty()) {
+        throw invalid(name, "expected a motion (frames, columns, frame_rate, layout, values), found none");
+      }
+    }
     const MotionFrames a =
         clip_to_model_frames(request.a, model->shape, "a", shortest, why, longest, "--max-take-seconds");
     const MotionFrames b =

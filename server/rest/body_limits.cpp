@@ -22,6 +22,7 @@ BodyLimit body_limit(RouteId route, bool bvh_body, size_t max_message_bytes, siz
     case RouteId::kDecodeTrack:
     case RouteId::kInterpolate:
     case RouteId::kAnalogy:
+    case RouteId::kJoinClips:  // JSON, or two files in a multipart/form-data body
       return within_outer({max_json_bytes, "--max-json-bytes"});
     case RouteId::kSample:
     case RouteId::kSubmitJob:

@@ -82,6 +82,25 @@ Motion motion_from_bvh_body(const std::string& body, const ModelShape& shape, An
   return motion;
 }
 
+Motion clip_from_animation_body(const std::string& body, const ModelShape& shape, AnimationFormat format,
+                                const std::string& field) {
+  MotionFrames frames;
+  try {
+    const BvhFile file = animation_body_as_bvh(body, format, shape.skeleton, field);
+    match_bvh_to_skeleton(shape.skeleton, file, field);
+    frames = skeleton_motion_from_bvh(shape.skeleton, file, field);
+  } catch (const InputError& error) {
+    throw ApiError(ErrorCode::kInvalidArgument, field, error.what());
+  }
+  Motion motion;
+  motion.frames = static_cast<int>(frames.frame_count());
+  motion.columns = frames.columns;
+  motion.frame_rate = kBvhImportRate;
+  motion.layout = shape.layout;
+  motion.values = std::move(frames.values);
+  return motion;
+}
+
 std::string motions_reply_to_bvh(const MotionsReply& reply, const ModelShape& shape, AnimationFormat format) {
   if (reply.motions.size() != 1) {
     throw ApiError(ErrorCode::kInvalidArgument, "",

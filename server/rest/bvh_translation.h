@@ -43,6 +43,14 @@ bool names_animation(const std::string& header_value, AnimationFormat* format);
 Motion motion_from_bvh_body(const std::string& body, const ModelShape& shape,
                             AnimationFormat format = AnimationFormat::kBvh);
 
+// A clip of any length in an animation body (JoinClips' a and b; a part of
+// a multipart body), in the layout of the model of `shape` at 25 Hz, all of
+// its frames (bounded as a take's are when it is parsed: the core then
+// bounds a clip by --max-take-seconds). Throws ApiError INVALID_ARGUMENT
+// naming `field` ("a", "b") with the parser's message.
+Motion clip_from_animation_body(const std::string& body, const ModelShape& shape, AnimationFormat format,
+                                const std::string& field);
+
 // The single motion of `reply` as BVH text of the skeleton of `shape` (the
 // model that answered). Throws ApiError INVALID_ARGUMENT when the reply holds
 // another number of motions (the frontend answers 406 Not Acceptable for it),

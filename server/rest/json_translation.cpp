@@ -110,6 +110,15 @@ DenoiseRequest denoise_request_from_json(const std::string& body) {
   return request;
 }
 
+JoinClipsRequest join_clips_request_from_json(const std::string& body) {
+  const json document = parse_body(body);
+  const auto message = read_message<v1::JoinClipsRequest>(document);
+  JoinClipsRequest request = wire::to_api(message);
+  keep_sent_zero(document, "transition_seconds", message.transition_seconds(), request.transition_seconds);
+  keep_sent_zero(document, "method", message.method(), request.method);
+  return request;
+}
+
 JobSpec job_spec_from_json(const std::string& body) {
   const json document = parse_body(body);
   const auto message = read_message<v1::JobSpec>(document);
@@ -134,6 +143,7 @@ void empty_request_from_json(const std::string& body) {
 
 std::string encode_reply_to_json(const EncodeReply& reply) { return reply_text<v1::EncodeReply>(reply); }
 std::string motions_reply_to_json(const MotionsReply& reply) { return reply_text<v1::MotionsReply>(reply); }
+std::string join_clips_reply_to_json(const JoinClipsReply& reply) { return reply_text<v1::JoinClipsReply>(reply); }
 std::string model_info_to_json(const ModelInfo& model) { return reply_text<v1::ModelInfo>(model); }
 std::string clip_list_to_json(const ListClipsReply& reply) { return reply_text<v1::ListClipsReply>(reply); }
 std::string clip_file_to_json(const ClipFile& clip) { return reply_text<v1::ClipFile>(clip); }

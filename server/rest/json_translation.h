@@ -11,7 +11,8 @@
 //   integer out of range) answered as INVALID_ARGUMENT naming its path
 //   ("motions[0].values[12]", "from.motion.frames") and what was expected;
 // - REST tells a field left out from one sent as zero, which proto3 cannot:
-//   a `count`, `steps`, `method`, `iterations` or `variant` that is there
+//   a `count`, `steps`, `method`, `iterations`, `transition_seconds` or
+//   `variant` that is there
 //   reaches the core as sent (a REST 0 is 0, refused by the core naming it),
 //   one left out or null takes the core's default.
 // Values in range, lengths, model names: the core's to check.
@@ -34,6 +35,8 @@ SampleRequest sample_request_from_json(const std::string& body);
 InterpolateRequest interpolate_request_from_json(const std::string& body);
 AnalogyRequest analogy_request_from_json(const std::string& body);
 DenoiseRequest denoise_request_from_json(const std::string& body);
+// {"model", "a": {motion}, "b": {motion}, "transition_seconds", "method", "decoder"}
+JoinClipsRequest join_clips_request_from_json(const std::string& body);
 JobSpec job_spec_from_json(const std::string& body);
 // {"model", "windows": [{"start_seconds", "code"}], "frame_rate", "frames", "decoder", "blend"}
 DecodeTrackRequest decode_track_request_from_json(const std::string& body);
@@ -44,6 +47,7 @@ void empty_request_from_json(const std::string& body);
 // in their shortest form that reads back to the same float.
 std::string encode_reply_to_json(const EncodeReply& reply);
 std::string motions_reply_to_json(const MotionsReply& reply);
+std::string join_clips_reply_to_json(const JoinClipsReply& reply);
 std::string model_info_to_json(const ModelInfo& model);
 std::string model_list_to_json(const std::vector<ModelInfo>& models);  // {"models": [...]}
 std::string clip_list_to_json(const ListClipsReply& reply);     // {"clips": [...], "truncated": false}

@@ -22,6 +22,7 @@
 #include "rest/connection_stream.h"
 #include "rest/guarded_http_server.h"
 #include "rest/http_errors.h"
+#include "rest/join_route.h"
 #include "rest/json_translation.h"
 #include "rest/openapi_document.h"
 #include "rest/query_translation.h"
@@ -187,9 +188,13 @@ struct RestFrontend::State {
 
   State(ManifoldCore& c, ServiceMetrics& m, RestOptions o) : core(c), metrics(m), options(std::move(o)) {}
 
-  void handle(RouteId route, const httplib::Request& request, const std::string& body, httplib::Response& response);
+  // `parts`: a multipart/form-data body's parts (read_body reads such a
+  // body into them, not into `body`).
+  void handle(RouteId route, const httplib::Request& request, const std::string& body, httplib::Response& response,
+              const httplib::MultipartFormDataItems& parts = {});
   bool read_body(RouteId route, const httplib::Request& request, const httplib::ContentReader& reader,
-                 std::string& body, httplib::Response& response) const;
+                 std::string& body, httplib::Response& response,
+                 httplib::MultipartFormDataItems* parts = nullptr) const;
   void stream_job_events(const CallContext& context, const std::string& id, httplib::Response& response);
   bool write_job_events(const std::string& id, EventStream& stream, httplib::DataSink& sink);
   void install_error_handlers();
@@ -225,7 +230,7 @@ std::optional<uint64_t> declared_length(const httplib::Request& request) {
 // when the body is too large or unreadable.
 bool RestFrontend::State::read_body(RouteId route, const httplib::Request& request,
                                     const httplib::ContentReader& reader, std::string& body,
-                                    httplib::Response& response) const {
+                                    httplib::Response& response, httplib::MultipartFormDataItems* parts) const {
   const bool has_length = request.has_header("Content-Length");
   if (!has_length && !request.has_header("Transfer-Encoding")) return true;
   const rest::BodyLimit limit =
@@ -260,19 +265,43 @@ bool RestFrontend::State::read_body(RouteId route, const httplib::Request& reque
   const size_t drop_at_most = std::max<size_t>(limit.bytes, kMaxBytesDroppedPastTheLimit);
   bool too_large = false;
   size_t dropped = 0;
-  const bool ok = reader([&](const char* data, size_t length) {
-    if (!too_large && body.size() + length > limit.bytes) {
+  size_t received = 0;  // of every part, for a multipart body
+  const auto receive = [&](const char* data, size_t length, std::string& into) {
+    if (!too_large && received + length > limit.bytes) {
       too_large = true;
       body.clear();
       body.shrink_to_fit();
+      if (parts != nullptr) parts->clear();
     }
     if (too_large) {
       dropped += length;
       return dropped <= drop_at_most;
     }
-    body.append(data, length);
+    received += length;
+    into.append(data, length);
     return true;
-  });
+  };
+  bool ok = false;
+  if (request.is_multipart_form_data()) {
+    // httplib reads a multipart body only into parts (its plain reader
+    // would call a part handler it was not given); a route that takes
+    // none (parts null) reads them and drops them, and its empty body is
+    // then refused as JSON.
+    httplib::MultipartFormDataItems dropped_parts;
+    httplib::MultipartFormDataItems& into = parts != nullptr ? *parts : dropped_parts;
+    ok = reader(
+        [&](const httplib::MultipartFormData& header) {
+          if (too_large) return true;
+          into.push_back(header);
+          return true;
+        },
+        [&](const char* data, size_t length) {
+          if (into.empty()) return false;
+          return receive(data, length, into.back().content);
+        });
+  } else {
+    ok = reader([&](const char* data, size_t length) { return receive(data, length, body); });
+  }
   if (ok && !too_large) return true;
   if (too_large) {
     return refuse(ApiError(ErrorCode::kResourceExhausted, "", "the request body exceeds " + limit_text,
@@ -294,7 +323,7 @@ bool RestFrontend::State::read_body(RouteId route, const httplib::Request& reque
 }
 
 void RestFrontend::State::handle(RouteId route, const httplib::Request& request, const std::string& body,
-                                 httplib::Response& response) {
+                                 httplib::Response& response, const httplib::MultipartFormDataItems& parts) {
   const CallContext context = call_context(request);
   try {
     switch (route) {
@@ -341,6 +370,8 @@ void RestFrontend::State::handle(RouteId route, const httplib::Request& request,
         return answer_motions(response, request, ShapedTranslation<DenoiseRequest, MotionsReply>(),
                               [&](const auto& translation) { return core.denoise(context, denoise, translation); });
       }
+      case RouteId::kJoinClips:
+        return rest::answer_join(core, context, request, body, parts, response);
       case RouteId::kEncodeTake:
       case RouteId::kReconstructTake:
       case RouteId::kDenoiseTake:
@@ -596,8 +627,11 @@ void RestFrontend::start() {
                                [&s, id](const httplib::Request& request, httplib::Response& response,
                                         const httplib::ContentReader& reader) {
                                  std::string body;
-                                 if (s.read_body(id, request, reader, body, response)) {
-                                   s.handle(id, request, body, response);
+                                 httplib::MultipartFormDataItems parts;
+                                 // Only POST /v1/join takes a multipart body (two files).
+                                 if (s.read_body(id, request, reader, body, response,
+                                                 id == RouteId::kJoinClips ? &parts : nullptr)) {
+                                   s.handle(id, request, body, response, parts);
                                  }
                                }));
     }

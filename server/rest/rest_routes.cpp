@@ -13,6 +13,7 @@ const std::vector<RestRoute>& rest_routes() {
       {RouteId::kInterpolate, "POST", "/v1/interpolate"},
       {RouteId::kAnalogy, "POST", "/v1/analogy"},
       {RouteId::kDenoise, "POST", "/v1/denoise"},
+      {RouteId::kJoinClips, "POST", "/v1/join"},
       {RouteId::kEncodeTake, "POST", "/v1/takes:encode"},
       {RouteId::kReconstructTake, "POST", "/v1/takes:reconstruct"},
       {RouteId::kDenoiseTake, "POST", "/v1/takes:denoise"},

@@ -11,7 +11,7 @@
 namespace mm::service::rest {
 
 enum class RouteId {
-  kEncode, kDecode, kSample, kInterpolate, kAnalogy, kDenoise,
+  kEncode, kDecode, kSample, kInterpolate, kAnalogy, kDenoise, kJoinClips,
   kEncodeTake, kReconstructTake, kDenoiseTake, kDecodeTrack,
   kListModels, kDescribeModel, kActivateModel, kDeleteModel,
   kListClips, kReadClip, kUploadClip, kDeleteClip,

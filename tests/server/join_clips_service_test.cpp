@@ -1,10 +1,11 @@
-// JoinClips through the real server: two short S5 clips
+// JoinClips through the real server, over both protocols: two short S5 clips
 // (4 s of walking, 4 s of sitting, sent at the files' 50 Hz) joined by a 1 s
 // transition. The joined motion is clip a's frames (at 25 Hz) before the
 // transition and clip b's after it, value for value; the generated
 // transition meets both borders (the jump into and out of it under 1.5x the
 // clips' median per-frame move) and differs from the crossfade of the same
-// pair; a transition of 5 s, a clip too short and an unknown method
+// pair; over REST too, from JSON motions, and the crossfade from two BVH
+// files in a multipart/form-data body; a transition of 5 s, a clip too short and an unknown method
 // are refused naming the field. Torch-free: the expected values are the
 // inputs themselves.
 #include <gtest/gtest.h>
@@ -240,6 +241,58 @@ TEST_F(JoinClipsService, GrpcRefusesBadInputNamingTheField) {
     EXPECT_EQ(error_field(context), c.field) << status.error_message();
     EXPECT_EQ(status.error_message().rfind(c.field + ": ", 0), 0u) << status.error_message();
   }
+}
+
+TEST_F(JoinClipsService, RestJoinsJsonMotionsAndTwoBvhFilesAndRefusesNamingTheField) {
+  const json body = {{"a", motion_json(*a_rows_, 50)}, {"b", motion_json(*b_rows_, 50)}, {"transition_seconds", 1}};
+  const auto started = std::chrono::steady_clock::now();
+  const test::Reply reply = test::post(server_->rest_port(), "/v1/join", body);
+  std::printf("POST /v1/join generated: %.2f s\n",
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count());
+  ASSERT_EQ(reply.status, 200) << reply.body.substr(0, 400);
+  const MotionFrames joined = frames_of(reply.document.at("motion"));
+  const int64_t first = reply.document.at("transition_first_frame").get<int64_t>();
+  const int64_t last = reply.document.at("transition_last_frame").get<int64_t>();
+  expect_clips_kept(joined, first, last, "REST JSON");
+  expect_borders_met(joined, first, last, "generated over REST");
+
+  // The same clips as BVH files, two parts of one multipart/form-data body.
+  httplib::MultipartFormDataItems parts = {
+      {"a", h36m_motion_to_bvh_text(*a_rows_, 50), "walking.bvh", "application/octet-stream"},
+      {"b", h36m_motion_to_bvh_text(*b_rows_, 50), "sitting.bvh", "application/x-bvh"},
+      {"transition_seconds", "1", "", ""},
+      {"method", "crossfade", "", ""},
+  };
+  auto client = test::rest_client(server_->rest_port());
+  const test::Reply files = test::to_reply(client.Post("/v1/join", parts));
+  ASSERT_EQ(files.status, 200) << files.body.substr(0, 400);
+  const MotionFrames from_files = frames_of(files.document.at("motion"));
+  EXPECT_EQ(from_files.frame_count(), joined.frame_count());
+  EXPECT_EQ(files.document.at("transition_first_frame").get<int64_t>(), first);
+  // BVH holds Euler angles: the clip's frames come back through them, near.
+  const MotionFrames a = at_25hz(*a_rows_);
+  double bvh_worst = 0;
+  for (int64_t f = 0; f < first; ++f) bvh_worst = std::max(bvh_worst, pose_distance(a.frame(f), from_files.frame(f), a.columns));
+  EXPECT_LT(bvh_worst, 1e-3) << "clip a's frames read from its BVH file";
+
+  // Refusals name the field, as over gRPC.
+  json too_long = body;
+  too_long["transition_seconds"] = 5;
+  const test::Reply refused = test::post(server_->rest_port(), "/v1/join", too_long);
+  EXPECT_EQ(refused.status, 400) << refused.body;
+  EXPECT_EQ(refused.field(), "transition_seconds") << refused.body;
+  json unknown = body;
+  unknown["method"] = "morph";
+  const test::Reply unknown_method = test::post(server_->rest_port(), "/v1/join", unknown);
+  EXPECT_EQ(unknown_method.status, 400) << unknown_method.body;
+  EXPECT_EQ(unknown_method.field(), "method") << unknown_method.body;
+  MotionFrames short_rows = *b_rows_;
+  short_rows.values.resize(static_cast<size_t>(60) * short_rows.columns);
+  json too_short = body;
+  too_short["b"] = motion_json(short_rows, 50);
+  const test::Reply short_clip = test::post(server_->rest_port(), "/v1/join", too_short);
+  EXPECT_EQ(short_clip.status, 400) << short_clip.body;
+  EXPECT_EQ(short_clip.field(), "b.frames") << short_clip.body;
 }
 
 }  // namespace
