@@ -101,6 +101,11 @@ nlohmann::json summary_json(const TakeSummary& s, bool encodes) {
   summary["frame_rate"] = s.output_rate;
   summary["mean_error_mm"] = s.mean_error_mm;
   summary["max_error_mm"] = s.max_error_mm;
+  if (s.gap_windows_fitted > 0 || s.gaps_over_fit_limit > 0) {
+    summary["gap_windows_fitted"] = s.gap_windows_fitted;
+    summary["gaps_fitted"] = s.gaps_fitted;
+    summary["gaps_over_fit_limit"] = s.gaps_over_fit_limit;
+  }
   return summary;
 }
 
@@ -159,6 +164,8 @@ void add_take_operation(CLI::App* take, Action& action, TakeOperation operation)
     bool at_model_rate = false;
     std::string root = "input";
     DenoiseOptions denoise;
+    std::string gap_fill = "fitted";
+    bool gap_fill_given = false;
   };
   auto o = std::make_shared<Options>();
   const bool encodes = operation == TakeOperation::kEncode;
@@ -208,6 +215,15 @@ void add_take_operation(CLI::App* take, Action& action, TakeOperation operation)
         ->capture_default_str();
     command->add_flag("--keep-observed", o->denoise.keep_observed,
                       "keep the observed values as given and take the manifold's only where values are missing");
+    command
+        ->add_option("--gap-fill", o->gap_fill,
+                     "with --keep-observed, how a gap (a run of frames where a joint is nan) is filled: fitted (a "
+                     "code fitted to the observed frames of a 6 s window centred on each gap of 0.6 s or more, its "
+                     "movement laid over a cubic that meets both borders; at most 20 windows a take, later gaps "
+                     "matched), matched (the take's own windows' movement over the cubic), cubic, slerp, hold or "
+                     "manifold (the model's output as it is)")
+        ->capture_default_str()
+        ->each([o](const std::string&) { o->gap_fill_given = true; });
   }
   command->callback([o, &action, operation, encodes] {
     action = [o, operation, encodes] {
@@ -234,6 +250,11 @@ void add_take_operation(CLI::App* take, Action& action, TakeOperation operation)
       options.at_model_rate = o->at_model_rate;
       options.decoder = o->model.kind(model);
       options.denoise = o->denoise;
+      options.gap_fill.method = parse_gap_method(o->gap_fill, "--gap-fill");
+      if (o->gap_fill_given && !o->denoise.keep_observed) {
+        throw InputError("--gap-fill: applies with --keep-observed only (without it every value is the manifold's), "
+                         "found --gap-fill " + o->gap_fill + " alone");
+      }
       options.root = parse_take_root(o->root, "--root");
       TakeResult result;
       try {

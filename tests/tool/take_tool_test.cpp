@@ -124,6 +124,14 @@ TEST(ToolTake, BadTakesAreExitTwoNamingWhatIsWrong) {
   EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(line_count(test::read_text(dir.file("out.txt"))), 500u);
   EXPECT_EQ(test::read_text(dir.file("out.txt")).find("nan"), std::string::npos);
+  // --gap-fill names one of the fills, and only with --keep-observed.
+  r = run_tool("take denoise " + kModel + " --input " + gapped_file + " --keep-observed --gap-fill spline --out " +
+               dir.file("out.txt"));
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--gap-fill: expected \"fitted\", \"matched\""), std::string::npos) << r.err;
+  r = run_tool("take denoise " + kModel + " --input " + gapped_file + " --gap-fill matched --out " + dir.file("out.txt"));
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--gap-fill: applies with --keep-observed only"), std::string::npos) << r.err;
 
   const std::string unsorted = dir.write(
       "unsorted.json", nlohmann::json{{"windows", {{{"start_seconds", 0}, {"code", std::vector<double>(64, 0.0)}},
