@@ -104,6 +104,9 @@ class GrpcConnection : public ServerConnection {
   }
   v1::MotionsReply analogy(const v1::AnalogyRequest& r) override { return unary(&Stub::Analogy, r, v1::MotionsReply{}); }
   v1::MotionsReply denoise(const v1::DenoiseRequest& r) override { return unary(&Stub::Denoise, r, v1::MotionsReply{}); }
+  v1::JoinClipsReply join_clips(const v1::JoinClipsRequest& r) override {
+    return unary(&Stub::JoinClips, r, v1::JoinClipsReply{});
+  }
 
   v1::ListModelsReply list_models() override {
     return unary(&Stub::ListModels, v1::ListModelsRequest{}, v1::ListModelsReply{});

@@ -1,5 +1,6 @@
 #include "motion_io.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -60,7 +61,11 @@ const char* const kMotionInputNote =
     "BVH files) are read at their own frame time and resampled to 25 Hz. Output motions are text, or BVH of the "
     "model's skeleton for a .bvh name, at 25 Hz.";
 
-v1::Motion read_motion(const MotionSource& source, ModelRigs& rigs, const std::string& model) {
+namespace {
+
+// read_motion's work: the model's clip from source.start, or with `whole`
+// every frame from there to the file's end.
+v1::Motion read_motion_frames(const MotionSource& source, ModelRigs& rigs, const std::string& model, bool whole) {
   const std::string name = display_name(source.path);
   const bool bvh = format_of(source.path, "motion") == MotionFormat::kBvh;
   if (!bvh && source.rate != 25 && source.rate != 50) {
@@ -87,13 +92,18 @@ v1::Motion read_motion(const MotionSource& source, ModelRigs& rigs, const std::s
       throw InputError(name + ": --start " + std::to_string(source.start) + " is past the file's last frame (it has " +
                        std::to_string(parsed->frame_count()) + " frames)");
     }
-    window = skeleton_motion_window_from_bvh(rig.skeleton, *parsed, name, source.start, rig.frames);
+    const int64_t frames =
+        whole ? bvh_imported_frame_count(parsed->frame_count() - source.start, parsed->frame_time_s) : rig.frames;
+    window = skeleton_motion_window_from_bvh(rig.skeleton, *parsed, name, source.start, frames);
   } else {
     // The server would keep every second frame of a 50 Hz motion too; doing
     // it here sends only the clip.
     const MotionFrames file = parse_motion_text_buffer(text.data(), text.size(), name, rig.columns);
     const int64_t step = source.rate / kModelRate;
-    const int64_t needed = static_cast<int64_t>(source.start) + (rig.frames - 1) * step + 1;
+    const int64_t frames =
+        whole ? std::max<int64_t>(0, (file.frame_count() - source.start + step - 1) / step) : rig.frames;
+    const int64_t needed = whole ? static_cast<int64_t>(source.start) + 1
+                                 : static_cast<int64_t>(source.start) + (rig.frames - 1) * step + 1;
     if (file.frame_count() < needed) {
       throw InputError(name + ": too short: " + std::to_string(file.frame_count()) + " frames at " +
                        std::to_string(source.rate) + " Hz, need " + std::to_string(needed) + " (the model's " +
@@ -104,18 +114,28 @@ v1::Motion read_motion(const MotionSource& source, ModelRigs& rigs, const std::s
                             : ""));
     }
     window.columns = file.columns;
-    for (int64_t f = 0; f < rig.frames; ++f) {
+    for (int64_t f = 0; f < frames; ++f) {
       const float* row = file.frame(source.start + f * step);
       window.values.insert(window.values.end(), row, row + file.columns);
     }
   }
   v1::Motion message;
-  message.set_frames(rig.frames);
+  message.set_frames(static_cast<int>(window.frame_count()));
   message.set_columns(window.columns);
   message.set_frame_rate(kModelRate);
   message.set_layout(rig.layout);
   message.mutable_values()->Add(window.values.begin(), window.values.end());
   return message;
+}
+
+}  // namespace
+
+v1::Motion read_motion(const MotionSource& source, ModelRigs& rigs, const std::string& model) {
+  return read_motion_frames(source, rigs, model, /*whole=*/false);
+}
+
+v1::Motion read_whole_motion(const MotionSource& source, ModelRigs& rigs, const std::string& model) {
+  return read_motion_frames(source, rigs, model, /*whole=*/true);
 }
 
 bool is_code_file(const std::string& path) { return extension_of(path) == ".json"; }

@@ -41,6 +41,10 @@ struct MotionSource {
 // ServerError when the model cannot be described.
 v1::Motion read_motion(const MotionSource& source, ModelRigs& rigs, const std::string& model);
 
+// The same with every frame from `start` to the file's end instead of one
+// clip (join's clips, of any length), at 25 Hz.
+v1::Motion read_whole_motion(const MotionSource& source, ModelRigs& rigs, const std::string& model);
+
 // Reads a code file: JSON {"code": [...]} as `encode` prints it, a reply of
 // encode --json ({"codes": [[...]]}, its first code) or a bare array.
 // Throws InputError naming the file.

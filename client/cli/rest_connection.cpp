@@ -158,6 +158,9 @@ class RestConnection : public ServerConnection {
   v1::MotionsReply denoise(const v1::DenoiseRequest& r) override {
     return reply_message<v1::MotionsReply>(post("/v1/denoise", to_json(r)));
   }
+  v1::JoinClipsReply join_clips(const v1::JoinClipsRequest& r) override {
+    return reply_message<v1::JoinClipsReply>(post("/v1/join", to_json(r)));
+  }
 
   v1::ListModelsReply list_models() override { return reply_message<v1::ListModelsReply>(get("/v1/models")); }
   v1::ModelInfo describe_model(const std::string& name) override {

@@ -60,6 +60,7 @@ class ServerConnection {
   virtual v1::MotionsReply interpolate(const v1::InterpolateRequest& request) = 0;
   virtual v1::MotionsReply analogy(const v1::AnalogyRequest& request) = 0;
   virtual v1::MotionsReply denoise(const v1::DenoiseRequest& request) = 0;
+  virtual v1::JoinClipsReply join_clips(const v1::JoinClipsRequest& request) = 0;
 
   virtual v1::ListModelsReply list_models() = 0;
   // Empty name: the active model.

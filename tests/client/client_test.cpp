@@ -7,6 +7,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -322,6 +323,40 @@ TEST_F(ClientTest, DenoiseRefusesContradictoryOptions) {
                               s5("walking_1.txt") + " --out " + dir_.file("d.txt"));
   EXPECT_EQ(run.exit_code, 1);
   EXPECT_EQ(run.err.rfind("error: INVALID_ARGUMENT: ", 0), 0u) << run.err;
+}
+
+// ------------------------------------------------------------------- join
+
+TEST_F(ClientTest, JoinWritesClipAThenTheTransitionThenClipB) {
+  // Two short clips read whole: 4 s of walking and 4 s of sitting at 50 Hz,
+  // 100 frames each at 25 Hz; a 1 s transition makes 175 frames. A
+  // crossfade, to keep the test short: join_clips_service_tests covers the
+  // generated transition (10 s and more of the server's CPU).
+  const auto walking = motion_rows(s5("walking_1.txt")), sitting = motion_rows(s5("sitting_1.txt"));
+  const auto write_rows = [&](const std::vector<std::vector<double>>& rows, const std::string& name) {
+    std::ofstream out(dir_.file(name));
+    out.precision(9);
+    for (int r = 0; r < 200; ++r) {
+      for (size_t c = 0; c < rows[r].size(); ++c) out << (c ? "," : "") << rows[r][c];
+      out << "\n";
+    }
+    return dir_.file(name);
+  };
+  const auto out = dir_.file("joined.txt");
+  const auto run = run_client(grpc() + " join --a " + write_rows(walking, "walk.txt") + " --b " +
+                              write_rows(sitting, "sit.txt") + " --seconds 1 --method crossfade --out " + out);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.err.find("the transition frames 75 to 99 (crossfade)"), std::string::npos) << run.err;
+  const auto rows = motion_rows(out);
+  ASSERT_EQ(rows.size(), 175u);
+  const auto near = [](double got, double expected) { return std::fabs(got - expected) <= 1e-5 * std::max(1.0, std::fabs(expected)); };
+  for (int f = 0; f < 175; ++f) {
+    if (f >= 75 && f < 100) continue;  // the transition
+    const auto& expected = f < 75 ? walking[2 * f] : sitting[2 * (f - 75)];
+    for (size_t c = 0; c < expected.size(); ++c) {
+      ASSERT_TRUE(near(rows[f][c], expected[c])) << "frame " << f << " column " << c << ": " << rows[f][c] << " against " << expected[c];
+    }
+  }
 }
 
 // ----------------------------------------------------------------- models

@@ -18,13 +18,13 @@ for _needed in ("grpc", "numpy"):
 from .bvh import BvhError, bvh_text, motion_from_bvh, motion_to_bvh, parse_bvh, read_bvh, write_bvh
 from .client import Client, ClipWindow
 from .errors import MotionManifoldError
-from .motion import H36M_LAYOUT, MODEL_RATE, AnsweredBy, Codes, Motion, Motions
+from .motion import H36M_LAYOUT, MODEL_RATE, AnsweredBy, Codes, Joined, Motion, Motions
 from .motion_text import MotionTextError, read_text, write_text
 from .skeleton import Skeleton
 from .takes import CodeTrack, TakeResult
 from ._wire import manifold_pb2 as messages
 
-__all__ = ["AnsweredBy", "BvhError", "Client", "ClipWindow", "Codes", "CodeTrack", "H36M_LAYOUT", "MODEL_RATE",
+__all__ = ["AnsweredBy", "BvhError", "Client", "ClipWindow", "Codes", "CodeTrack", "H36M_LAYOUT", "Joined", "MODEL_RATE",
            "Motion", "MotionManifoldError", "Motions", "MotionTextError", "Skeleton", "TakeResult", "bvh_text",
            "messages", "motion_from_bvh", "motion_to_bvh", "parse_bvh", "read_bvh", "read_text", "write_bvh",
            "write_text"]

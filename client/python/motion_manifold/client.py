@@ -19,7 +19,7 @@ from ._wire import manifold_pb2 as pb
 from ._wire import manifold_pb2_grpc as pb_grpc
 from .bvh import motion_from_bvh, parse_bvh, write_bvh
 from .errors import MotionManifoldError
-from .motion import (MODEL_RATE, AnsweredBy, Codes, Motion, Motions, code_messages, codes_from_messages,
+from .motion import (MODEL_RATE, AnsweredBy, Codes, Joined, Motion, Motions, code_messages, codes_from_messages,
                      motion_list, motion_or_code)
 from .motion_text import iter_text_chunks, read_text, write_text
 from .skeleton import Skeleton
@@ -145,6 +145,19 @@ class Client:
                                     zeros_are_missing=zeros_are_missing, means_are_missing=means_are_missing,
                                     iterations=iterations, keep_observed=keep_observed)
         return Motions.from_message(self._call(self.stub.Denoise, request))
+
+    def join_clips(self, a, b, transition_seconds=1.0, method="generated", model="", decoder=""):
+        """Clips `a` and `b` (Motions of any length at 25 or 50 Hz, the
+        model's layout) joined by a transition of `transition_seconds` (0.5
+        to 4) in their overlap, "generated" by the manifold or "crossfade":
+        a Joined, whose motion is a's frames (at 25 Hz) before the
+        transition, the transition, and b's frames after it."""
+        for name, clip in (("a", a), ("b", b)):
+            if not isinstance(clip, Motion):
+                raise TypeError(f"{name}: a {type(clip).__name__}, expected a Motion (values and their frame_rate)")
+        request = pb.JoinClipsRequest(model=model, a=a.to_message(), b=b.to_message(),
+                                      transition_seconds=transition_seconds, method=method, decoder=decoder)
+        return Joined.from_message(self._call(self.stub.JoinClips, request))
 
     # --- the model store
 

@@ -100,6 +100,22 @@ class Motions:
 
 
 @dataclass
+class Joined:
+    """join_clips' reply: the joined motion (25 Hz, the model's layout, root
+    "input") and the transition's first and last frame in it (both included)."""
+
+    motion: Motion
+    transition_first_frame: int
+    transition_last_frame: int
+    answered_by: AnsweredBy = field(default_factory=AnsweredBy)
+
+    @classmethod
+    def from_message(cls, reply):
+        return cls(Motion.from_message(reply.motion), reply.transition_first_frame, reply.transition_last_frame,
+                   AnsweredBy.from_message(reply.answered_by))
+
+
+@dataclass
 class Codes:
     """Encode's reply: one code a motion (N x latent) and the model that answered."""
 

@@ -301,6 +301,19 @@ class PythonClientTest(unittest.TestCase):
 
     # --- the model store
 
+    def test_join_clips_keeps_both_clips_around_a_transition_of_one_second(self):
+        np, mm = self.np, self.mm
+        rows = mm.read_text(self.walk).values
+        a, b = mm.Motion(rows[:200], 50), mm.Motion(rows[400:600], 50)  # 4 s each: 100 frames at 25 Hz
+        joined = self.client.join_clips(a, b, transition_seconds=1.0, method="crossfade")
+        self.assertEqual((joined.transition_first_frame, joined.transition_last_frame), (75, 99))
+        self.assertEqual((joined.motion.frames, joined.motion.frame_rate, joined.motion.root), (175, 25.0, "input"))
+        np.testing.assert_array_equal(joined.motion.values[:75], rows[0:150:2])
+        np.testing.assert_array_equal(joined.motion.values[100:], rows[450:600:2])
+        with self.assertRaises(mm.MotionManifoldError) as refused:
+            self.client.join_clips(a, b, transition_seconds=5.0)
+        self.assertEqual(refused.exception.field, "transition_seconds")
+
     def test_models_are_listed_described_activated_and_deleted_with_the_token(self):
         grpc = self.grpc
         os.symlink(os.path.abspath(os.path.join(ARGS.models, "h36m-dkgm-cpu")),
