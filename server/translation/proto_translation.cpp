@@ -287,7 +287,6 @@ TakeRequest to_api(const v1::TakeHeader& header) {
   request.iterations = header.iterations();
   request.keep_observed = header.keep_observed();
   request.gap_fill = header.gap_fill();
-  request.gap_fill = header.gap_fill();
   request.root = header.root();
   return request;
 }
