@@ -43,10 +43,11 @@ struct GapCodeFitOptions {
   // The most windows fitted in one motion (0: no limit), in order of time:
   // the gaps of later windows keep the take path's frames (the matched fill
   // over the take's own windows). A fit costs about `iterations` decoder
-  // passes forward and back, 5 to 10 s of CPU on the two busy cores here,
-  // so this bounds what a take of many gaps costs before the work is done:
-  // at most about 3 minutes of CPU whatever the take (docs/RESULTS.md,
-  // "Gaps").
+  // passes forward and back: 12 s of CPU a window in the benchmark's
+  // batches, 36 s for one window alone, on the two busy cores here (load
+  // 8), so this bounds what a take of many gaps costs before the work is
+  // done: at most about 12 minutes of CPU at that load whatever the take
+  // (docs/RESULTS.md, "Gaps").
   int max_windows = 20;
 };
 
