@@ -150,6 +150,15 @@ try {
   await setRange('#interpolate-slider', 3);
   await page.screenshot({ path: path.join(screenshotDir, 'web-interpolate.png') });
 
+  step('join: the two newest motions joined by a 1 s generated transition play between them');
+  await page.click('#join-button');
+  await waitForFigure('joined, generated');
+  view = await describe();
+  assert.equal(view.figures.length, 3);
+  assert.equal(view.figures[1].frames, 150 + 150 - 25);  // a and b of 150 frames overlapping by the transition
+  assert.match(view.figures[1].label, /joined, generated frames 125–149/);
+  await page.screenshot({ path: path.join(screenshotDir, 'web-join.png') });
+
   step('an uploaded BVH plays, drawn as the FK of the motion in it');
   // A motion of the model's (screenshots go into docs/, which H3.6M must
   // never reach), as BVH from the server's own export.

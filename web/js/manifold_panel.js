@@ -1,6 +1,6 @@
 // The manifold at work: each button is one operation of the REST API
 // (encode and decode for a reconstruction, two denoise calls for projected
-// and filled), its result drawn in the view, with the skeleton of the model
+// and filled, POST /v1/join for two clips joined by a transition), its result drawn in the view, with the skeleton of the model
 // that answered, and kept on the shelf.
 import { callApi, callWithToken } from './api_client.js';
 import { runAction } from './call_log.js';
@@ -158,11 +158,30 @@ async function denoise(view) {
   say(`values dropped with probability ${probability} (set to zero, the paper's corruption); errors against the original`);
 }
 
+// Two shelf motions joined by a transition (the motions themselves: the
+// server joins frames, not codes); the joined motion plays between them.
+async function join(view) {
+  const a = shelfEntry($('join-a').value), b = shelfEntry($('join-b').value);
+  if (!a || !b) throw new Error('joining needs two motions: sample or upload some first');
+  const method = $('join-method').value;
+  const reply = await callApi('POST', 'v1/join', {
+    body: { a: a.motion, b: b.motion, transition_seconds: Number($('join-seconds').value), method, decoder: decoder() } });
+  const skeleton = await skeletonOfReply(reply);
+  const first = reply.transition_first_frame, last = reply.transition_last_frame;
+  const name = `${a.name} + ${b.name} (${method})`;
+  shelve(name, reply.motion, skeleton);
+  view.show([entryFigure(`a: ${a.name}`, a), figure(`joined, ${method} frames ${first}–${last}`, reply.motion, skeleton),
+             entryFigure(`b: ${b.name}`, b)]);
+  say(`${reply.motion.frames} frames at 25 Hz, the ${method} transition at ${(first / 25).toFixed(2)}–` +
+      `${((last + 1) / 25).toFixed(2)} s; ${answeredBy(reply)}`);
+}
+
 export function setUpManifoldPanel(view) {
-  ['interpolate-to', 'analogy-b', 'denoise-source'].forEach((id) => bindMenu($(id), 0));
-  ['interpolate-from', 'analogy-a'].forEach((id) => bindMenu($(id), 1));
+  ['interpolate-to', 'analogy-b', 'denoise-source', 'join-b'].forEach((id) => bindMenu($(id), 0));
+  ['interpolate-from', 'analogy-a', 'join-a'].forEach((id) => bindMenu($(id), 1));
   bindMenu($('analogy-c'), 2);
   const actions = { 'upload-button': reconstructUpload, 'clip-button': reconstructClip, 'sample-button': sample,
-                    'interpolate-button': interpolate, 'analogy-button': analogy, 'denoise-button': denoise };
+                    'interpolate-button': interpolate, 'analogy-button': analogy, 'denoise-button': denoise,
+                    'join-button': join };
   for (const [id, action] of Object.entries(actions)) $(id).addEventListener('click', () => runAction(() => action(view)));
 }
