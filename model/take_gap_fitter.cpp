@@ -7,6 +7,16 @@
 #include "take_windows.h"
 
 namespace mm {
+namespace {
+
+// A gap still running may get a window only while it is no longer than a
+// fitted gap may be (gap_gets_fitted): past that nothing waits for it, so a
+// joint missing for the rest of a long take holds nothing here.
+bool may_get_window(int64_t first, int64_t end, int64_t window) {
+  return first >= 0 && end - first <= window - static_cast<int64_t>(2 * kTakeModelRate);
+}
+
+}  // namespace
 
 TakeGapFitter::TakeGapFitter(const MotionManifold& model, DecoderKind kind, GapCodeFitOptions options,
                              std::function<void(const std::function<void()>&)> run)
@@ -42,7 +52,7 @@ void TakeGapFitter::observe(const MotionFrames& observed) {
   }
   // Keep what a window not fitted yet may read: it is centred on gaps from
   // the earliest pending one on, or (at the take's end) its last clip.
-  int64_t pending = open_span_first_ >= 0 ? open_span_first_ : observed_end_;
+  int64_t pending = may_get_window(open_span_first_, observed_end_, window_) ? open_span_first_ : observed_end_;
   if (!open_.spans.empty()) pending = std::min(pending, open_.spans.front().first);
   if (!closed_.empty()) pending = std::min(pending, closed_.front().spans.front().first);
   const int64_t keep_from = std::max<int64_t>(observed_first_, std::min(pending, observed_end_) - window_);
@@ -124,7 +134,7 @@ void TakeGapFitter::push(const MotionFrames& decoded, bool last, MotionFrames& o
   int64_t end = decoded_first_ + decoded_.frame_count();
   if (!last) {
     end = std::min(end, observed_end_ - 2);
-    if (open_span_first_ >= 0) end = std::min(end, open_span_first_ - 2);
+    if (may_get_window(open_span_first_, observed_end_, window_)) end = std::min(end, open_span_first_ - 2);
     if (!open_.spans.empty()) end = std::min(end, open_.spans.front().first - 2);
     if (!closed_.empty()) end = std::min(end, closed_.front().spans.front().first - 2);
   }
