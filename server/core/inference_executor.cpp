@@ -23,6 +23,7 @@ struct InferenceExecutor::Request {
   std::vector<MotionFrames> motions;  // encode's input, decode's output
   at::Tensor codes;                   // decode's input, encode's output
   std::function<void()> task;
+  int task_threads = 0;  // a task's intra-op threads; 0: the tuner's latest choice
   int clips = 0;
   std::promise<void> done;
 
@@ -121,9 +122,10 @@ std::vector<MotionFrames> InferenceExecutor::decode(std::shared_ptr<const Loaded
   return std::move(request->motions);
 }
 
-void InferenceExecutor::run(const std::function<void()>& work) {
+void InferenceExecutor::run(const std::function<void()>& work, int threads) {
   auto request = std::make_shared<Request>();
   request->task = work;
+  request->task_threads = threads;
   request->clips = 1;
   enqueue(request);
 }
@@ -167,7 +169,8 @@ void InferenceExecutor::execute(const std::vector<std::shared_ptr<Request>>& bat
                                : std::string(first.operation()) + " " + first.model->name + " " + first.model->version +
                                      " " + std::to_string(static_cast<int>(first.decoder)) + " " +
                                      std::to_string(clips);
-  const int threads = !tune_threads_ ? threads_
+  const int threads = first.task_threads > 0 ? first.task_threads
+                      : !tune_threads_       ? threads_
                       : kind.empty()         ? tuner_.latest_choice()
                                              : tuner_.threads_for(kind);
   if (threads != current_threads_) {

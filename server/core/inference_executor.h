@@ -49,8 +49,12 @@ class InferenceExecutor {
   at::Tensor encode(std::shared_ptr<const LoadedModel> model, std::vector<MotionFrames> motions);
   // Motions (25 Hz) of codes (n, latent) through one decoder.
   std::vector<MotionFrames> decode(std::shared_ptr<const LoadedModel> model, at::Tensor codes, DecoderKind kind);
-  // Any other work (denoising), alone.
-  void run(const std::function<void()>& work);
+  // Any other work (denoising), alone, with `threads` LibTorch intra-op
+  // threads (0: as many as the latest batch chose). One thread suits a chain
+  // of small sequential ops, such as a code fit's GRU steps forward and back
+  // (JoinClips): beside a busy neighbour two threads spent 34 s of CPU on a
+  // fit that took 14 s on one, waiting for each other.
+  void run(const std::function<void()>& work, int threads = 0);
 
   // Announces a call that will reach the executor soon, so that a batch
   // waits for it (within max_queue_delay_us) rather than running without it.

@@ -495,7 +495,9 @@ JoinClipsReply ManifoldCore::join_clips(const CallContext& ctx, const JoinClipsR
                                     " = " + std::to_string(joined_frames));
     }
     JoinedClips joined;
-    state_->executor.run([&] { joined = ::mm::join_clips(model->model, a, b, options); });
+    // One intra-op thread: the fit is a chain of small sequential ops
+    // (inference_executor.h says what two threads cost).
+    state_->executor.run([&] { joined = ::mm::join_clips(model->model, a, b, options); }, /*threads=*/1);
     JoinClipsReply reply;
     reply.answered_by = {model->name, model->version};
     reply.motion = to_wire_motion(joined.frames, model->shape, "input");
