@@ -837,7 +837,7 @@ TEST_F(GrpcApiTest, ReflectionListsTheServiceAndServesItsDescriptor) {
     EXPECT_EQ(m.client_streaming(), requests_streamed.count(m.name()) == 1) << m.name();
   }
   EXPECT_EQ(methods, (std::vector<std::string>{"Encode", "Decode", "Sample", "Interpolate", "Analogy", "Denoise",
-                                               "ListModels", "DescribeModel", "ActivateModel", "DeleteModel",
+                                               "JoinClips", "ListModels", "DescribeModel", "ActivateModel", "DeleteModel",
                                                "ListClips", "ReadClip", "UploadClip", "DeleteClip", "SubmitJob",
                                                "GetJob", "ListJobs", "CancelJob", "DeleteJob", "WatchJob",
                                                "EncodeTake", "ReconstructTake", "DenoiseTake", "DecodeTrack"}));
