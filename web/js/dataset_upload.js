@@ -1,4 +1,4 @@
-// A user's own BVH files sent to the server's data root (POST
+// A user's own BVH, glTF or FBX files (of one rig, mixed or not) sent to the server's data root (POST
 // v1/clips:upload, the file as the body, the token asked for on a 401) into
 // one folder, which then becomes the dataset a job trains on: the way to a
 // manifold of one's own mocap from the browser. (An H3.6M text tree needs
@@ -12,7 +12,7 @@ const $ = (id) => document.getElementById(id);
 
 async function upload() {
   const files = [...$('dataset-files').files];
-  if (!files.length) throw new Error('choose .bvh files of one rig first');
+  if (!files.length) throw new Error('choose .bvh, .glb, .gltf or .fbx files of one rig first');
   const folder = $('dataset-folder').value.replace(/\/+$/, '');
   if (!folder) throw new Error('name the folder of the data root to put the files in');
   for (const [i, file] of files.entries()) {
