@@ -13,8 +13,8 @@
 # The fitted fill is measured with its defaults (GapFillOptions and
 # GapCodeFitOptions, the detail weights chosen on S1 and S6), as the take
 # path and the service's DenoiseTake fill with keep_observed.
-# Writes docs/results/gaps/. On two busy CPU cores the three take about
-# 30 minutes, most of it the fitted codes (15 Adam steps through the
+# Writes docs/results/gaps/. On two CPU cores shared with builds the three
+# took 56 minutes (40 of CPU), most of it the fitted codes (15 Adam steps through the
 # decoder for each gap of 0.6 s or more). Needs the built tool (or
 # MM_TOOL naming a copy of it) and the extracted H3.6M.
 #   scripts/gap-results.sh [MODEL_DIR]
