@@ -67,7 +67,9 @@ bool lays_manifold_detail(GapMethod method);
 // 0.5 against 119.2 at 1; S6: 122.8 against 121.2).
 struct GapFillOptions {
   GapMethod method = GapMethod::kFitted;
-  // No detail up to `interpolate_below_seconds`; from there the weight
+  // No detail between lone keyframes (a border whose next frame outward is
+  // missing too: the cubic is nearer there), nor up to
+  // `interpolate_below_seconds`; from there the weight
   // rises linearly to the weight at 1 s (is that weight from 0 s on when
   // interpolate_below_seconds is 0), then linearly between the weights
   // at 1, 2 and 4 s, and stays at the 4 s weight beyond.
