@@ -48,6 +48,22 @@ BvhFile animation_body_as_bvh(const std::string& body, AnimationFormat format, c
                               bvh_layout_of(skeleton).millimetres_per_unit, limit);
 }
 
+namespace {
+
+// A motion read from an animation body: at the rate the BVH import takes
+// every file to, in the model's layout.
+Motion imported_motion(MotionFrames frames, const ModelShape& shape) {
+  Motion motion;
+  motion.frames = static_cast<int>(frames.frame_count());
+  motion.columns = frames.columns;
+  motion.frame_rate = kBvhImportRate;
+  motion.layout = shape.layout;
+  motion.values = std::move(frames.values);
+  return motion;
+}
+
+}  // namespace
+
 Motion motion_from_bvh_body(const std::string& body, const ModelShape& shape, AnimationFormat format) {
   // The body must make the model's clip at 25 Hz: a longer one is refused at
   // its "Frame Time:" line, before its frames are read, and a shorter one
@@ -73,13 +89,7 @@ Motion motion_from_bvh_body(const std::string& body, const ModelShape& shape, An
   } catch (const InputError& error) {
     throw ApiError(ErrorCode::kInvalidArgument, "", error.what());
   }
-  Motion motion;
-  motion.frames = static_cast<int>(frames.frame_count());
-  motion.columns = frames.columns;
-  motion.frame_rate = kBvhImportRate;
-  motion.layout = shape.layout;
-  motion.values = std::move(frames.values);
-  return motion;
+  return imported_motion(std::move(frames), shape);
 }
 
 Motion clip_from_animation_body(const std::string& body, const ModelShape& shape, AnimationFormat format,
@@ -92,13 +102,7 @@ Motion clip_from_animation_body(const std::string& body, const ModelShape& shape
   } catch (const InputError& error) {
     throw ApiError(ErrorCode::kInvalidArgument, field, error.what());
   }
-  Motion motion;
-  motion.frames = static_cast<int>(frames.frame_count());
-  motion.columns = frames.columns;
-  motion.frame_rate = kBvhImportRate;
-  motion.layout = shape.layout;
-  motion.values = std::move(frames.values);
-  return motion;
+  return imported_motion(std::move(frames), shape);
 }
 
 std::string motions_reply_to_bvh(const MotionsReply& reply, const ModelShape& shape, AnimationFormat format) {
