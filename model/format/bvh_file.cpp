@@ -41,7 +41,14 @@ bool parse_bvh_channel(const std::string& text, BvhChannel* channel) {
 int bvh_channel_axis(BvhChannel channel) { return static_cast<int>(channel) % 3; }
 bool bvh_channel_is_position(BvhChannel channel) { return static_cast<int>(channel) < 3; }
 
-double bvh_frame_rate(const BvhFile& file) { return std::round(1e6 / file.frame_time_s) / 1e6; }
+double bvh_frame_rate(const BvhFile& file) {
+  const double rate = std::round(1e6 / file.frame_time_s) / 1e6;
+  // A frame time of 8 significant digits (0.00833333, CMU's) is 120.000048
+  // Hz: within a millionth of a whole number of hertz, it is that rate, the
+  // one the file was written at.
+  const double written_at = std::round(rate);
+  return std::abs(rate - written_at) <= 1e-6 * rate ? written_at : rate;
+}
 
 int BvhFile::channel_count() const {
   int count = 0;

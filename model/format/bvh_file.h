@@ -98,7 +98,8 @@ struct BvhFile {
 // hertz. Files hold the frame time to a few significant digits (ours to 9:
 // 0.00833333333 for 120 Hz, whose inverse is 120.000000048); rounded, a take
 // written at 120 Hz reads back at 120 Hz and keeps its frame count when
-// resampled to it.
+// resampled to it. A rate within a millionth of a whole number of hertz is
+// that number: CMU's 0.00833333 s reads as 120 Hz, not 120.000048.
 double bvh_frame_rate(const BvhFile& file);
 
 // Parses BVH text (LF or CRLF line ends, tabs or spaces, a UTF-8 byte-order

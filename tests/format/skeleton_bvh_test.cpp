@@ -105,6 +105,13 @@ TEST(SkeletonBvh, AtTheFilesRateEveryFrameIsKeptAndExportsBackAtThatRate) {
       parse_bvh_text(write_bvh_text(skeleton_motion_to_bvh(skeleton, *skeleton.bvh, own, 120.0)), "exported.bvh");
   EXPECT_NE(1.0 / read_back.frame_time_s, 120.0);
   EXPECT_EQ(bvh_frame_rate(read_back), 120.0);
+  // The CMU files' own frame time, 8 significant digits (120.000048 Hz),
+  // says 120 Hz too; one that is not a rounding of a round rate keeps its own.
+  BvhFile cmu = read_back;
+  cmu.frame_time_s = 0.00833333;
+  EXPECT_EQ(bvh_frame_rate(cmu), 120.0);
+  cmu.frame_time_s = 0.0083;
+  EXPECT_NEAR(bvh_frame_rate(cmu), 120.481928, 1e-9);
   for (int64_t f = 0; f < original.frame_count(); f += 97) {
     const std::vector<Vec3> want = bvh_world_positions(original, f);
     const std::vector<Vec3> got = bvh_world_positions(exported, f);
