@@ -3,8 +3,9 @@
 // bone) played at its motion's frame rate. Figures stand side by side, or on
 // the same spot when overlaid. A figure with a root path (root_path.js: a
 // motion the server generated) travels along it, the camera following, and
-// a top-down inset in the view's corner draws those paths. Units are
-// millimetres, y up (the FK's axes).
+// a top-down inset in the view's corner draws those paths. A figure may
+// mark a span of its frames (a take's filled gap) by drawing them in another
+// colour. Units are millimetres, y up (the FK's axes).
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import { drawRootInset } from './root_path.js';
@@ -29,16 +30,20 @@ export const FIGURE_COLOURS = ['#4f9dff', '#ff8a3d', '#4fd18b', '#e05dd6', '#f2d
 class Figure {
   // positions: one Float64Array (joints x 3, mm, the root at the origin) per
   // frame; parents[j] < j; rootPath: [x, y, z] (mm) of the root per frame, or
-  // null to stand at the origin.
-  constructor(scene, { label, positions, parents, frameRate, colour, rootPath = null }) {
+  // null to stand at the origin; marked: { first, last, colour, label } to
+  // draw frames first..last (inclusive) in that colour, or null.
+  constructor(scene, { label, positions, parents, frameRate, colour, rootPath = null, marked = null }) {
     this.label = label;
     this.frameRate = frameRate;
     this.parents = parents;
     this.colour = colour;
+    this.marked = marked;
     this.laneX = 0;  // the side-by-side offset, arrange()'s
     this.root = STANDING_ROOT_MM;  // where the root is drawn at the frame shown
     this.group = new THREE.Group();
-    const material = new THREE.MeshStandardMaterial({ color: colour, roughness: 0.5 });
+    this.jointMaterial = new THREE.MeshStandardMaterial({ color: colour, roughness: 0.5 });
+    this.boneMaterial = new THREE.LineBasicMaterial({ color: colour });
+    const material = this.jointMaterial;
     const sphere = new THREE.SphereGeometry(JOINT_RADIUS_MM, 12, 8);
     this.joints = parents.map(() => {
       const joint = new THREE.Mesh(sphere, material);
@@ -48,7 +53,7 @@ class Figure {
     const bonePairs = parents.filter((p) => p >= 0).length;
     this.boneGeometry = new THREE.BufferGeometry();
     this.boneGeometry.setAttribute('position', new THREE.BufferAttribute(new Float32Array(bonePairs * 6), 3));
-    this.group.add(new THREE.LineSegments(this.boneGeometry, new THREE.LineBasicMaterial({ color: colour })));
+    this.group.add(new THREE.LineSegments(this.boneGeometry, this.boneMaterial));
     scene.add(this.group);
     this.setPositions(positions, label, rootPath);
   }
@@ -67,6 +72,10 @@ class Figure {
     const p = this.positions[last];
     this.root = this.rootPath ? this.rootPath[last] : STANDING_ROOT_MM;
     this.place();
+    const inMarked = this.marked && last >= this.marked.first && last <= this.marked.last;
+    const colour = inMarked ? this.marked.colour : this.colour;
+    this.jointMaterial.color.set(colour);
+    this.boneMaterial.color.set(colour);
     this.joints.forEach((joint, j) => joint.position.set(p[3 * j], p[3 * j + 1], p[3 * j + 2]));
     const bones = this.boneGeometry.attributes.position;
     let k = 0;
@@ -86,6 +95,8 @@ class Figure {
   dispose(scene) {
     scene.remove(this.group);
     this.boneGeometry.dispose();
+    this.jointMaterial.dispose();
+    this.boneMaterial.dispose();
   }
 }
 
@@ -134,8 +145,8 @@ export class SkeletonView {
     this.renderer.setAnimationLoop((time) => this.tick(time));
   }
 
-  // Replaces the figures: [{label, positions, parents, frameRate, rootPath}]
-  // (rootPath optional), and plays; what listened to the frame of the
+  // Replaces the figures: [{label, positions, parents, frameRate, rootPath,
+  // marked}] (rootPath and marked optional, as Figure's), and plays; what listened to the frame of the
   // figures before stops.
   show(figures) {
     this.frameListeners = [];
@@ -171,12 +182,14 @@ export class SkeletonView {
   }
 
   renderLegend() {
-    this.legend.replaceChildren(...this.figures.map((f, i) => {
-      const item = document.createElement('span');
-      item.style.color = FIGURE_COLOURS[i % FIGURE_COLOURS.length];
-      item.textContent = `■ ${f.label}`;
-      return item;
-    }));
+    const item = (colour, text) => {
+      const span = document.createElement('span');
+      span.style.color = colour;
+      span.textContent = `■ ${text}`;
+      return span;
+    };
+    this.legend.replaceChildren(...this.figures.flatMap((f) => [item(f.colour, f.label),
+                                                                ...(f.marked ? [item(f.marked.colour, f.marked.label)] : [])]));
   }
 
   play() {
@@ -260,7 +273,9 @@ export class SkeletonView {
   // count and frame count, the joint positions (mm, relative to its hips) of
   // the spheres as they stand now, whether it travels (has a root path) and
   // where its root is drawn now (mm, its lane's offset taken off; a standing
-  // figure's is STANDING_ROOT_MM); whether the inset shows.
+  // figure's is STANDING_ROOT_MM); the colour its joints and bones are drawn
+  // in now ('#rrggbb', the materials' own) and its marked span; whether the
+  // inset shows.
   describe() {
     return {
       frame: this.frame,
@@ -273,6 +288,9 @@ export class SkeletonView {
         drawnPositionsMm: f.joints.map((j) => [j.position.x, j.position.y, j.position.z]),
         travels: Boolean(f.rootPath),
         rootMm: [f.group.position.x - f.laneX, f.group.position.y, f.group.position.z],
+        jointColour: `#${f.jointMaterial.color.getHexString()}`,
+        boneColour: `#${f.boneMaterial.color.getHexString()}`,
+        marked: f.marked && { first: f.marked.first, last: f.marked.last, colour: f.marked.colour },
       })),
     };
   }

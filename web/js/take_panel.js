@@ -5,12 +5,17 @@
 // principal components) and each frame's error plotted below; clicking the
 // strip or the plot, or moving the view's slider, seeks both skeletons.
 // "Download BVH" asks for the take shown once more, as a BVH file
-// (Accept: application/x-bvh), and saves it.
+// (Accept: application/x-bvh), and saves it. On a take loaded from a file,
+// a gap marked by time and joints (take_gap.js) is filled by the server
+// (POST v1/takes:denoise?keep_observed=true) and played beside the
+// recording, its filled frames drawn in GAP_COLOUR and shaded on the strip
+// and on the plot, which then shows each frame's distance from the recording.
 import { callApi, callWithToken } from './api_client.js';
 import { runAction } from './call_log.js';
-import { motionPositions } from './forward_kinematics.js';
+import { meanJointErrorMm, motionPositions } from './forward_kinematics.js';
 import { skeletonOf } from './model_skeletons.js';
 import { bvhToMotion, textTake } from './motion_files.js';
+import { DEFAULT_GAP_FILL, GAP_COLOUR, listGapJoints, markedGap, motionTextWithGap, setUpGapForm } from './take_gap.js';
 
 const $ = (id) => document.getElementById(id);
 
@@ -56,8 +61,9 @@ export function codeColours(codes) {
 }
 
 // The code track as a strip: cell i from window i's start to window i+1's
-// (the last to the take's end), left to right over the take's duration.
-function drawStrip(strip, windows, frames, rate, view) {
+// (the last to the take's end), left to right over the take's duration; a
+// filled gap ({ first, last } frames, or null) shaded over it.
+function drawStrip(strip, windows, frames, rate, view, gap) {
   const duration = Math.max((frames - 1) / rate, 1e-9);
   const colours = codeColours(windows.map((w) => w.code));
   strip.replaceChildren(...windows.map((w, i) => {
@@ -72,15 +78,25 @@ function drawStrip(strip, windows, frames, rate, view) {
     cell.addEventListener('click', () => view.seek(w.start_frame));
     return cell;
   }));
+  if (gap) {
+    const shade = document.createElement('div');
+    shade.className = 'gap';
+    shade.style.left = `${(100 * gap.first) / Math.max(frames - 1, 1)}%`;
+    shade.style.width = `${(100 * Math.max(gap.last - gap.first, 1)) / Math.max(frames - 1, 1)}%`;
+    shade.style.background = GAP_COLOUR;
+    shade.title = `filled: frames ${gap.first} to ${gap.last}`;
+    strip.append(shade);
+  }
   const cursor = document.createElement('div');
   cursor.className = 'cursor';
   strip.append(cursor);
   return (frame) => (cursor.style.left = `${(100 * frame) / Math.max(frames - 1, 1)}%`);
 }
 
-// Each frame's error (mm) over the take, with a cursor at the frame shown;
-// returns the function that moves the cursor.
-function drawErrorPlot(canvas, errors, rate, view) {
+// Each frame's error (mm) over the take, with a cursor at the frame shown
+// and a filled gap ({ first, last } frames, or null) shaded; returns the
+// function that moves the cursor.
+function drawErrorPlot(canvas, errors, rate, view, gap) {
   const { width, height } = canvas;
   const margin = { left: 38, bottom: 16, top: 6 };
   const plotWidth = width - margin.left, plotHeight = height - margin.bottom - margin.top;
@@ -98,6 +114,12 @@ function drawErrorPlot(canvas, errors, rate, view) {
   g.fillText(`${top.toFixed(0)} mm`, 2, margin.top + 9);
   g.fillText('0', 2, margin.top + plotHeight);
   g.fillText(`${((errors.length - 1) / rate).toFixed(1)} s`, width - 40, height - 3);
+  if (gap) {
+    g.fillStyle = GAP_COLOUR;
+    g.globalAlpha = 0.3;
+    g.fillRect(x(gap.first), margin.top, Math.max(x(gap.last) - x(gap.first), 1), plotHeight);
+    g.globalAlpha = 1;
+  }
   g.strokeStyle = '#ff8a3d';
   g.beginPath();
   errors.forEach((error, frame) => (frame ? g.lineTo(x(frame), y(error)) : g.moveTo(x(frame), y(error))));
@@ -120,49 +142,72 @@ function drawErrorPlot(canvas, errors, rate, view) {
   return cursorAt;
 }
 
-// What the take view shows, for the browser test.
-const shown = { frames: 0, frameRate: 0, windows: 0, errorFrames: 0, meanErrorMm: 0 };
+// What the take view shows, for the browser test; gap: the filled gap shown
+// ({ first, last, columns, joints, method }), or null.
+const shown = { frames: 0, frameRate: 0, windows: 0, errorFrames: 0, meanErrorMm: 0, gap: null };
 
-// The take shown: its name and the call that reconstructs it, given the
-// reply's options (the same request with another Accept). Null until one is.
+// The take loaded from a file, which a gap can be marked on: { name, motion
+// (a wire motion at the take's rate), skeleton }, or null (a data-root take,
+// of which the page holds no copy).
+let takeLoaded = null;
+// The last filled take (the server's reply, kept for the browser test) and
+// how many fills were shown.
+const filled = { count: 0, reply: null };
+
+// The take shown: its name, the call that reconstructs (or fills) it, given
+// the reply's options (the same request with another Accept), and what the
+// call made. Null until one is.
 let takeShown = null;
 // The last BVH downloaded (its text kept for the browser test).
 const downloaded = { count: 0, fileName: '', bvh: '' };
 
 // Draws a take's reply: the reconstruction over `original` (a wire motion
 // at the reply's rate, or null when the page has no copy of the take), the
-// strip and the error plot.
-async function showTake(view, name, reply, original) {
+// strip and the error plot; or, given the `gap` it filled, the filled take
+// beside the original, the gap marked, the plot each frame's distance (mm)
+// from the original.
+async function showTake(view, name, reply, original, gap = null) {
   const skeleton = await skeletonOf(reply.answered_by.model, reply.answered_by.version);
-  const reconstruction = { frames: reply.frames, columns: reply.columns, values: reply.values };
-  const label = `reconstruction (${reply.summary.mean_error_mm.toFixed(1)} mm)`;
-  const figures = [{ label, positions: motionPositions(reconstruction, skeleton), parents: skeleton.parents,
-                     frameRate: reply.frame_rate }];
-  if (original) {
-    figures.unshift({ label: name, positions: motionPositions(original, skeleton), parents: skeleton.parents,
-                      frameRate: reply.frame_rate });
-  }
-  const moveStripCursor = drawStrip($('take-strip'), reply.windows, reply.frames, reply.frame_rate, view);
-  const movePlotCursor = drawErrorPlot($('take-error'), reply.error_mm, reply.frame_rate, view);
-  // The reconstruction over the original, on one spot.
-  $('overlay').checked = true;
+  const result = motionPositions({ frames: reply.frames, columns: reply.columns, values: reply.values }, skeleton);
+  const recording = original && motionPositions(original, skeleton);
+  const errors = gap ? result.map((pose, f) => meanJointErrorMm([pose], [recording[f]])) : reply.error_mm;
+  const gapMeanMm = gap ? meanJointErrorMm(result.slice(gap.first, gap.last + 1), recording.slice(gap.first, gap.last + 1)) : 0;
+  const label = gap ? `${gap.method} fill (${gapMeanMm.toFixed(1)} mm from the recording in the gap)`
+    : `reconstruction (${reply.summary.mean_error_mm.toFixed(1)} mm)`;
+  const marked = gap && { first: gap.first, last: gap.last, colour: GAP_COLOUR,
+                          label: `filled frames ${gap.first} to ${gap.last} (${gap.joints})` };
+  const figures = [{ label, positions: result, parents: skeleton.parents, frameRate: reply.frame_rate, marked }];
+  if (original) figures.unshift({ label: name, positions: recording, parents: skeleton.parents, frameRate: reply.frame_rate });
+  const moveStripCursor = drawStrip($('take-strip'), reply.windows, reply.frames, reply.frame_rate, view, gap);
+  const movePlotCursor = drawErrorPlot($('take-error'), errors, reply.frame_rate, view, gap);
+  // The reconstruction over the original, on one spot; a fill beside the
+  // recording, which it equals outside the gap.
+  $('overlay').checked = !gap;
   view.show(figures);
   view.frameListeners.push((frame) => {
     moveStripCursor(frame);
     movePlotCursor(frame);
   });
   Object.assign(shown, { frames: reply.frames, frameRate: reply.frame_rate, windows: reply.windows.length,
-                         errorFrames: reply.error_mm.length, meanErrorMm: reply.summary.mean_error_mm });
+                         errorFrames: errors.length, meanErrorMm: reply.summary.mean_error_mm, gap });
   const { summary } = reply;
+  if (gap) {
+    $('take-info').textContent = `${name}: frames ${gap.first} to ${gap.last} (${(gap.first / reply.frame_rate).toFixed(2)} ` +
+      `to ${(gap.last / reply.frame_rate).toFixed(2)} s) of ${gap.joints} filled by ${gap.method}, ${gapMeanMm.toFixed(1)} mm from the recording there; ` +
+      `the plot: each frame's distance from the recording, 0 outside the gap; answered by ${reply.answered_by.model}`;
+    $('result').textContent = 'gap filled: the filled frames are drawn and shaded in violet, the recording beside them';
+    return;
+  }
   $('take-info').textContent = `${name}: ${reply.frames} frames at ${reply.frame_rate} Hz, ${reply.windows.length} ` +
     `windows of ${summary.window_seconds} s every ${summary.hop_seconds} s; error mean ${summary.mean_error_mm.toFixed(1)} ` +
     `mm, max ${summary.max_error_mm.toFixed(1)} mm; answered by ${reply.answered_by.model}`;
   $('result').textContent = `take reconstructed window by window: click the strip or the plot to seek`;
 }
 
-// Takes `takeShown` to a reconstructed take, with the download on.
-function rememberTake(name, reconstruct) {
-  takeShown = { name, reconstruct };
+// Takes `takeShown` to a reconstructed take (or a filled one: `made` names
+// what the server did in the file's name), with the download on.
+function rememberTake(name, reconstruct, made = 'reconstructed') {
+  takeShown = { name, reconstruct, made };
   for (const id of ['take-download-button', 'take-download-glb-button', 'take-download-gltf-button']) $(id).disabled = false;
 }
 
@@ -174,15 +219,15 @@ const DOWNLOAD_FORMATS = {
   gltf: { type: 'model/gltf+json', name: 'glTF' },
 };
 
-// The take shown, reconstructed by the server as `extension` (bvh, glb or
-// gltf), saved as <name>-reconstructed.<extension> (the name without its
-// folders and extension).
+// The take shown, reconstructed (or filled) by the server as `extension`
+// (bvh, glb or gltf), saved as <name>-reconstructed.<extension> (or
+// -<method>-filled; the name without its folders and extension).
 async function downloadTake(extension) {
   if (!takeShown) throw new Error('reconstruct a take first');
-  const { name, reconstruct } = takeShown;
+  const { name, reconstruct, made } = takeShown;
   const format = DOWNLOAD_FORMATS[extension];
   const file = await reconstruct({ accept: format.type, summary: `${name} as ${format.name}` });
-  const fileName = `${name.split('/').pop().replace(/\.[^.]*$/, '')}-reconstructed.${extension}`;
+  const fileName = `${name.split('/').pop().replace(/\.[^.]*$/, '')}-${made}.${extension}`;
   const url = URL.createObjectURL(new Blob([file], { type: format.type }));
   const link = document.createElement('a');
   link.href = url;
@@ -225,6 +270,34 @@ async function reconstructTakeFile(view) {
   const original = isBvh ? bvhToMotion(text, skeleton) : text === null ? null : textTake(text, rate);
   await showTake(view, file.name, reply, original);
   rememberTake(file.name, reconstruct);
+  loadTake(original && { name: file.name, motion: { ...original, frame_rate: reply.frame_rate }, skeleton });
+}
+
+// Makes `take` (or null) the one a gap is marked on, the form's joints its skeleton's.
+function loadTake(take) {
+  takeLoaded = take;
+  $('gap-button').disabled = !take;
+  if (take) listGapJoints(take.skeleton);
+  showGapFrames();
+}
+
+// The gap the form marks on the loaded take, sent with those values `nan`
+// to be filled by the method chosen (the default without gap_fill), and
+// shown beside the recording; the download buttons then give the filled take.
+async function fillTakeGap(view) {
+  if (!takeLoaded) throw new Error('reconstruct a take from a file first: the gap is marked on the page\'s copy of it');
+  const { name, motion, skeleton } = takeLoaded;
+  const gap = markedGap(motion.frames, motion.frame_rate, skeleton);
+  const query = { frame_rate: motion.frame_rate, keep_observed: 'true' };
+  if (gap.method !== DEFAULT_GAP_FILL) query.gap_fill = gap.method;
+  const route = `v1/takes:denoise?${takeQuery(query)}`;
+  const body = motionTextWithGap(motion, gap);
+  const fill = (options) => callApi('POST', route, { body, contentType: 'text/plain',
+                                                     summary: `${name}, gap ${gap.first} to ${gap.last} (${gap.method})`, ...options });
+  const reply = await fill();
+  await showTake(view, name, reply, motion, gap);
+  rememberTake(name, fill, `${gap.method}-filled`);
+  Object.assign(filled, { count: filled.count + 1, reply });
 }
 
 // A file of the server's data root (the menu of the first panel), read by
@@ -239,11 +312,18 @@ async function reconstructTakeClip(view) {
   const reply = await reconstruct();
   await showTake(view, path, reply, null);
   rememberTake(path, reconstruct);
+  loadTake(null);
 }
+
+// Writes the frames the gap's times stand for on the loaded take.
+let showGapFrames = () => {};
 
 export function setUpTakePanel(view) {
   window.motionManifoldPage.take = { describe: () => ({ ...shown, cells: $('take-strip').querySelectorAll('.cell').length }),
-                                     downloaded: () => ({ ...downloaded }) };
+                                     downloaded: () => ({ ...downloaded }),
+                                     filled: () => ({ ...filled }) };
+  showGapFrames = setUpGapForm(() => takeLoaded && { frames: takeLoaded.motion.frames, rate: takeLoaded.motion.frame_rate });
+  $('gap-button').addEventListener('click', () => runAction(() => fillTakeGap(view)));
   $('take-button').addEventListener('click', () => runAction(() => reconstructTakeFile(view)));
   $('take-clip-button').addEventListener('click', () => runAction(() => reconstructTakeClip(view)));
   $('take-download-button').addEventListener('click', () => runAction(() => downloadTake('bvh')));
