@@ -107,7 +107,10 @@ def start_server(checkout, log):
     server = subprocess.Popen(
         ["build/server/motion-manifold-server", "--model-store", "runs/models", "--state-dir", "runs/state",
          "--data-root", "data", "--address", "127.0.0.1", "--grpc-port", "0", "--rest-port", "0",
-         "--ready-file", ready],
+         "--ready-file", ready,
+         # One LibTorch thread, as every test server: OpenMP threads spin, and
+         # a server taking both cores slows the test beside it many times over.
+         "--threads", "1"],
         cwd=checkout, stdout=log, stderr=subprocess.STDOUT)
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline:
