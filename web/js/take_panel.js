@@ -83,7 +83,9 @@ function drawStrip(strip, windows, frames, rate, view, gap) {
     shade.className = 'gap';
     shade.style.left = `${(100 * gap.first) / Math.max(frames - 1, 1)}%`;
     shade.style.width = `${(100 * Math.max(gap.last - gap.first, 1)) / Math.max(frames - 1, 1)}%`;
-    shade.style.background = GAP_COLOUR;
+    // Hatched and outlined: a cell's code colour may be violet too.
+    shade.style.background = `repeating-linear-gradient(135deg, ${GAP_COLOUR} 0 3px, transparent 3px 7px)`;
+    shade.style.outline = `2px solid ${GAP_COLOUR}`;
     shade.title = `filled: frames ${gap.first} to ${gap.last}`;
     strip.append(shade);
   }
