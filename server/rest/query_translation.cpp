@@ -71,7 +71,7 @@ bool boolean(const QueryParameters& parameters, const std::string& name) {
 
 TakeRequest take_request_from_query(const QueryParameters& parameters, bool denoise, bool bvh_body) {
   std::set<std::string> known = {"model", "frame_rate", "hop_seconds", "blend", "decoder", "at_model_rate", "path", "root"};
-  if (denoise) known.insert({"zeros_are_missing", "means_are_missing", "iterations", "keep_observed"});
+  if (denoise) known.insert({"zeros_are_missing", "means_are_missing", "iterations", "keep_observed", "gap_fill"});
   check_known_and_single(parameters, known);
   TakeRequest request;
   request.model = text(parameters, "model");
@@ -98,6 +98,9 @@ TakeRequest take_request_from_query(const QueryParameters& parameters, bool deno
     }
     request.iterations = static_cast<int>(iterations);
     request.keep_observed = boolean(parameters, "keep_observed");
+    // Its name and its place (keep_observed only) are the core's to check,
+    // so that REST refuses it as gRPC does.
+    request.gap_fill = text(parameters, "gap_fill");
   }
   return request;
 }

@@ -90,6 +90,11 @@ void send_frames(const GatheredTake& take, const httplib::Request& request, cons
   response.set_header("X-Take-Mean-Error-Mm", decimal(take.summary.mean_error_mm));
   response.set_header("X-Take-Max-Error-Mm", decimal(take.summary.max_error_mm));
   response.set_header("X-Take-Windows", std::to_string(take.summary.windows));
+  // DenoiseTake with keep_observed: the windows fitted to its gaps, the
+  // gaps they held, the gaps left to the matched fill (0 otherwise).
+  response.set_header("X-Take-Gap-Windows-Fitted", std::to_string(take.summary.gap_windows_fitted));
+  response.set_header("X-Take-Gaps-Fitted", std::to_string(take.summary.gaps_fitted));
+  response.set_header("X-Take-Gaps-Over-Fit-Limit", std::to_string(take.summary.gaps_over_fit_limit));
   if (animation) {
     try {
       return response.set_content(

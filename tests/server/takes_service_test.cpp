@@ -659,6 +659,47 @@ TEST_F(Takes, DenoiseTakeFillsATwoSecondGapOfEveryJointFromAFittedCodeNearerTheR
   }
 }
 
+// REST's gap_fill is gRPC's: 20 s of walking_1 with every joint missing
+// for 2 s, denoised keeping the observed values with gap_fill=slerp, comes
+// back over REST (motion text, its 7 decimals) as over gRPC (floats), within
+// the text's rounding; the default fill reports the window it fitted to
+// the gap in the X-Take-Gap* headers, slerp none. A name the server does
+// not know, or gap_fill without keep_observed, is 400 naming gap_fill, as
+// gRPC's refusal names it.
+TEST_F(Takes, GapFillOverRestFillsAsOverGrpcAndItsHeadersCountTheFittedGaps) {
+  const MotionFrames gapped = with_every_joint_missing(head(s5("walking_1.txt"), 1000), {{500, 599}});
+  const std::string body = motion_text(gapped);
+  const int port = server().rest_port();
+  auto stub = stub_of(server());
+  const MotionFrames over_grpc = denoise_keeping_observed(*stub, gapped, "slerp");
+  const Reply slerped = post_take(port, "/v1/takes:denoise?keep_observed=true&gap_fill=slerp", body, "text/plain", "text/plain");
+  ASSERT_EQ(slerped.status, 200) << slerped.body.substr(0, 500);
+  const MotionFrames over_rest = parse_text_reply(slerped.body);
+  ASSERT_EQ(over_rest.frame_count(), gapped.frame_count());
+  ASSERT_EQ(over_grpc.frame_count(), gapped.frame_count());
+  float largest = 0;
+  for (size_t i = 0; i < over_rest.values.size(); ++i) {
+    const float scale = std::max(1.0f, std::fabs(over_grpc.values[i]));
+    largest = std::max(largest, std::fabs(over_rest.values[i] - over_grpc.values[i]) / scale);
+  }
+  EXPECT_LE(largest, 1e-5f) << "largest difference between REST's and gRPC's slerp fill (relative above 1)";
+  EXPECT_EQ(slerped.header("X-Take-Gap-Windows-Fitted"), "0");
+  EXPECT_EQ(slerped.header("X-Take-Gaps-Fitted"), "0");
+  EXPECT_EQ(slerped.header("X-Take-Gaps-Over-Fit-Limit"), "0");
+
+  const Reply fitted = post_take(port, "/v1/takes:denoise?keep_observed=true", body, "text/plain", "text/plain");
+  ASSERT_EQ(fitted.status, 200) << fitted.body.substr(0, 500);
+  EXPECT_GE(std::atoi(fitted.header("X-Take-Gap-Windows-Fitted").c_str()), 1);
+  EXPECT_GE(std::atoi(fitted.header("X-Take-Gaps-Fitted").c_str()), 1);
+  EXPECT_EQ(fitted.header("X-Take-Gaps-Over-Fit-Limit"), "0");
+
+  for (const std::string target : {"/v1/takes:denoise?keep_observed=true&gap_fill=spline", "/v1/takes:denoise?gap_fill=slerp"}) {
+    const Reply refused = post_take(port, target, body, "text/plain", "text/plain");
+    EXPECT_EQ(refused.status, 400) << target << ": " << refused.body.substr(0, 500);
+    EXPECT_EQ(refused.document.is_object() ? refused.field() : "", "gap_fill") << refused.body.substr(0, 500);
+  }
+}
+
 // A server fitting at most one window a take (--max-take-gap-fits 1): a
 // take of three gaps of every joint still answers; the first gap is filled
 // from its fitted window, the two later ones exactly as gap_fill "matched"
