@@ -26,7 +26,9 @@ if [ -f build/CMakeCache.txt ]; then
 else
   prebuilt=(-DMM_PREBUILT_MODEL_LIBRARY=)
 fi
-cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_COMPILER=clang++ \
+# -O1, as fuzzing builds usually are: the core's LibTorch-including files
+# compiled with the sanitizers in 107 s of CPU at -O1 against 198 s at -O3.
+cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_FLAGS_RELEASE="-O1 -DNDEBUG" -DCMAKE_CXX_COMPILER=clang++ \
   -DMM_BUILD_TESTS=OFF -DMM_BUILD_FUZZERS=ON "${prebuilt[@]}" > /dev/null
 cmake --build build-fuzz -j "$(nproc)" --target "${targets[@]/%/_fuzzer}"
 
