@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "format/input_error.h"
+#include "gap_interpolation.h"
 #include "gru_recurrence.h"
 #include "latent_operations.h"
 #include "take_windows.h"
@@ -67,9 +68,30 @@ class DifferentiableDecoder {
 
 }  // namespace
 
-bool gap_gets_fitted(const FrameSpan& span, int64_t window, const GapCodeFitOptions& options) {
+bool gap_length_is_fitted(const FrameSpan& span, int64_t window, const GapCodeFitOptions& options) {
   const int64_t context = static_cast<int64_t>(2 * kTakeModelRate);
   return span.length() <= window - context && static_cast<double>(span.length()) >= options.min_seconds * kTakeModelRate;
+}
+
+bool gap_gets_fitted(const MotionFrames& observed, int64_t observed_first, const FrameSpan& span, int64_t window,
+                     const GapCodeFitOptions& options) {
+  if (!gap_length_is_fitted(span, window, options)) return false;
+  // The frames the joints' gaps in the span and their lone-keyframe test
+  // read (two either side), from the motion's start on or up to its end
+  // where it is nearer: within them the joints' gaps are the motion's.
+  const int64_t from = std::max(span.first - 2, observed_first);
+  const int64_t to = std::min(span.last + 3, observed_first + observed.frame_count());
+  MotionFrames around;
+  around.columns = observed.columns;
+  around.values.assign(observed.frame(from - observed_first), observed.frame(from - observed_first) +
+                                                                   static_cast<size_t>((to - from) * observed.columns));
+  for (const JointGap& gap : find_joint_gaps(around)) {
+    // The span's first - 1 and last + 1 are observed in every joint: a
+    // joint's gap there lies within it or outside it.
+    if (gap.first + from < span.first || gap.last + from > span.last) continue;
+    if (!gap_borders_lone_keyframe(around, gap)) return true;
+  }
+  return false;
 }
 
 bool gap_joins_window(const GapFitWindow& fit, const FrameSpan& span, int64_t window) {
@@ -172,7 +194,7 @@ MotionFrames fit_gap_codes(const MotionManifold& model, const MotionFrames& obse
   }
   std::vector<GapFitWindow> fits;
   for (const FrameSpan& span : missing_spans(observed)) {
-    if (!gap_gets_fitted(span, window, options)) continue;
+    if (!gap_gets_fitted(observed, 0, span, window, options)) continue;
     if (fits.empty() || !gap_joins_window(fits.back(), span, window)) fits.emplace_back();
     fits.back().spans.push_back(span);
   }

@@ -67,8 +67,19 @@ struct GapFitWindow {
 // The rules by which gaps get windows, shared by the whole-motion fit below
 // and the take path's streaming one (take_gap_fitter.h), so that both make
 // the same windows. `window`: the model's clip in frames (25 Hz).
-// A gap is fitted when it lasts options.min_seconds up to the clip less 2 s.
-bool gap_gets_fitted(const FrameSpan& span, int64_t window, const GapCodeFitOptions& options);
+// A gap is fitted when it lasts options.min_seconds up to the clip less 2 s
+// (gap_length_is_fitted) and the fill lays the fitted clip's detail over
+// some joint's gap in it: not every one of them has a lone keyframe for a
+// border (gap_borders_lone_keyframe, gap_interpolation.h: the fill lays
+// only the cubic there, so the fit would be thrown away, and a take of
+// sparse keyframes would spend the max_windows on nothing). `observed`
+// holds the motion's frames (NaN where missing) from its frame
+// `observed_first` on: at least span.first - 2 .. span.last + 2, fewer only
+// where the motion begins or ends; its end is taken as the motion's where
+// it comes before span.last + 2.
+bool gap_gets_fitted(const MotionFrames& observed, int64_t observed_first, const FrameSpan& span, int64_t window,
+                     const GapCodeFitOptions& options);
+bool gap_length_is_fitted(const FrameSpan& span, int64_t window, const GapCodeFitOptions& options);
 // Gaps near each other share a window (sparse keyframes make a gap between
 // every two): a window takes gaps while they span at most the clip less 2 s.
 bool gap_joins_window(const GapFitWindow& fit, const FrameSpan& span, int64_t window);
@@ -95,7 +106,8 @@ void write_fitted_window(const GapFitWindow& fit, const float* clip, int64_t win
 // the frames of each gap and two frames either side replaced by the decoded
 // clip of the gap's centred window, its code fitted as described above.
 // Gaps shorter than options.min_seconds, or longer than the clip less 2 s,
-// and those of windows beyond options.max_windows keep `decoded`'s frames.
+// those between lone keyframes (gap_gets_fitted) and those of windows
+// beyond options.max_windows keep `decoded`'s frames.
 // A motion shorter than one clip is returned as `decoded`. InputError when
 // shapes differ. `windows_fitted`, when given, gets the windows fitted and
 // `gaps_fitted` the gaps they held; `gaps_over_limit` the gaps of windows

@@ -173,6 +173,21 @@ std::vector<JointGap> find_joint_gaps(const MotionFrames& motion) {
   return gaps;
 }
 
+bool gap_borders_lone_keyframe(const MotionFrames& observed, const JointGap& gap) {
+  const int column = kRootTranslationValues + 3 * gap.joint;
+  const int64_t frames = observed.frame_count();
+  if (gap.first < 1 || gap.last + 1 >= frames) return false;  // one border: held, not between keyframes
+  // A border that is a lone observed frame (the frame beyond it missing
+  // too) is a keyframe between gaps: too little is observed there for the
+  // manifold's detail to follow the motion, and the cubic is nearer
+  // (keyframes every 1 s over 13 S5 takes: 60.6 mm for the cubic against
+  // 77.1 with the fitted detail; every 2 s 86.9 against 133.8).
+  const auto lone = [&](int64_t beyond) {
+    return beyond >= 0 && beyond < frames && !observed_at(observed, column, beyond);
+  };
+  return lone(gap.first - 2) || lone(gap.last + 2);
+}
+
 double detail_weight(const GapFillOptions& options, double seconds, bool most_joints) {
   const auto& w = most_joints ? options.most_joints_detail : options.few_joints_detail;
   if (seconds <= options.interpolate_below_seconds) return 0.0;
@@ -228,15 +243,7 @@ void fill_gap(const MotionFrames& observed, const MotionFrames* manifold, const 
     int missing = 0;
     for (int j = 0; j < joints; ++j) missing += std::isnan(middle[kRootTranslationValues + 3 * j]) ? 1 : 0;
     weight = detail_weight(options, static_cast<double>(gap.last - gap.first + 1) / rate_hz, 2 * missing >= joints);
-    // A border that is a lone observed frame (the frame beyond it missing
-    // too) is a keyframe between gaps: too little is observed there for the
-    // manifold's detail to follow the motion, and the cubic is nearer
-    // (keyframes every 1 s over 13 S5 takes: 60.6 mm for the cubic against
-    // 77.1 with the fitted detail; every 2 s 86.9 against 133.8).
-    const auto lone = [&](int64_t beyond) {
-      return beyond >= 0 && beyond < frames && !observed_at(observed, column, beyond);
-    };
-    if (!one_border && (lone(left - 1) || lone(right + 1))) weight = 0;
+    if (gap_borders_lone_keyframe(observed, gap)) weight = 0;
     const float* m_left = manifold->frame(has_left ? left : right) + column;
     const float* m_right = manifold->frame(has_right ? right : left) + column;
     manifold_path.emplace(quaternion_of(m_left), quaternion_of(m_right), velocity(*manifold, column, left - 1, left),

@@ -67,8 +67,8 @@ bool lays_manifold_detail(GapMethod method);
 // 0.5 against 119.2 at 1; S6: 122.8 against 121.2).
 struct GapFillOptions {
   GapMethod method = GapMethod::kFitted;
-  // No detail between lone keyframes (a border whose next frame outward is
-  // missing too: the cubic is nearer there), nor up to
+  // No detail between lone keyframes (gap_borders_lone_keyframe: the cubic
+  // is nearer there), nor up to
   // `interpolate_below_seconds`; from there the weight
   // rises linearly to the weight at 1 s (is that weight from 0 s on when
   // interpolate_below_seconds is 0), then linearly between the weights
@@ -81,6 +81,14 @@ struct GapFillOptions {
   // long gap overshoots far past where the motion went.
   double max_tangent_seconds = 0.2;
 };
+
+// Whether one of `gap`'s borders (a joint's gap in `observed`, as
+// find_joint_gaps() gives it) is a lone keyframe: an observed frame whose
+// next frame outward is missing too (sparse keyframes). The matched and
+// fitted fills lay no manifold detail over such a gap, only the cubic, and
+// the take path fits no code to it (gap_gets_fitted, gap_code_fit.h). False
+// for a gap at the motion's start or end (one border).
+bool gap_borders_lone_keyframe(const MotionFrames& observed, const JointGap& gap);
 
 // The weight of the manifold's detail in a gap of `seconds`, for a gap of
 // most joints or of a few.

@@ -10,8 +10,8 @@ namespace mm {
 namespace {
 
 // A gap still running may get a window only while it is no longer than a
-// fitted gap may be (gap_gets_fitted): past that nothing waits for it, so a
-// joint missing for the rest of a long take holds nothing here.
+// fitted gap may be (gap_length_is_fitted): past that nothing waits for it,
+// so a joint missing for the rest of a long take holds nothing here.
 bool may_get_window(int64_t first, int64_t end, int64_t window) {
   return first >= 0 && end - first <= window - static_cast<int64_t>(2 * kTakeModelRate);
 }
@@ -37,22 +37,27 @@ void TakeGapFitter::observe(const MotionFrames& observed) {
     const float* v = observed.frame(i);
     bool missing = false;
     for (int c = kRootTranslationValues; c < columns_ && !missing; ++c) missing = std::isnan(v[c]);
+    // The frame after next of an ended gap has arrived (frame f is in
+    // observed_ already): whether its borders are lone keyframes is known.
+    if (ended_span_ && f == ended_span_->last + 2) settle_ended_span(f + 1);
     if (missing && open_span_first_ < 0) open_span_first_ = f;
     if (!missing && open_span_first_ >= 0) {
-      take_span({open_span_first_, f - 1});
+      end_span({open_span_first_, f - 1});
       open_span_first_ = -1;
     }
   }
   observed_end_ += count;
   // No gap still to come can join the open window once every frame up to
-  // the last a joining gap may end at, and the one after it, has arrived.
+  // the last a joining gap may end at, the one after it, and the one after
+  // that (which settles whether it is fitted), has arrived.
   if (!open_.spans.empty()) {
     const int64_t last_joining = open_.spans.front().first + window_ - static_cast<int64_t>(2 * kTakeModelRate) - 1;
-    if (observed_end_ >= last_joining + 2) close_open_window();
+    if (observed_end_ >= last_joining + 3) close_open_window();
   }
   // Keep what a window not fitted yet may read: it is centred on gaps from
   // the earliest pending one on, or (at the take's end) its last clip.
   int64_t pending = may_get_window(open_span_first_, observed_end_, window_) ? open_span_first_ : observed_end_;
+  if (ended_span_) pending = std::min(pending, ended_span_->first);
   if (!open_.spans.empty()) pending = std::min(pending, open_.spans.front().first);
   if (!closed_.empty()) pending = std::min(pending, closed_.front().spans.front().first);
   const int64_t keep_from = std::max<int64_t>(observed_first_, std::min(pending, observed_end_) - window_);
@@ -62,8 +67,24 @@ void TakeGapFitter::observe(const MotionFrames& observed) {
   }
 }
 
+void TakeGapFitter::end_span(const FrameSpan& span) {
+  if (gap_length_is_fitted(span, window_, options_)) ended_span_ = span;
+}
+
+void TakeGapFitter::settle_ended_span(int64_t arrived_end) {
+  const FrameSpan span = *ended_span_;
+  ended_span_.reset();
+  // The frames gap_gets_fitted reads: from two before the gap (kept, as
+  // the gap is pending) to two after it, or the take's end.
+  const int64_t from = std::max<int64_t>(observed_first_, span.first - 2);
+  const int64_t to = std::min(arrived_end, span.last + 3);
+  MotionFrames around;
+  around.columns = columns_;
+  around.values.assign(observed_frame(from), observed_frame(from) + static_cast<std::ptrdiff_t>((to - from) * columns_));
+  if (gap_gets_fitted(around, from, span, window_, options_)) take_span(span);
+}
+
 void TakeGapFitter::take_span(const FrameSpan& span) {
-  if (!gap_gets_fitted(span, window_, options_)) return;
   if (!gap_joins_window(open_, span, window_)) close_open_window();
   open_.spans.push_back(span);
 }
@@ -123,9 +144,12 @@ void TakeGapFitter::push(const MotionFrames& decoded, bool last, MotionFrames& o
   decoded_.values.insert(decoded_.values.end(), decoded.values.begin(), decoded.values.end());
   written_.resize(static_cast<size_t>(decoded_.frame_count()), false);
   if (last) {
-    // A gap running to the take's end ends there.
-    if (open_span_first_ >= 0) take_span({open_span_first_, observed_end_ - 1});
+    // The take has ended: an ended gap's frame after next will not come,
+    // and a gap running to the take's end ends there.
+    if (ended_span_) settle_ended_span(observed_end_);
+    if (open_span_first_ >= 0) end_span({open_span_first_, observed_end_ - 1});
     open_span_first_ = -1;
+    if (ended_span_) settle_ended_span(observed_end_);
     close_open_window();
   }
   fit_ready_windows(last);
@@ -135,6 +159,7 @@ void TakeGapFitter::push(const MotionFrames& decoded, bool last, MotionFrames& o
   if (!last) {
     end = std::min(end, observed_end_ - 2);
     if (may_get_window(open_span_first_, observed_end_, window_)) end = std::min(end, open_span_first_ - 2);
+    if (ended_span_) end = std::min(end, ended_span_->first - 2);
     if (!open_.spans.empty()) end = std::min(end, open_.spans.front().first - 2);
     if (!closed_.empty()) end = std::min(end, closed_.front().spans.front().first - 2);
   }

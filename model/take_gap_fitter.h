@@ -9,9 +9,11 @@
 // cubic across the gap.
 //
 // The windows are those fit_gap_codes() makes on the whole take: the same
-// gaps, joined by the same rule, centred the same way, the same ones left
-// unfitted beyond GapCodeFitOptions::max_windows. A window is fitted once
-// every observed frame of it has arrived and no later gap can join it;
+// gaps (gap_gets_fitted: none between lone keyframes, so known once the
+// frame after next of the gap has arrived), joined by the same rule,
+// centred the same way, the same ones left unfitted beyond
+// GapCodeFitOptions::max_windows. A window is fitted once every observed
+// frame of it has arrived and no later gap can join it;
 // output frames are held from two frames before the earliest gap whose
 // window is not fitted yet. So the extra latency is at most half a window
 // (3 s) after a gap, and what is held depends on the gaps, never on the
@@ -23,6 +25,7 @@
 #include <cstdint>
 #include <deque>
 #include <functional>
+#include <optional>
 #include <vector>
 
 #include "format/motion_text.h"
@@ -48,6 +51,12 @@ class TakeGapFitter {
   const GapFitCounts& counts() const { return counts_; }
 
  private:
+  // A gap has ended (its next frame observed): it waits in ended_span_
+  // for its frame after next when its length may be fitted.
+  void end_span(const FrameSpan& span);
+  // The ended gap's frames up to `arrived_end` (exclusive: its frame after
+  // next, or the take's end) have arrived: it joins a window if fitted.
+  void settle_ended_span(int64_t arrived_end);
   void take_span(const FrameSpan& span);
   void close_open_window();
   // Fits the windows in order while the first is ready.
@@ -68,6 +77,7 @@ class TakeGapFitter {
   std::vector<float> observed_;
   int64_t observed_first_ = 0, observed_end_ = 0;
   int64_t open_span_first_ = -1;  // a gap still running at observed_end_
+  std::optional<FrameSpan> ended_span_;  // a gap ended whose frame after next has not arrived
   // Windows taking gaps (open_) and closed ones waiting for their fit, in order.
   GapFitWindow open_;
   std::deque<GapFitWindow> closed_;

@@ -79,9 +79,10 @@ struct TakeOptions {
   // Denoise with keep_observed: how each joint's gap (a run of frames where
   // it is NaN) is filled, at the output's rate (gap_interpolation.h). The
   // default, kFitted, meets the observed frames at both borders: the cubic
-  // across the gap for short gaps, and for gaps of gap_fit.min_seconds or
-  // more the movement of a code fitted to the observed values of a window
-  // centred on the gap (gap_code_fit.h) laid over it; kMatched lays the
+  // across the gap for short gaps and between lone keyframes (no window is
+  // fitted for those), and for gaps of gap_fit.min_seconds or more the
+  // movement of a code fitted to the observed values of a window centred on
+  // the gap (gap_code_fit.h) laid over it; kMatched lays the
   // movement of the take's own windows instead, and is what gaps beyond
   // gap_fit.max_windows get; kManifold is the manifold's output as it is.
   // The frames of a gap are handed out once the frame after it has arrived
