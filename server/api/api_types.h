@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include "training_config.h"
+
 namespace mm::service {
 
 // The error model, shared by both protocols (gRPC status code <-> HTTP status):
@@ -252,8 +254,12 @@ struct JobProgress {
 struct JobInfo {
   std::string id;
   JobSpec spec;
-  // The training configuration the spec resolved to at submission, whole
-  // (JSON text of model/training_config.h): what the run trains.
+  // The training configuration the spec resolved to at submission, whole:
+  // what the run trains. Absent only in a record stored before
+  // configurations were resolved whose spec no longer resolves.
+  std::optional<ResolvedTrainConfig> resolved_config;
+  // Its JSON text (to_json_text), as the wire shows it; "" when absent. The
+  // jobs set the two together (set_resolved_config, jobs/job_record_json.h).
   std::string resolved_config_json;
   JobState state = JobState::kQueued;
   JobProgress progress;

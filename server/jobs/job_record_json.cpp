@@ -1,6 +1,7 @@
 #include "jobs/job_record_json.h"
 
 #include <limits>
+#include <optional>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
@@ -46,22 +47,29 @@ JobSpec spec_from_json_text(const std::string& text) {
 
 std::string stored_spec_to_json_text(const JobInfo& job) {
   json j = spec_json(job.spec);
-  j["resolved_config"] = job.resolved_config_json;
+  j["resolved_config"] = job.resolved_config ? to_json_text(*job.resolved_config) : "";
   return j.dump();
+}
+
+void set_resolved_config(JobInfo& job, std::optional<ResolvedTrainConfig> config) {
+  job.resolved_config = std::move(config);
+  job.resolved_config_json = job.resolved_config ? to_json_text(*job.resolved_config) : "";
 }
 
 void stored_spec_from_json_text(const std::string& text, JobInfo& job) {
   job.spec = spec_from_json_text(text);
   const json j = json::parse(text);
-  if (j.contains("resolved_config")) {
-    job.resolved_config_json = j["resolved_config"].get<std::string>();
-    return;
-  }
+  const std::string stored = j.contains("resolved_config") ? j["resolved_config"].get<std::string>() : "";
+  std::optional<ResolvedTrainConfig> config;
   try {
-    job.resolved_config_json = resolved_job_config_json(job.spec);
+    // What submission resolved, read back by the rule it was written for
+    // (to_json_text of a ResolvedTrainConfig); or the spec resolved now.
+    config = stored.empty() ? resolve_job_config(job.spec)
+                            : resolve_train_config(stored, "", TrainOverrides{}, "resolved_config", "");
   } catch (const std::exception&) {
-    job.resolved_config_json.clear();
+    config.reset();
   }
+  set_resolved_config(job, std::move(config));
 }
 
 std::string progress_to_json_text(const JobProgress& progress) { return progress_json(progress).dump(); }

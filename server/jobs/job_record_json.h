@@ -7,6 +7,7 @@
 // exceptions, which derive from std::exception) for malformed text.
 #pragma once
 
+#include <optional>
 #include <string>
 
 #include "api/api_types.h"
@@ -22,11 +23,16 @@ JobSpec spec_from_json_text(const std::string& text);
 // "resolved_config", the configuration it resolved to at submission (its
 // JSON text as a string).
 std::string stored_spec_to_json_text(const JobInfo& job);
-// Reads that column into job.spec and job.resolved_config_json. A record
-// stored by a server that did not resolve configurations has none: it is
-// resolved now from the spec (resolved_job_config_json), or left empty when
-// the spec no longer resolves (the job then fails when it runs, saying why).
+// Reads that column into job.spec and job.resolved_config. A record stored
+// by a server that did not resolve configurations has none (or "", that of
+// a record made without one): it is resolved now from its spec
+// (resolve_job_config), the one place such a record is brought up to date;
+// one whose spec no longer resolves, or whose configuration does not read,
+// is left without (the job then fails when it runs, saying so).
 void stored_spec_from_json_text(const std::string& text, JobInfo& job);
+// Sets job.resolved_config and, from it, the JSON text the wire shows
+// (job.resolved_config_json): the two never differ.
+void set_resolved_config(JobInfo& job, std::optional<ResolvedTrainConfig> config);
 std::string progress_to_json_text(const JobProgress& progress);
 JobProgress progress_from_json_text(const std::string& text);
 // The inverse of job_state_name().

@@ -4,7 +4,6 @@
 // (child_supervision.cpp).
 #include <filesystem>
 #include <mutex>
-#include <nlohmann/json.hpp>
 
 #include <spdlog/spdlog.h>
 
@@ -24,6 +23,18 @@ RunEnd TrainingJobs::State::run_job(JobInfo& job) {
   const fs::path dir = job_dir(job.id);
   fs::create_directories(dir);
   spdlog::info("training job {} started in {}", job.id, dir.string());
+
+  const fs::path run = dir / "run";
+  const fs::path checkpoint = run / "checkpoint.pt";
+  // A record stored before configurations were resolved was resolved when
+  // read (job_record_json.h); one whose spec no longer resolved has none
+  // and cannot start (a checkpoint holds its run's configuration).
+  if (!job.resolved_config && !fs::exists(checkpoint)) {
+    finish(job, JobState::kFailed,
+           "the job's record holds no training configuration: it was stored before configurations were resolved at "
+           "submission and its spec no longer resolves; submit it again to see why");
+    return RunEnd::kFailed;
+  }
 
   // Checked again: the data may have changed since the submission.
   JobDataset dataset;
@@ -57,8 +68,6 @@ RunEnd TrainingJobs::State::run_job(JobInfo& job) {
     }
   }
 
-  const fs::path run = dir / "run";
-  const fs::path checkpoint = run / "checkpoint.pt";
   std::vector<std::string> argv;
   if (fs::exists(checkpoint)) {
     // The trainer's checkpoint holds networks, optimisers, random states and
@@ -72,18 +81,16 @@ RunEnd TrainingJobs::State::run_job(JobInfo& job) {
     // No checkpoint yet: start afresh, without a partial log of a run that
     // died before its first checkpoint.
     fs::remove_all(run);
-    // The configuration resolved at submission, whole: the child's argv
-    // names no field of the spec. A record stored before configurations
-    // were resolved is resolved when read; one that no longer resolves
-    // fails here, saying why.
-    if (job.resolved_config_json.empty()) job.resolved_config_json = resolved_job_config_json(job.spec);
-    nlohmann::json training = nlohmann::json::parse(job.resolved_config_json);
-    // The server's resume point after a crash, whatever the configuration says.
-    training["checkpoint_every"] = config.checkpoint_every;
+    // The configuration resolved at submission, whole, with the server's
+    // resume point after a crash (whatever the configuration says) and the
+    // run's dataset and folder: the child's argv names no field of the spec.
+    ResolvedTrainConfig training = *job.resolved_config;
+    training.config.checkpoint_every = config.checkpoint_every;
+    training.config.dataset = dataset_file;
+    training.config.output_dir = run.string();
     const fs::path config_file = dir / "config.json";
-    write_file_atomically(config_file.string(), training.dump(2) + "\n");
-    argv = {config.tool_path, "train", "--config", config_file.string(), "--dataset", dataset_file,
-            "--out", run.string(), "--progress-json"};
+    write_file_atomically(config_file.string(), to_json_text(training) + "\n");
+    argv = {config.tool_path, "train", "--config", config_file.string(), "--progress-json"};
   }
   const RunEnd end = run_child(job, argv, argv[1]);
   if (end != RunEnd::kSucceeded) return end;

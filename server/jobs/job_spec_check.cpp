@@ -150,9 +150,7 @@ ResolvedTrainConfig resolve_job_config(const JobSpec& spec) {
   return resolved;
 }
 
-std::string resolved_job_config_json(const JobSpec& spec) { return to_json_text(resolve_job_config(spec)); }
-
-void check_job_spec(const JobSpec& spec) {
+ResolvedTrainConfig check_job_spec(const JobSpec& spec) {
   const auto& variants = job_variants();
   // A configuration replaces the variant, which may then be left empty.
   const bool variant_needed = spec.config_json.empty() || !spec.variant.empty();
@@ -168,36 +166,40 @@ void check_job_spec(const JobSpec& spec) {
                          std::to_string(kMinJobHidden) + " to " + std::to_string(kMaxJobHidden));
   }
   // Two clips at least: the MMD estimate needs two samples.
-  if (spec.batch != 0 && (spec.batch < 2 || spec.batch > kMaxJobBatch)) {
-    refuse("batch", "batch " + std::to_string(spec.batch) + " is out of range, expected 0 (the configuration's) or 2 to " +
-                        std::to_string(kMaxJobBatch));
+  if (spec.batch != 0 && (spec.batch < kMinJobBatch || spec.batch > kMaxJobBatch)) {
+    refuse("batch", "batch " + std::to_string(spec.batch) + " is out of range, expected 0 (the configuration's) or " +
+                        std::to_string(kMinJobBatch) + " to " + std::to_string(kMaxJobBatch));
   }
-  if (!spec.config_json.empty()) {
-    // Read as the tool will read it, so that a bad configuration is refused
-    // now, naming its field, and not after the dataset has been prepared;
-    // and held to the limits of the fields it sets.
-    TrainConfig config;
-    try {
+  // Read as the tool will read it, so that a bad configuration is refused
+  // now, naming its field, and not after the dataset has been prepared. The
+  // spec's own fields lie within the tool's ranges (the limits above), so
+  // only the configuration can fail to resolve.
+  ResolvedTrainConfig resolved;
+  try {
+    if (!spec.config_json.empty()) {
       const nlohmann::json document = parse_json_text(spec.config_json, "config");
       if (!document.is_object()) {
         refuse("config", "config is JSON " + std::string(document.type_name()) + ", expected an object");
       }
-      config = resolve_job_config(spec).config;
-    } catch (const InputError& e) {
-      refuse("config", e.what());
     }
-    if (spec.iterations == 0 && config.iterations > kMaxJobIterations) {
-      refuse("config", "config: iterations: " + std::to_string(config.iterations) + " is out of range, expected at most " +
-                           std::to_string(kMaxJobIterations));
-    }
-    if (spec.hidden == 0 && (config.model.hidden < kMinJobHidden || config.model.hidden > kMaxJobHidden)) {
-      refuse("config", "config: model.hidden: " + std::to_string(config.model.hidden) + " is out of range, expected " +
-                           std::to_string(kMinJobHidden) + " to " + std::to_string(kMaxJobHidden));
-    }
-    if (spec.batch == 0 && config.batch > kMaxJobBatch) {
-      refuse("config", "config: batch: " + std::to_string(config.batch) + " is out of range, expected at most " +
-                           std::to_string(kMaxJobBatch));
-    }
+    resolved = resolve_job_config(spec);
+  } catch (const InputError& e) {
+    refuse("config", e.what());
+  }
+  // The limits hold for the sizes the configuration sets (those the spec
+  // sets were checked above); a variant's defaults lie within them.
+  const TrainConfig& config = resolved.config;
+  if (spec.iterations == 0 && config.iterations > kMaxJobIterations) {
+    refuse("config", "config: iterations: " + std::to_string(config.iterations) + " is out of range, expected at most " +
+                         std::to_string(kMaxJobIterations));
+  }
+  if (spec.hidden == 0 && (config.model.hidden < kMinJobHidden || config.model.hidden > kMaxJobHidden)) {
+    refuse("config", "config: model.hidden: " + std::to_string(config.model.hidden) + " is out of range, expected " +
+                         std::to_string(kMinJobHidden) + " to " + std::to_string(kMaxJobHidden));
+  }
+  if (spec.batch == 0 && config.batch > kMaxJobBatch) {
+    refuse("config", "config: batch: " + std::to_string(config.batch) + " is out of range, expected at most " +
+                         std::to_string(kMaxJobBatch));
   }
   if (!spec.model_name.empty()) {
     static const std::regex name("[A-Za-z0-9._-]{1,64}");
@@ -215,6 +217,7 @@ void check_job_spec(const JobSpec& spec) {
                                "expected another name");
     }
   }
+  return resolved;
 }
 
 }  // namespace mm::service

@@ -40,32 +40,42 @@ struct JobDataset {
 // "dataset" otherwise.
 JobDataset resolve_job_dataset(const std::string& data_root, const std::string& dataset);
 
-// The limits of a job's size, whether the spec or its configuration sets it.
+// The limits of a job's size, whether the spec or its configuration sets
+// it: the tool's ranges (training_config.h), narrowed where a job of a
+// server that others share must be. The upper bounds keep one job's memory
+// and time within such a server's: at the tool's kMaxTrainHidden (65536) a
+// GRU's recurrent weights alone are 3 x 65536^2 = 12.9e9 values (51 GB of
+// float32), at 4096 they are 50e6 (201 MB). The lower bound of hidden, 8,
+// is the service's since jobs were added, kept so that no request changes
+// meaning; the tool's 1 is left to its own experiments.
 constexpr int64_t kMaxJobIterations = 10'000'000;
 constexpr int kMinJobHidden = 8, kMaxJobHidden = 4096;
-constexpr int kMaxJobBatch = 1024;
+constexpr int kMinJobBatch = kMinTrainBatch, kMaxJobBatch = 1024;
+static_assert(kMaxJobIterations <= kMaxTrainIterations, "a job's iterations lie within the tool's");
+static_assert(kMinJobHidden >= kMinTrainHidden && kMaxJobHidden <= kMaxTrainHidden, "a job's hidden lies within the tool's");
+static_assert(kMaxJobBatch <= kMaxTrainBatch, "a job's batch lies within the tool's");
 
-// Checks the spec's other fields: variant (one of S D DK DKG DKGM DKGMZ
-// Seq2seq, unless a configuration replaces it), iterations 0 (the
-// configuration's) to kMaxJobIterations, hidden 0 or kMinJobHidden to
-// kMaxJobHidden, batch 0 or 2 to kMaxJobBatch, config (empty, or a training
-// configuration as the tool reads it, whose sizes keep the same limits) and
-// the form of model_name ([A-Za-z0-9._-]{1,64}, not starting with a dot or
-// with "job-", or empty). ApiError INVALID_ARGUMENT naming the field
-// otherwise.
-void check_job_spec(const JobSpec& spec);
+// Checks the spec and resolves it, once, into the training configuration
+// the job trains (resolve_job_config), which it returns: variant (one of S
+// D DK DKG DKGM DKGMZ Seq2seq, unless a configuration replaces it),
+// iterations 0 (the configuration's) to kMaxJobIterations, hidden 0 or
+// kMinJobHidden to kMaxJobHidden, batch 0 or kMinJobBatch to kMaxJobBatch,
+// config (empty, or a training configuration as the tool reads it), the
+// resolved configuration's sizes within the same limits where the spec
+// leaves them to it, and the form of model_name ([A-Za-z0-9._-]{1,64}, not
+// starting with a dot or with "job-", or empty). ApiError INVALID_ARGUMENT
+// naming the field otherwise.
+ResolvedTrainConfig check_job_spec(const JobSpec& spec);
 
-// The training configuration a checked spec trains, whole: its config (or
-// its variant's defaults) with its iterations, hidden and batch where they
-// are not 0 and its seed, by the rule the tool's `train` flags follow
+// The training configuration a spec trains, whole: its config (or its
+// variant's defaults) with its iterations, hidden and batch where they are
+// not 0 and its seed, by the rule the tool's `train` flags follow
 // (resolve_train_config). model.pose_dims come from the dataset unless
 // config gives them; dataset and output_dir are empty (the server gives the
-// run its own). Throws InputError for a spec that check_job_spec refuses.
+// run its own). Used by check_job_spec at submission and, for a record
+// stored before submissions were resolved, by the record's reader
+// (job_record_json.h). Throws InputError for a spec that does not resolve.
 ResolvedTrainConfig resolve_job_config(const JobSpec& spec);
-
-// The same as JSON text (to_json_text of a ResolvedTrainConfig): what a job
-// record keeps.
-std::string resolved_job_config_json(const JobSpec& spec);
 
 // The Table 1 variants the tool trains.
 const std::vector<std::string>& job_variants();

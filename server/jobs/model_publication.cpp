@@ -6,7 +6,6 @@
 #include <stdexcept>
 #include <vector>
 
-#include "jobs/job_spec_check.h"
 #include "training_config.h"
 
 namespace mm::service {
@@ -31,18 +30,14 @@ bool holds_card_of(const fs::path& folder, const std::string& id) {
   return in && text.str().find(marker(id)) != std::string::npos;
 }
 
-// The configuration the job trained (JSON text): its record's, or for a
-// record stored without one, its spec's resolved now by the same rule.
-std::string trained_config_json(const JobInfo& job) {
-  return job.resolved_config_json.empty() ? resolved_job_config_json(job.spec) : job.resolved_config_json;
-}
-
 }  // namespace
 
 std::string job_model_card(const JobInfo& job, double training_seconds) {
   const JobSpec& s = job.spec;
-  const std::string config_json = trained_config_json(job);
-  const TrainConfig c = train_config_from_json_text(config_json, "resolved_config");
+  if (!job.resolved_config) {
+    throw std::runtime_error("training job " + job.id + ": its record holds no training configuration");
+  }
+  const TrainConfig& c = job.resolved_config->config;
   std::ostringstream card;
   card << "# " << (s.model_name.empty() ? "job-" + job.id : s.model_name) << "\n\n"
        << marker(job.id) << "\n\n"
@@ -63,7 +58,7 @@ std::string job_model_card(const JobInfo& job, double training_seconds) {
   for (const auto& [name, value] : job.progress.losses) card << "| " << name << " | " << value << " |\n";
   card << "\n## Configuration\n\nWhat the job trained, resolved at submission (model.pose_dims, when absent, were "
           "the dataset's; checkpoint_every was the server's --checkpoint-every):\n\n```json\n"
-       << config_json << "\n```\n";
+       << to_json_text(*job.resolved_config) << "\n```\n";
   card << "\nThe run's own provenance (command line, iterations, device) is in manifest.json.\n";
   return card.str();
 }

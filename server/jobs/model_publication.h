@@ -16,9 +16,9 @@
 namespace mm::service {
 
 // The model card of a job's model: the job, its spec, the values of the
-// configuration it trained (job.resolved_config_json; for a record without
-// one, its spec resolved now), iterations, training time and final losses
-// (Markdown). Throws InputError when neither gives a configuration.
+// configuration it trained (job.resolved_config), iterations, training time
+// and final losses (Markdown). Throws std::runtime_error for a record
+// without a configuration.
 std::string job_model_card(const JobInfo& job, double training_seconds);
 
 // A publication has two halves (see training_jobs.cpp): staging, which the

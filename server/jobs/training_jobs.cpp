@@ -90,8 +90,7 @@ void TrainingJobs::shutdown() {
 
 JobInfo TrainingJobs::submit(const JobSpec& spec, const std::string& submitter) {
   State& s = *state_;
-  check_job_spec(spec);
-  const ResolvedTrainConfig resolved = resolve_job_config(spec);
+  ResolvedTrainConfig resolved = check_job_spec(spec);
   const int64_t iterations = resolved.config.iterations;
   if (iterations > s.config.max_iterations) {
     const bool own = spec.iterations > 0 || spec.config_json.empty();
@@ -123,7 +122,7 @@ JobInfo TrainingJobs::submit(const JobSpec& spec, const std::string& submitter) 
     job.id = new_job_id();
   } while (store.find(job.id));
   job.spec = spec;
-  job.resolved_config_json = to_json_text(resolved);
+  set_resolved_config(job, std::move(resolved));
   job.state = JobState::kQueued;
   job.created_at = unix_now();
   const QueueRoom room = store.insert_within_limits(job, submitter, s.config.max_queued, s.config.max_queued_per_submitter);

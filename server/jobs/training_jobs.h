@@ -18,8 +18,9 @@
 // Layout: <state_dir>/jobs.sqlite (the records with SQLite) and one folder
 // <state_dir>/jobs/<id>/ per job: train.log (the children's stderr),
 // config.json (the configuration the spec resolved to at submission, kept in
-// the record as JobInfo::resolved_config_json, with checkpoint_every set
-// from JobsConfig; the tool's only source of what to train), dataset.mmd
+// the record as JobInfo::resolved_config, with checkpoint_every set from
+// JobsConfig and the run's dataset and output folder; the tool's only
+// source of what to train), dataset.mmd
 // (prepared from a text tree) and run/ (the tool's output: checkpoint.pt,
 // train_log.csv, model/).
 // The store gets hidden ".job-<id>.tmp" folders while a model is staged;
@@ -93,7 +94,7 @@ class TrainingJobs {
 
   // Validates the spec (dataset under the data root and a dataset; variant;
   // numbers in range), resolves it into the whole training configuration the
-  // job trains (resolved_job_config_json, kept in the record) and queues it
+  // job trains (check_job_spec, kept in the record) and queues it
   // for `submitter` (who sent it, as the core names callers: "token",
   // "ip:127.0.0.1"); returns the new record at once. ApiError INVALID_ARGUMENT naming the field otherwise (see
   // job_spec_check.h); RESOURCE_EXHAUSTED (413) "iterations" (or "config")

@@ -19,6 +19,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "jobs/job_spec_check.h"
 #include "jobs/model_publication.h"
 #include "jobs/sqlite_job_store.h"
 #include "jobs/training_jobs.h"
@@ -501,6 +502,12 @@ TEST_F(TrainingJobsTest, ARecordStoredWithoutAResolvedConfigurationLoadsResolved
     const auto stored = records.find(id);
     ASSERT_TRUE(stored);
     EXPECT_EQ(stored->spec.hidden, 16);
+    // Typed, and the wire's text of the same.
+    ASSERT_TRUE(stored->resolved_config);
+    EXPECT_EQ(stored->resolved_config->config.model.hidden, 16);
+    EXPECT_EQ(stored->resolved_config->config.iterations, 20);
+    EXPECT_EQ(stored->resolved_config->config.seed, 3u);
+    EXPECT_TRUE(stored->resolved_config->pose_dims_from_dataset);
     const json c = json::parse(stored->resolved_config_json);
     EXPECT_EQ(c["model"]["hidden"], 16);
     EXPECT_EQ(c["iterations"], 20);
@@ -514,6 +521,35 @@ TEST_F(TrainingJobsTest, ARecordStoredWithoutAResolvedConfigurationLoadsResolved
   const json trained = json::parse(read_text(job_dir(config_, id) / "run" / "config.json"));
   EXPECT_EQ(trained["model"]["hidden"], 16);
   EXPECT_EQ(trained["seed"], 3);
+}
+
+// Such a record whose spec no longer resolves (here an unknown variant)
+// loads without a configuration, and its job fails at once saying so,
+// rather than training something else.
+TEST_F(TrainingJobsTest, ARecordStoredWithoutAConfigurationThatNoLongerResolvesFailsSayingSo) {
+  fs::create_directories(config_.state_dir);
+  const std::string database = (fs::path(config_.state_dir) / "jobs.sqlite").string();
+  const std::string id = "0123456789cd";
+  {
+    JobInfo job;
+    job.id = id;
+    job.spec = tiny_spec(20);
+    job.created_at = 1;
+    SqliteJobStore records(database);
+    ASSERT_TRUE(records.insert_if_room(job, 10));
+    SqliteDatabase(database).execute(
+        R"(UPDATE jobs SET spec = '{"batch":4,"config":"","dataset":"h36m","hidden":16,"iterations":20,)"
+        R"("model_name":"","seed":"3","variant":"DQ"}' WHERE id = ')" + id + "'");
+    const auto stored = records.find(id);
+    ASSERT_TRUE(stored);
+    EXPECT_FALSE(stored->resolved_config);
+    EXPECT_EQ(stored->resolved_config_json, "");
+  }
+  auto jobs = make_jobs();
+  const JobInfo job = wait_finished(*jobs, id);
+  ASSERT_EQ(job_state_name(job.state), std::string("failed"));
+  EXPECT_NE(job.error.find("holds no training configuration"), std::string::npos) << job.error;
+  EXPECT_FALSE(fs::exists(job_dir(config_, id) / "run")) << "nothing was trained";
 }
 
 TEST_F(TrainingJobsTest, RecordsSurviveANewTrainingJobsOnTheSameStateDir) {
@@ -641,6 +677,7 @@ TEST_F(TrainingJobsTest, AModelStagedBeforeACrashIsPublishedAtStartAndStaleOnesA
     JobInfo job;
     job.id = id;
     job.spec = tiny_spec();
+    set_resolved_config(job, resolve_job_config(job.spec));
     job.state = state;
     job.published_model = model;
     job.created_at = job.finished_at = 1;

@@ -14,6 +14,7 @@
 #include <set>
 #include <thread>
 
+#include "jobs/job_spec_check.h"
 #include "jobs/postgres_job_store.h"
 #include "jobs/sqlite_job_store.h"
 #include "postgres_cluster.h"
@@ -48,6 +49,8 @@ class PostgresJobStoreTest : public ::testing::Test {
     job.spec.iterations = 12;
     job.spec.seed = 18446744073709551615ULL;  // the largest seed survives the JSON text
     job.spec.model_name = model_name;
+    // As submitted: the configuration resolved, which the record keeps.
+    set_resolved_config(job, resolve_job_config(job.spec));
     job.state = JobState::kQueued;
     job.created_at = 1700000000.25;
     return job;
