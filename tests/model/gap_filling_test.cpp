@@ -282,8 +282,9 @@ TEST_F(GapFilling, BetweenLoneKeyframesTheFillIsTheCubicAndElsewhereItLaysTheDet
 // window and is the cubic's fill exactly, while the same take with one
 // second missing between observed runs fits that gap's window. Measured
 // through the tool before the planner skipped them (the same keyframes at
-// 50 Hz): 3 windows of 10 gaps fitted and thrown away, 40.6 s of CPU
-// against 12.5 for the cubic. The fits take 2 Adam steps from one round of
+// 50 Hz): 3 windows of 10 gaps fitted and thrown away, 40.0 to 47.5 s of
+// user CPU, against 2.6 to 8.0 s with none (docs/RESULTS.md, "Keyframes and
+// transitions"). The fits take 2 Adam steps from one round of
 // the encoder (what is pinned down is which gaps are fitted).
 TEST_F(GapFilling, SparseKeyframesFitNoWindowAndAreTheCubicsFillWhileARealGapIsFitted) {
   MM_REQUIRE_H36M();
