@@ -271,7 +271,10 @@ FloatJson summary_fields_json(const v1::TakeSummary& summary) {
                    {"mean_error_mm", summary.mean_error_mm()},
                    {"max_error_mm", summary.max_error_mm()},
                    {"window_seconds", summary.window_seconds()},
-                   {"hop_seconds", summary.hop_seconds()}};
+                   {"hop_seconds", summary.hop_seconds()},
+                   {"gap_windows_fitted", summary.gap_windows_fitted()},
+                   {"gaps_fitted", summary.gaps_fitted()},
+                   {"gaps_over_fit_limit", summary.gaps_over_fit_limit()}};
 }
 
 }  // namespace
@@ -705,6 +708,9 @@ void from_json(const Json& body, TakeReply& out, UnknownFields unknown) {
     out.summary.set_max_error_mm(summary.number("max_error_mm"));
     out.summary.set_window_seconds(summary.number("window_seconds"));
     out.summary.set_hop_seconds(summary.number("hop_seconds"));
+    out.summary.set_gap_windows_fitted(summary.int32("gap_windows_fitted"));
+    out.summary.set_gaps_fitted(summary.int32("gaps_fitted"));
+    out.summary.set_gaps_over_fit_limit(summary.int32("gaps_over_fit_limit"));
     summary.finish();
   }
   read_windows(reader, out.summary.mutable_windows());

@@ -337,6 +337,9 @@ void to_wire(const TakeSummaryReply& summary, v1::TakeSummary* out) {
   out->set_max_error_mm(summary.max_error_mm);
   out->set_window_seconds(summary.window_seconds);
   out->set_hop_seconds(summary.hop_seconds);
+  out->set_gap_windows_fitted(summary.gap_windows_fitted);
+  out->set_gaps_fitted(summary.gaps_fitted);
+  out->set_gaps_over_fit_limit(summary.gaps_over_fit_limit);
 }
 
 }  // namespace mm::service::wire

@@ -583,13 +583,15 @@ MotionFrames with_every_joint_missing(const MotionFrames& motion, const std::vec
 }
 
 // DenoiseTake with keep_observed over gRPC, gap_fill as given ("": the
-// default): the reply's frames.
-MotionFrames denoise_keeping_observed(v1::MotionManifold::Stub& stub, const MotionFrames& take, const std::string& gap_fill) {
+// default): the reply's frames, and its summary in `summary` when given.
+MotionFrames denoise_keeping_observed(v1::MotionManifold::Stub& stub, const MotionFrames& take, const std::string& gap_fill,
+                                      v1::TakeSummary* summary = nullptr) {
   v1::TakeHeader header = take_header(50);
   header.set_keep_observed(true);
   header.set_gap_fill(gap_fill);
   const StreamedTake reply = stream_take(stub, true, header, chunks_of(take));
   EXPECT_TRUE(reply.status.ok()) << reply.status.error_message();
+  if (summary != nullptr) *summary = reply.summary;
   MotionFrames frames;
   frames.columns = kColumns;
   frames.values = reply.values;
@@ -613,7 +615,8 @@ double pose_distance(const float* a, const float* b) {
 // between the border poses freezes; DenoiseTake's default fill, a code
 // fitted to the observed frames of a window centred on the gap, walks
 // through it nearer the recording, and nearer than the take's own windows'
-// movement (gap_fill "matched"). Measured: slerp 73.2 mm at 0.14x the
+// movement (gap_fill "matched"). The summary counts the window fitted to
+// the gap, none for "matched". Measured: slerp 73.2 mm at 0.14x the
 // recording's speed, matched 98.1 mm at 1.00x, fitted 60.5 mm at 1.00x
 // (23 s, 31 s of CPU with the next test, at a load of 7 on two cores).
 TEST_F(Takes, DenoiseTakeFillsATwoSecondGapOfEveryJointFromAFittedCodeNearerTheRecordingThanSlerp) {
@@ -622,9 +625,16 @@ TEST_F(Takes, DenoiseTakeFillsATwoSecondGapOfEveryJointFromAFittedCodeNearerTheR
   const MotionFrames gapped = with_every_joint_missing(take, {{first, last}});
   auto stub = stub_of(server());
   const auto started = Clock::now();
-  const MotionFrames fitted = denoise_keeping_observed(*stub, gapped, "");
+  v1::TakeSummary fitted_summary, matched_summary;
+  const MotionFrames fitted = denoise_keeping_observed(*stub, gapped, "", &fitted_summary);
   const double fitted_seconds = seconds_since(started);
-  const MotionFrames matched = denoise_keeping_observed(*stub, gapped, "matched");
+  const MotionFrames matched = denoise_keeping_observed(*stub, gapped, "matched", &matched_summary);
+  EXPECT_GE(fitted_summary.gap_windows_fitted(), 1);
+  EXPECT_GE(fitted_summary.gaps_fitted(), 1);
+  EXPECT_EQ(fitted_summary.gaps_over_fit_limit(), 0);
+  EXPECT_EQ(matched_summary.gap_windows_fitted(), 0);
+  EXPECT_EQ(matched_summary.gaps_fitted(), 0);
+  EXPECT_EQ(matched_summary.gaps_over_fit_limit(), 0);
   ASSERT_EQ(fitted.frame_count(), take.frame_count());
   ASSERT_EQ(matched.frame_count(), take.frame_count());
   MotionFrames slerped = gapped;
@@ -703,7 +713,8 @@ TEST_F(Takes, GapFillOverRestFillsAsOverGrpcAndItsHeadersCountTheFittedGaps) {
 // A server fitting at most one window a take (--max-take-gap-fits 1): a
 // take of three gaps of every joint still answers; the first gap is filled
 // from its fitted window, the two later ones exactly as gap_fill "matched"
-// fills them. A gap_fill the server does not know, or one on a call without
+// fills them, as the summary counts (one window, one gap, two over the
+// bound). A gap_fill the server does not know, or one on a call without
 // keep_observed, is refused naming gap_fill. 37 s at a load of 8 on two
 // cores (the server's start included).
 TEST(TakesGapFitBound, GapsBeyondTheServersBoundOfFittedWindowsGetTheMatchedFill) {
@@ -712,8 +723,12 @@ TEST(TakesGapFitBound, GapsBeyondTheServersBoundOfFittedWindowsGetTheMatchedFill
   const MotionFrames take = head(s5("walking_1.txt"), 800);  // 16 s
   const std::vector<std::pair<int64_t, int64_t>> gaps = {{100, 149}, {350, 399}, {600, 649}};
   const MotionFrames gapped = with_every_joint_missing(take, gaps);
-  const MotionFrames fitted = denoise_keeping_observed(*stub, gapped, "fitted");
+  v1::TakeSummary bounded;
+  const MotionFrames fitted = denoise_keeping_observed(*stub, gapped, "fitted", &bounded);
   const MotionFrames matched = denoise_keeping_observed(*stub, gapped, "matched");
+  EXPECT_EQ(bounded.gap_windows_fitted(), 1);
+  EXPECT_EQ(bounded.gaps_fitted(), 1);
+  EXPECT_EQ(bounded.gaps_over_fit_limit(), 2);
   ASSERT_EQ(fitted.frame_count(), take.frame_count());
   ASSERT_EQ(matched.frame_count(), take.frame_count());
   for (size_t g = 0; g < gaps.size(); ++g) {

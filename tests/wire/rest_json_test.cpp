@@ -254,6 +254,9 @@ TEST(RestJson, EveryReplyReadsBackAsWritten) {
   take.summary.set_max_error_mm(12.75);
   take.summary.set_window_seconds(6);
   take.summary.set_hop_seconds(3);
+  take.summary.set_gap_windows_fitted(1);
+  take.summary.set_gaps_fitted(2);
+  take.summary.set_gaps_over_fit_limit(3);
   *take.summary.add_windows() = window(0, 0, 1.0f);
   const TakeReply back = round_trip(take);
   EXPECT_TRUE(MessageDifferencer::Equals(take.header, back.header)) << back.header.DebugString();
@@ -354,7 +357,8 @@ TEST(RestJson, TakeReplyCarriesTheHeaderFramesSummaryAndWindows) {
   EXPECT_EQ(body_text(to_json(take)),
             R"({"answered_by":{"model":"h36m-dkgm-h100","version":"0123456789abcdef"},"columns":2,"error_mm":[],)"
             R"("frame_rate":50.0,"frames":1,"layout":"expmap-2",)"
-            R"("summary":{"frames":1,"hop_seconds":3.0,"input_frames":0,"max_error_mm":0.0,"mean_error_mm":0.0,)"
+            R"("summary":{"frames":1,"gap_windows_fitted":0,"gaps_fitted":0,"gaps_over_fit_limit":0,)"
+            R"("hop_seconds":3.0,"input_frames":0,"max_error_mm":0.0,"mean_error_mm":0.0,)"
             R"("window_seconds":6.0},"values":[0.5,-1.0],)"
             R"("windows":[{"code":[0.25],"start_frame":1,"start_seconds":0.04}]})");
 }
