@@ -21,14 +21,44 @@ namespace {
 constexpr const char* kJsonType = "application/json";
 constexpr const char* kTextType = "text/plain";
 
+// What the reply's body is, by Accept: the JSON of the proto's messages
+// (the default), motion text, or an animation file (BVH, glTF).
+struct ReplyForm {
+  bool json = true;
+  bool animation = false;
+  AnimationFormat animation_format = AnimationFormat::kBvh;
+};
+
+bool names_text(const std::string& accept) {
+  std::string lower = accept;
+  std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return std::tolower(c); });
+  return lower.find(kTextType) != std::string::npos;
+}
+
+// Decided before the call, so that the frames are gathered once into what
+// writes them, and an Accept never answered is refused before any work.
+ReplyForm reply_form(const httplib::Request& request) {
+  const std::string accept = request.get_header_value("Accept");
+  ReplyForm form;
+  form.animation = names_animation(accept, &form.animation_format);
+  if (form.animation && form.animation_format == AnimationFormat::kFbx) {
+    throw ApiError(ErrorCode::kInvalidArgument, "Accept",
+                   "application/octet-stream (FBX) is read, never written: ask for application/x-bvh, "
+                   "model/gltf-binary, model/gltf+json, text/plain or application/json");
+  }
+  form.json = !form.animation && !names_text(accept);
+  return form;
+}
+
 // A take's reply gathered whole, as REST answers it after the take's end:
-// the messages REST's JSON writes (gathered into them, so that the frames
-// are not copied once more to be written), and the core's summary for the
+// for JSON into the messages its writer reads, otherwise into the frames
+// the text and animation writers read, and the core's summary for the
 // X-Take-* headers.
 struct GatheredTake {
-  ::mm::wire::TakeReply reply;
+  ReplyForm form;
+  ::mm::wire::TakeReply reply;  // the header and the windows always; the frames for JSON
+  MotionFrames frames;          // the frames for text and animation files
   TakeSummaryReply summary;
-  int columns = 0;
 };
 
 // The core's reply gathered into `take`.
@@ -36,12 +66,17 @@ TakeReplySink gathering_sink(GatheredTake& take) {
   TakeReplySink sink;
   sink.on_start = [&take](const TakeReplyStart& start) {
     wire::to_wire(start, &take.reply.header);
-    take.columns = start.columns;
+    take.frames.columns = start.columns;
   };
   sink.on_window = [&take](const TakeWindow& window) { wire::to_wire(window, take.reply.summary.add_windows()); };
   sink.on_frames = [&take](const float* values, const float* error_mm, int64_t count) {
-    take.reply.frames.mutable_values()->Add(values, values + count * take.columns);
-    if (error_mm != nullptr) take.reply.frames.mutable_error_mm()->Add(error_mm, error_mm + count);
+    const int64_t size = count * take.frames.columns;
+    if (take.form.json) {
+      take.reply.frames.mutable_values()->Add(values, values + size);
+      if (error_mm != nullptr) take.reply.frames.mutable_error_mm()->Add(error_mm, error_mm + count);
+    } else {
+      take.frames.values.insert(take.frames.values.end(), values, values + size);
+    }
   };
   return sink;
 }
@@ -51,7 +86,9 @@ TakeReplySink gathering_sink(GatheredTake& take) {
 void finish(GatheredTake& take, const TakeSummaryReply& summary) {
   take.summary = summary;
   wire::to_wire(summary, &take.reply.summary);
-  take.reply.frames.set_frames(take.columns > 0 ? take.reply.frames.values_size() / take.columns : 0);
+  const int columns = take.frames.columns;
+  take.reply.frames.set_frames(take.form.json ? (columns > 0 ? take.reply.frames.values_size() / columns : 0)
+                                              : take.frames.frame_count());
 }
 
 std::string decimal(double value) {
@@ -60,31 +97,14 @@ std::string decimal(double value) {
   return text;
 }
 
-bool names_text(const std::string& accept) {
-  std::string lower = accept;
-  std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return std::tolower(c); });
-  return lower.find(kTextType) != std::string::npos;
-}
-
-// The reply's frames by Accept, with the summary in X-Take-* headers for
-// the formats that have no room for it.
-void send_frames(const GatheredTake& take, const httplib::Request& request, const ModelShape& shape,
-                 httplib::Response& response) {
-  const std::string accept = request.get_header_value("Accept");
+// The reply's frames in the form asked for, with the summary in X-Take-*
+// headers for the forms that have no room for it.
+void send_frames(const GatheredTake& take, const ModelShape& shape, httplib::Response& response) {
   response.status = 200;
-  AnimationFormat reply_format = AnimationFormat::kBvh;
-  const bool animation = names_animation(accept, &reply_format);
-  if (animation && reply_format == AnimationFormat::kFbx) {
-    throw ApiError(ErrorCode::kInvalidArgument, "Accept",
-                   "application/octet-stream (FBX) is read, never written: ask for application/x-bvh, "
-                   "model/gltf-binary, model/gltf+json, text/plain or application/json");
-  }
-  if (!animation && !names_text(accept)) {
+  if (take.form.json) {
     return response.set_content(::mm::wire::body_text(::mm::wire::to_json(take.reply)), kJsonType);
   }
-  MotionFrames frames;
-  frames.columns = take.columns;
-  frames.values.assign(take.reply.frames.values().begin(), take.reply.frames.values().end());
+  const MotionFrames& frames = take.frames;
   response.set_header("X-Take-Frames", std::to_string(frames.frame_count()));
   response.set_header("X-Take-Frame-Rate", decimal(take.reply.header.frame_rate()));
   response.set_header("X-Take-Mean-Error-Mm", decimal(take.summary.mean_error_mm));
@@ -95,13 +115,13 @@ void send_frames(const GatheredTake& take, const httplib::Request& request, cons
   response.set_header("X-Take-Gap-Windows-Fitted", std::to_string(take.summary.gap_windows_fitted));
   response.set_header("X-Take-Gaps-Fitted", std::to_string(take.summary.gaps_fitted));
   response.set_header("X-Take-Gaps-Over-Fit-Limit", std::to_string(take.summary.gaps_over_fit_limit));
-  if (animation) {
+  if (take.form.animation) {
     try {
       return response.set_content(
           write_animation_file(skeleton_motion_to_bvh(shape.skeleton, bvh_layout_of(shape.skeleton), frames,
                                                       take.reply.header.frame_rate()),
-                               reply_format, bvh_layout_of(shape.skeleton).millimetres_per_unit),
-          animation_format_media_type(reply_format));
+                               take.form.animation_format, bvh_layout_of(shape.skeleton).millimetres_per_unit),
+          animation_format_media_type(take.form.animation_format));
     } catch (const InputError& error) {
       throw ApiError(ErrorCode::kInternal, "", std::string("the reply cannot be written as BVH: ") + error.what());
     }
@@ -139,10 +159,11 @@ void answer_take(ManifoldCore& core, RouteId route, const CallContext& context, 
   GatheredTake take;
   const auto send = [&](const TakeSummaryReply& summary, const ModelShape& shape) {
     finish(take, summary);
-    send_frames(take, request, shape, response);
+    send_frames(take, shape, response);
   };
   if (route == RouteId::kDecodeTrack) {
     const DecodeTrackRequest track = decode_track_request_from_json(body);
+    take.form = reply_form(request);
     ShapedTranslation<DecodeTrackRequest, TakeSummaryReply> translation;
     translation.write = send;
     core.decode_track(context, track, gathering_sink(take), translation);
@@ -172,6 +193,7 @@ void answer_take(ManifoldCore& core, RouteId route, const CallContext& context, 
                    "a take named by path= has an empty body, found " + std::to_string(body.size()) + " bytes");
   }
   if (kind == TakeKind::kEncode) {
+    // The code track is JSON whatever Accept says.
     const TakeSummaryReply summary =
         core.run_take(context, kind, take_request, TakeChunkReader(), gathering_sink(take), translation);
     ::motionmanifold::v1::CodeTrack track;
@@ -181,6 +203,7 @@ void answer_take(ManifoldCore& core, RouteId route, const CallContext& context, 
     response.status = 200;
     return response.set_content(::mm::wire::body_text(::mm::wire::to_json(track)), kJsonType);
   }
+  take.form = reply_form(request);
   translation.write = send;
   core.run_take(context, kind, take_request, TakeChunkReader(), gathering_sink(take), translation);
 }
