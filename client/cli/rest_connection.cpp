@@ -92,6 +92,7 @@ std::string take_query(const v1::TakeHeader& h, bool bvh) {
   if (h.means_are_missing()) add("means_are_missing", "true");
   if (h.iterations() > 0) add("iterations", std::to_string(h.iterations()));
   if (h.keep_observed()) add("keep_observed", "true");
+  if (!h.gap_fill().empty()) add("gap_fill", h.gap_fill());
   if (!h.root().empty()) add("root", h.root());
   return query;
 }
@@ -117,6 +118,14 @@ v1::TakeSummary pass_on_whole_file(const httplib::Response& response, int64_t in
   summary.set_input_frames(input_frames);
   summary.set_mean_error_mm(number("X-Take-Mean-Error-Mm"));
   summary.set_max_error_mm(number("X-Take-Max-Error-Mm"));
+  // The gap fill's counts: absent (0) from a server older than them.
+  const auto count = [&response](const char* name) {
+    const std::string value = response.get_header_value(name);
+    return value.empty() ? 0 : std::stoi(value);
+  };
+  summary.set_gap_windows_fitted(count("X-Take-Gap-Windows-Fitted"));
+  summary.set_gaps_fitted(count("X-Take-Gaps-Fitted"));
+  summary.set_gaps_over_fit_limit(count("X-Take-Gaps-Over-Fit-Limit"));
   sink.whole_file(response.body, summary.frames(), number("X-Take-Frame-Rate"),
                   static_cast<int64_t>(number("X-Take-Windows")));
   return summary;

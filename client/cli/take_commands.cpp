@@ -30,7 +30,7 @@ namespace {
 const std::map<std::string, std::string> kTakeOptionOfField = {
     {"hop_seconds", "--hop"}, {"frame_rate", "--rate"}, {"frames", "--frames"},     {"decoder", "--decoder"},
     {"blend", "--blend"},     {"root", "--root"},       {"model", "--model"},       {"iterations", "--iterations"},
-    {"at_model_rate", "--at-model-rate"}};
+    {"at_model_rate", "--at-model-rate"}, {"gap_fill", "--gap-fill"}};
 
 // Runs a command's body; a server's refusal that names a request field an
 // option sets is re-thrown naming that option instead.
@@ -53,6 +53,7 @@ struct TakeOptions {
   // denoise
   bool zeros_are_missing = false, means_are_missing = false, keep_observed = false;
   int iterations = 0;
+  std::string gap_fill;  // empty: the server's default, "fitted"
 
   void add_to(CLI::App* command, bool transforms) {
     command->add_option("--input,--in", input.path, "take file: .txt (exponential-map text of the model's layout) or "
@@ -82,14 +83,17 @@ struct TakeOptions {
     header.set_means_are_missing(means_are_missing);
     header.set_iterations(iterations);
     header.set_keep_observed(keep_observed);
+    header.set_gap_fill(gap_fill);
     header.set_root(root);
   }
 };
 
 // What a take's reply was, on stdout: a line, or with --json the reply
-// without its frames (the REST reply's other fields).
+// without its frames (the REST reply's other fields). `gap_counts`: a
+// denoise keeping the observed values, whose line also says how its gaps
+// were filled.
 void report(const ClientSettings& settings, const std::string& out, const TakeFileWriter& written,
-            const v1::TakeSummary& summary) {
+            const v1::TakeSummary& summary, bool gap_counts = false) {
   if (settings.json) {
     auto reply = to_json(summary);
     reply["frame_rate"] = shown_frame_rate(written.frame_rate());
@@ -97,11 +101,15 @@ void report(const ClientSettings& settings, const std::string& out, const TakeFi
     print_json(reply);
   } else if (out != "-") {
     std::printf("%s: %" PRId64 " frames at %g Hz from %" PRId64 " input frames, %d windows, error mean %.2f mm, "
-                "max %.2f mm\n",
+                "max %.2f mm%s\n",
                 out.c_str(), written.frames(), shown_frame_rate(written.frame_rate()),
                 static_cast<int64_t>(summary.input_frames()),
                 static_cast<int>(written.windows() >= 0 ? written.windows() : summary.windows_size()),
-                summary.mean_error_mm(), summary.max_error_mm());
+                summary.mean_error_mm(), summary.max_error_mm(), gap_counts ? "," : "");
+    if (gap_counts) {
+      std::printf("  gaps: %d fitted in %d windows, %d over the server's fit limit (filled as matched)\n",
+                  summary.gaps_fitted(), summary.gap_windows_fitted(), summary.gaps_over_fit_limit());
+    }
   }
 }
 
@@ -150,6 +158,9 @@ void add_take_transform(CLI::App* take, const ClientSettings& settings, Action& 
     command->add_flag("--means-are-missing", o->means_are_missing, "a value equal to its training mean is missing");
     command->add_option("--iterations", o->iterations, "rounds of projecting and refilling (0: four)");
     command->add_flag("--keep-observed", o->keep_observed, "fill only the missing values");
+    command->add_option("--gap-fill", o->gap_fill,
+                        "with --keep-observed, how a gap is filled: fitted (default: a code fitted to a 6 s window "
+                        "around each gap of 0.6 s or more), matched, cubic, slerp, hold or manifold");
   }
   command->callback([o, operation, denoise, &settings, &action] {
     action = [o, operation, denoise, &settings] { return naming_options([&] {
@@ -170,7 +181,7 @@ void add_take_transform(CLI::App* take, const ClientSettings& settings, Action& 
       const v1::TakeSummary summary = server->transform_take(operation, take, writer);
       progress.finish();
       writer.finish();
-      report(settings, o->out, writer, summary);
+      report(settings, o->out, writer, summary, denoise && o->keep_observed);
       return kExitSuccess;
     }); };
   });

@@ -342,16 +342,21 @@ class Client:
         return assemble_take_reply(self._stream(replies, local_failure))
 
     def denoise_take(self, take, frame_rate=None, hop=0.0, blend="", decoder="", at_model_rate=False, root="",
-                     zeros_are_missing=False, means_are_missing=False, iterations=0, keep_observed=False, model="",
-                     timeout=None):
+                     zeros_are_missing=False, means_are_missing=False, iterations=0, keep_observed=False,
+                     gap_fill="", model="", timeout=None):
         """The take projected onto the manifold window by window, NaN values
-        filled (keep_observed: only those): TakeResult."""
+        filled (keep_observed: only those): TakeResult. With keep_observed,
+        gap_fill says how a gap is filled: "fitted" ("" means this: a code
+        fitted to a 6 s window around each gap of 0.6 s or more), "matched",
+        "cubic", "slerp", "hold" or "manifold"; the result's
+        gap_windows_fitted, gaps_fitted and gaps_over_fit_limit count the
+        fitted fill's work."""
         replies, local_failure = self._take(self.stub.DenoiseTake, take, frame_rate, model, timeout,
                                             hop_seconds=hop, blend=blend, decoder=decoder,
                                             at_model_rate=at_model_rate, root=root,
                                             zeros_are_missing=zeros_are_missing,
                                             means_are_missing=means_are_missing, iterations=iterations,
-                                            keep_observed=keep_observed)
+                                            keep_observed=keep_observed, gap_fill=gap_fill)
         return assemble_take_reply(self._stream(replies, local_failure))
 
     def decode_track(self, track, frame_rate=0.0, frames=0, decoder="", blend="", model="", timeout=None):

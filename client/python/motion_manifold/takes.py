@@ -54,7 +54,10 @@ class TakeResult:
     """A take's reply: the motion (at the take's rate and length, or 25 Hz with
     at_model_rate), each frame's error in mm (empty for decode_track), the
     summary (frames, input frames, mean and largest error in mm, window and hop
-    in seconds) and every window's code."""
+    in seconds) and every window's code. For denoise_take with keep_observed
+    and the fitted gap fill: the windows fitted to the take's gaps, the gaps
+    they filled, and the gaps beyond the server's bound of fitted windows
+    (filled as "matched"); 0 otherwise."""
 
     motion: Motion
     error_mm: np.ndarray
@@ -63,6 +66,9 @@ class TakeResult:
     max_error_mm: float
     track: CodeTrack
     answered_by: AnsweredBy
+    gap_windows_fitted: int = 0
+    gaps_fitted: int = 0
+    gaps_over_fit_limit: int = 0
 
 
 def take_requests(header, chunks):
@@ -102,4 +108,5 @@ def assemble_take_reply(replies):
                                    answered_by=answered_by)
     return TakeResult(Motion(frames, header.frame_rate, header.layout),
                       np.concatenate(errors) if errors else np.zeros(0, np.float32), summary.input_frames,
-                      summary.mean_error_mm, summary.max_error_mm, track, answered_by)
+                      summary.mean_error_mm, summary.max_error_mm, track, answered_by,
+                      summary.gap_windows_fitted, summary.gaps_fitted, summary.gaps_over_fit_limit)

@@ -505,6 +505,23 @@ class PythonClientTest(unittest.TestCase):
         observed = ~np.isnan(values)
         np.testing.assert_allclose(result.motion.values[observed], values[observed], atol=1e-6)
 
+    def test_denoise_take_passes_gap_fill_and_counts_the_fitted_gaps(self):
+        # 20 s of walking with every joint missing for 2 s: slerp fills the
+        # gap otherwise than the default, a code fitted to the gap's window,
+        # which the result counts; slerp fits none. A method the server does
+        # not know is refused naming gap_fill.
+        np, mm, grpc = self.np, self.mm, self.grpc
+        values = mm.read_text(self.walk).values[:1000].copy()
+        values[500:600, 3:] = np.nan
+        take = mm.Motion(values, 50)
+        fitted = self.client.denoise_take(take, keep_observed=True)
+        slerped = self.client.denoise_take(take, keep_observed=True, gap_fill="slerp")
+        self.assertGreater(np.max(np.abs(fitted.motion.values[500:600] - slerped.motion.values[500:600])), 0.05)
+        self.assertEqual((fitted.gap_windows_fitted, fitted.gaps_fitted, fitted.gaps_over_fit_limit), (1, 1, 0))
+        self.assertEqual((slerped.gap_windows_fitted, slerped.gaps_fitted, slerped.gaps_over_fit_limit), (0, 0, 0))
+        self.assert_refused(lambda: self.client.denoise_take(take, keep_observed=True, gap_fill="spline"),
+                            grpc.StatusCode.INVALID_ARGUMENT, "gap_fill")
+
     # --- refusals carry their field
 
     def test_refusals_raise_one_exception_carrying_status_and_field(self):
