@@ -1,4 +1,4 @@
-#include "clip_sampler.h"
+#include "model/clip_sampler.h"
 
 #include <algorithm>
 #include <cstring>

@@ -1,11 +1,11 @@
-#include "clip_transition.h"
+#include "model/clip_transition.h"
 
 #include <cmath>
 #include <limits>
 
 #include "format/expmap_slerp.h"
 #include "format/input_error.h"
-#include "take_windows.h"
+#include "model/take_windows.h"
 
 namespace mm {
 

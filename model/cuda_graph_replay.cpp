@@ -1,4 +1,4 @@
-#include "cuda_graph_replay.h"
+#include "model/cuda_graph_replay.h"
 
 #include <atomic>
 

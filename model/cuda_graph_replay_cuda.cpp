@@ -11,7 +11,7 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "cuda_graph_replay.h"
+#include "model/cuda_graph_replay.h"
 
 namespace mm {
 namespace {

@@ -1,6 +1,6 @@
 // The capture of cuda_graph_replay.h for a LibTorch without CUDA: no tensor
 // is ever on CUDA there, so this is never reached; it runs the body.
-#include "cuda_graph_replay.h"
+#include "model/cuda_graph_replay.h"
 
 namespace mm::detail {
 

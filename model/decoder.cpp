@@ -1,11 +1,11 @@
-#include "decoder.h"
+#include "model/decoder.h"
 
 #include <c10/core/InferenceMode.h>
 
 #include "format/input_error.h"
-#include "gru_inference.h"
-#include "gru_recurrence.h"
-#include "packed_linear.h"
+#include "model/gru_inference.h"
+#include "model/gru_recurrence.h"
+#include "model/packed_linear.h"
 
 namespace mm {
 

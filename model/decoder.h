@@ -17,7 +17,7 @@
 #include <memory>
 #include <vector>
 
-#include "inference_precision.h"
+#include "model/inference_precision.h"
 
 namespace mm {
 

@@ -1,4 +1,4 @@
-#include "discriminator.h"
+#include "model/discriminator.h"
 
 #include <ATen/ATen.h>
 

@@ -1,9 +1,9 @@
-#include "encoder.h"
+#include "model/encoder.h"
 
 #include <c10/core/InferenceMode.h>
 
-#include "gru_inference.h"
-#include "packed_linear.h"
+#include "model/gru_inference.h"
+#include "model/packed_linear.h"
 
 namespace mm {
 

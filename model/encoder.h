@@ -12,8 +12,8 @@
 
 #include <memory>
 
-#include "gru_recurrence.h"
-#include "inference_precision.h"
+#include "model/gru_recurrence.h"
+#include "model/inference_precision.h"
 
 namespace mm {
 

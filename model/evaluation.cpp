@@ -1,4 +1,4 @@
-#include "evaluation.h"
+#include "model/evaluation.h"
 
 #include <algorithm>
 #include <c10/core/InferenceMode.h>
@@ -11,11 +11,11 @@
 #include <random>
 #include <set>
 
-#include "clip_sampler.h"
 #include "format/input_error.h"
-#include "latent_operations.h"
-#include "losses.h"
-#include "rotation.h"
+#include "model/clip_sampler.h"
+#include "model/latent_operations.h"
+#include "model/losses.h"
+#include "model/rotation.h"
 
 namespace mm {
 namespace {

@@ -10,8 +10,8 @@
 #include <vector>
 
 #include "format/prepared_dataset.h"
-#include "motion_manifold.h"
-#include "paper_units.h"
+#include "model/motion_manifold.h"
+#include "model/paper_units.h"
 
 namespace mm {
 

@@ -1,9 +1,9 @@
-#include "forward_kinematics.h"
+#include "model/forward_kinematics.h"
 
 #include <string>
 
 #include "format/input_error.h"
-#include "rotation.h"
+#include "model/rotation.h"
 
 namespace mm {
 

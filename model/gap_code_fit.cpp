@@ -1,4 +1,4 @@
-#include "gap_code_fit.h"
+#include "model/gap_code_fit.h"
 
 #include <c10/core/InferenceMode.h>
 #include <torch/csrc/autograd/autograd.h>
@@ -9,10 +9,10 @@
 #include <vector>
 
 #include "format/input_error.h"
-#include "gap_interpolation.h"
-#include "gru_recurrence.h"
-#include "latent_operations.h"
-#include "take_windows.h"
+#include "model/gap_interpolation.h"
+#include "model/gru_recurrence.h"
+#include "model/latent_operations.h"
+#include "model/take_windows.h"
 
 namespace mm {
 namespace {

@@ -27,7 +27,7 @@
 #include <vector>
 
 #include "format/motion_text.h"
-#include "motion_manifold.h"
+#include "model/motion_manifold.h"
 
 namespace mm {
 

@@ -1,4 +1,4 @@
-#include "gap_evaluation.h"
+#include "model/gap_evaluation.h"
 
 #include <algorithm>
 #include <array>
@@ -12,9 +12,9 @@
 
 #include "format/foot_contacts.h"
 #include "format/input_error.h"
-#include "gap_code_fit.h"
-#include "take_processor.h"
-#include "take_windows.h"
+#include "model/gap_code_fit.h"
+#include "model/take_processor.h"
+#include "model/take_windows.h"
 
 namespace mm {
 namespace {

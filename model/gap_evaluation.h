@@ -30,9 +30,9 @@
 #include <vector>
 
 #include "format/motion_text.h"
-#include "gap_code_fit.h"
-#include "gap_interpolation.h"
-#include "motion_manifold.h"
+#include "model/gap_code_fit.h"
+#include "model/gap_interpolation.h"
+#include "model/motion_manifold.h"
 
 namespace mm {
 

@@ -1,4 +1,4 @@
-#include "gap_interpolation.h"
+#include "model/gap_interpolation.h"
 
 #include <algorithm>
 #include <cmath>

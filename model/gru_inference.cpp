@@ -1,4 +1,4 @@
-#include "gru_inference.h"
+#include "model/gru_inference.h"
 
 #include <ATen/Parallel.h>
 
@@ -8,7 +8,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "vector_clones.h"
+#include "model/vector_clones.h"
 
 namespace mm {
 

@@ -1,4 +1,4 @@
-#include "gru_recurrence.h"
+#include "model/gru_recurrence.h"
 
 #include <torch/csrc/autograd/custom_function.h>
 
@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "cuda_graph_replay.h"
+#include "model/cuda_graph_replay.h"
 
 namespace mm {
 namespace {

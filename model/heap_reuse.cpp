@@ -1,4 +1,4 @@
-#include "heap_reuse.h"
+#include "model/heap_reuse.h"
 
 #include <climits>  // also defines __GLIBC__ where glibc is the C library
 

@@ -1,4 +1,4 @@
-#include "inference_precision.h"
+#include "model/inference_precision.h"
 
 #include "format/input_error.h"
 

@@ -1,4 +1,4 @@
-#include "latent_operations.h"
+#include "model/latent_operations.h"
 
 #include <ATen/CPUGeneratorImpl.h>
 #include <ATen/Parallel.h>

@@ -6,7 +6,7 @@
 
 #include <ATen/ATen.h>
 
-#include "training_config.h"
+#include "model/training_config.h"
 
 namespace mm {
 

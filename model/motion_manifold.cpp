@@ -1,4 +1,4 @@
-#include "motion_manifold.h"
+#include "model/motion_manifold.h"
 
 #include <torch/serialize/input-archive.h>
 #include <torch/serialize/output-archive.h>

@@ -12,14 +12,14 @@
 #include <optional>
 #include <string>
 
-#include "decoder.h"
-#include "discriminator.h"
-#include "encoder.h"
 #include "format/pose_normalization.h"
 #include "format/skeleton.h"
-#include "forward_kinematics.h"
-#include "root_trajectory.h"
-#include "training_config.h"
+#include "model/decoder.h"
+#include "model/discriminator.h"
+#include "model/encoder.h"
+#include "model/forward_kinematics.h"
+#include "model/root_trajectory.h"
+#include "model/training_config.h"
 
 namespace mm {
 

@@ -1,4 +1,4 @@
-#include "packed_linear.h"
+#include "model/packed_linear.h"
 
 #include <ATen/Parallel.h>
 
@@ -12,8 +12,8 @@
 #include <vector>
 
 #include "format/input_error.h"
-#include "gru_inference.h"
-#include "vector_clones.h"
+#include "model/gru_inference.h"
+#include "model/vector_clones.h"
 
 #ifdef MM_HAVE_ONEDNN
 #include <omp.h>

@@ -15,7 +15,7 @@
 
 #include <memory>
 
-#include "inference_precision.h"
+#include "model/inference_precision.h"
 
 namespace mm {
 

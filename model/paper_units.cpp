@@ -1,4 +1,4 @@
-#include "paper_units.h"
+#include "model/paper_units.h"
 
 #include <c10/core/InferenceMode.h>
 

@@ -33,7 +33,7 @@
 #include <vector>
 
 #include "format/prepared_dataset.h"
-#include "motion_manifold.h"
+#include "model/motion_manifold.h"
 
 namespace mm {
 

@@ -1,4 +1,4 @@
-#include "root_trajectory.h"
+#include "model/root_trajectory.h"
 
 #include <ATen/Parallel.h>
 #include <c10/core/InferenceMode.h>
@@ -8,11 +8,11 @@
 #include <cstring>
 #include <nlohmann/json.hpp>
 
-#include "format/root_path.h"
 #include "format/foot_contacts.h"
 #include "format/input_error.h"
 #include "format/json_text.h"
-#include "motion_manifold.h"
+#include "format/root_path.h"
+#include "model/motion_manifold.h"
 
 namespace mm {
 

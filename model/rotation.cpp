@@ -1,4 +1,4 @@
-#include "rotation.h"
+#include "model/rotation.h"
 
 namespace mm {
 namespace {

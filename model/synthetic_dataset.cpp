@@ -1,4 +1,4 @@
-#include "synthetic_dataset.h"
+#include "model/synthetic_dataset.h"
 
 #include <random>
 #include <vector>

@@ -1,4 +1,4 @@
-#include "take_assembly.h"
+#include "model/take_assembly.h"
 
 #include <algorithm>
 

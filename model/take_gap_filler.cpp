@@ -1,4 +1,4 @@
-#include "take_gap_filler.h"
+#include "model/take_gap_filler.h"
 
 #include <algorithm>
 #include <cstring>

@@ -16,7 +16,7 @@
 #include <cstdint>
 
 #include "format/motion_text.h"
-#include "gap_interpolation.h"
+#include "model/gap_interpolation.h"
 
 namespace mm {
 

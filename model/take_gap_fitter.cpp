@@ -1,10 +1,10 @@
-#include "take_gap_fitter.h"
+#include "model/take_gap_fitter.h"
 
 #include <algorithm>
 #include <cmath>
 #include <cstring>
 
-#include "take_windows.h"
+#include "model/take_windows.h"
 
 namespace mm {
 namespace {

@@ -29,7 +29,7 @@
 #include <vector>
 
 #include "format/motion_text.h"
-#include "gap_code_fit.h"
+#include "model/gap_code_fit.h"
 
 namespace mm {
 

@@ -1,4 +1,4 @@
-#include "take_processor.h"
+#include "model/take_processor.h"
 
 #include "format/foot_contacts.h"
 #include "format/root_path.h"
@@ -15,8 +15,8 @@
 
 #include "format/input_error.h"
 #include "format/motion_resampling.h"
-#include "take_gap_filler.h"
-#include "take_gap_fitter.h"
+#include "model/take_gap_filler.h"
+#include "model/take_gap_fitter.h"
 
 namespace mm {
 namespace {

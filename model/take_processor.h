@@ -38,12 +38,12 @@
 #include <vector>
 
 #include "format/motion_text.h"
-#include "gap_code_fit.h"
-#include "gap_interpolation.h"
-#include "latent_operations.h"
-#include "motion_manifold.h"
-#include "take_assembly.h"
-#include "take_windows.h"
+#include "model/gap_code_fit.h"
+#include "model/gap_interpolation.h"
+#include "model/latent_operations.h"
+#include "model/motion_manifold.h"
+#include "model/take_assembly.h"
+#include "model/take_windows.h"
 
 namespace mm {
 

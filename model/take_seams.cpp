@@ -1,12 +1,12 @@
-#include "take_seams.h"
+#include "model/take_seams.h"
 
 #include <torch/torch.h>
 
 #include <algorithm>
 #include <cmath>
 
-#include "take_processor.h"
-#include "take_windows.h"
+#include "model/take_processor.h"
+#include "model/take_windows.h"
 
 namespace mm {
 namespace {

@@ -25,8 +25,8 @@
 #include <vector>
 
 #include "format/motion_text.h"
-#include "motion_manifold.h"
-#include "take_assembly.h"
+#include "model/motion_manifold.h"
+#include "model/take_assembly.h"
 
 namespace mm {
 

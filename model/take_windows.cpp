@@ -1,4 +1,4 @@
-#include "take_windows.h"
+#include "model/take_windows.h"
 
 #include <cmath>
 #include <cstdio>

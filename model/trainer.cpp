@@ -1,4 +1,4 @@
-#include "trainer.h"
+#include "model/trainer.h"
 
 #include <ATen/CPUGeneratorImpl.h>
 #include <torch/optim/adam.h>
@@ -13,10 +13,10 @@
 #include <sstream>
 
 #include "format/atomic_file.h"
-#include "clip_sampler.h"
 #include "format/input_error.h"
-#include "losses.h"
-#include "paper_units.h"
+#include "model/clip_sampler.h"
+#include "model/losses.h"
+#include "model/paper_units.h"
 
 namespace mm {
 

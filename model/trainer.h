@@ -17,8 +17,8 @@
 #include <string>
 
 #include "format/prepared_dataset.h"
-#include "motion_manifold.h"
-#include "training_config.h"
+#include "model/motion_manifold.h"
+#include "model/training_config.h"
 
 namespace mm {
 

@@ -1,4 +1,4 @@
-#include "training_config.h"
+#include "model/training_config.h"
 
 #include <fstream>
 #include <nlohmann/json.hpp>

@@ -1,4 +1,4 @@
-#include "trajectory_evaluation.h"
+#include "model/trajectory_evaluation.h"
 
 #include <cmath>
 

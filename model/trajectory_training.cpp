@@ -1,4 +1,4 @@
-#include "trajectory_training.h"
+#include "model/trajectory_training.h"
 
 #include <ATen/CPUGeneratorImpl.h>
 #include <c10/core/InferenceMode.h>

@@ -18,8 +18,8 @@
 #include <vector>
 
 #include "format/motion_text.h"
-#include "motion_manifold.h"
-#include "root_trajectory.h"
+#include "model/motion_manifold.h"
+#include "model/root_trajectory.h"
 
 namespace mm {
 

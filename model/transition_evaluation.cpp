@@ -1,4 +1,4 @@
-#include "transition_evaluation.h"
+#include "model/transition_evaluation.h"
 
 #include <algorithm>
 #include <array>
@@ -10,8 +10,8 @@
 
 #include "format/foot_contacts.h"
 #include "format/input_error.h"
-#include "take_processor.h"
-#include "take_windows.h"
+#include "model/take_processor.h"
+#include "model/take_windows.h"
 
 namespace mm {
 namespace {

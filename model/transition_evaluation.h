@@ -18,8 +18,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "clip_transition.h"
-#include "gap_evaluation.h"
+#include "model/clip_transition.h"
+#include "model/gap_evaluation.h"
 
 namespace mm {
 

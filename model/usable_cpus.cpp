@@ -1,4 +1,4 @@
-#include "usable_cpus.h"
+#include "model/usable_cpus.h"
 
 #include <sched.h>
 

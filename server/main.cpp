@@ -16,13 +16,13 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 
-#include "core/caller_identity.h"
-#include "core/manifold_core.h"
-#include "core/service_metrics.h"
-#include "grpc/grpc_frontend.h"
-#include "jobs/training_jobs.h"
-#include "rest/rest_frontend.h"
-#include "server_config.h"
+#include "server/core/caller_identity.h"
+#include "server/core/manifold_core.h"
+#include "server/core/service_metrics.h"
+#include "server/grpc/grpc_frontend.h"
+#include "server/jobs/training_jobs.h"
+#include "server/rest/rest_frontend.h"
+#include "server/server_config.h"
 
 namespace {
 

@@ -1,4 +1,4 @@
-#include "server_config.h"
+#include "server/server_config.h"
 
 #include <CLI/CLI.hpp>
 #include <filesystem>
@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "format/input_error.h"
-#include "jobs/job_spec_check.h"
+#include "server/jobs/job_spec_check.h"
 
 namespace mm::service {
 namespace {

@@ -6,10 +6,10 @@
 
 #include <string>
 
-#include "core/manifold_core.h"
-#include "grpc/grpc_frontend.h"
-#include "jobs/training_jobs.h"
-#include "rest/rest_frontend.h"
+#include "server/core/manifold_core.h"
+#include "server/grpc/grpc_frontend.h"
+#include "server/jobs/training_jobs.h"
+#include "server/rest/rest_frontend.h"
 
 namespace mm::service {
 

@@ -8,13 +8,13 @@
 #include <filesystem>
 #include <memory>
 
-#include "commands.h"
+#include "client/cli/commands.h"
+#include "client/cli/motion_io.h"
+#include "client/cli/server_connection.h"
+#include "client/cli/server_error.h"
+#include "client/cli/take_progress.h"
 #include "format/atomic_file.h"
 #include "format/input_error.h"
-#include "motion_io.h"
-#include "server_connection.h"
-#include "server_error.h"
-#include "take_progress.h"
 #include "wire/rest_json.h"
 
 namespace mm::client {

@@ -8,7 +8,7 @@
 #include <functional>
 #include <nlohmann/json.hpp>
 
-#include "connection_options.h"
+#include "client/cli/connection_options.h"
 #include "wire/rest_json.h"
 
 namespace CLI {

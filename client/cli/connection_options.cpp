@@ -1,4 +1,4 @@
-#include "connection_options.h"
+#include "client/cli/connection_options.h"
 
 #include <CLI/CLI.hpp>
 

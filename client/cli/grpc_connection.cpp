@@ -9,10 +9,10 @@
 #include <sstream>
 #include <thread>
 
+#include "client/cli/server_connection.h"
+#include "client/cli/server_error.h"
 #include "format/input_error.h"
 #include "motionmanifold/v1/manifold.grpc.pb.h"
-#include "server_connection.h"
-#include "server_error.h"
 #include "wire/bearer_token.h"
 
 namespace mm::client {

@@ -6,11 +6,11 @@
 #include <cstdio>
 #include <memory>
 
-#include "commands.h"
+#include "client/cli/commands.h"
+#include "client/cli/motion_io.h"
+#include "client/cli/server_connection.h"
+#include "client/cli/server_error.h"
 #include "format/input_error.h"
-#include "motion_io.h"
-#include "server_connection.h"
-#include "server_error.h"
 #include "wire/rest_json.h"
 
 namespace mm::client {

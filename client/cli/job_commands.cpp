@@ -7,12 +7,12 @@
 #include <memory>
 #include <sstream>
 
-#include "commands.h"
+#include "client/cli/commands.h"
+#include "client/cli/job_watch.h"
+#include "client/cli/progress_display.h"
+#include "client/cli/server_connection.h"
+#include "client/cli/server_error.h"
 #include "format/input_error.h"
-#include "job_watch.h"
-#include "progress_display.h"
-#include "server_connection.h"
-#include "server_error.h"
 #include "wire/rest_json.h"
 
 namespace mm::client {

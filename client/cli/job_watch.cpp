@@ -1,10 +1,10 @@
-#include "job_watch.h"
+#include "client/cli/job_watch.h"
 
 #include <algorithm>
 #include <chrono>
 #include <thread>
 
-#include "server_error.h"
+#include "client/cli/server_error.h"
 
 namespace mm::client {
 

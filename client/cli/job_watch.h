@@ -8,7 +8,7 @@
 #include <memory>
 #include <string>
 
-#include "server_connection.h"
+#include "client/cli/server_connection.h"
 
 namespace mm::client {
 

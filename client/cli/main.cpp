@@ -1,15 +1,15 @@
 // motion-manifold-client: the Motion Manifold service from the command line,
 // over gRPC (or REST with --rest). Links no LibTorch: motions are read and
-// written by the torch-free model/format library, all computing is the
+// written by the torch-free format library, all computing is the
 // server's.
 #include <CLI/CLI.hpp>
 #include <csignal>
 #include <cstdio>
 #include <iostream>
 
-#include "commands.h"
+#include "client/cli/commands.h"
+#include "client/cli/server_error.h"
 #include "format/input_error.h"
-#include "server_error.h"
 
 namespace mm::client {
 

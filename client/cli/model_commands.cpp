@@ -3,9 +3,9 @@
 #include <cstdio>
 #include <memory>
 
-#include "commands.h"
-#include "server_connection.h"
-#include "server_error.h"
+#include "client/cli/commands.h"
+#include "client/cli/server_connection.h"
+#include "client/cli/server_error.h"
 #include "wire/rest_json.h"
 
 namespace mm::client {

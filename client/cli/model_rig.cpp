@@ -1,8 +1,8 @@
-#include "model_rig.h"
+#include "client/cli/model_rig.h"
 
+#include "client/cli/server_error.h"
 #include "format/input_error.h"
 #include "format/skeleton_bvh.h"
-#include "server_error.h"
 
 namespace mm::client {
 

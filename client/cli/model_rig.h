@@ -9,8 +9,8 @@
 #include <map>
 #include <string>
 
+#include "client/cli/server_connection.h"
 #include "format/skeleton.h"
-#include "server_connection.h"
 
 namespace mm::client {
 

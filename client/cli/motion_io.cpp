@@ -1,4 +1,4 @@
-#include "motion_io.h"
+#include "client/cli/motion_io.h"
 
 #include <algorithm>
 #include <cstdio>

@@ -1,8 +1,8 @@
 // Motion files on the client's side, the reader and writer picked by the
 // file's extension: ".txt" is exponential-map text of the model's layout
-// (model/format's motion_text: 99 values a line for H3.6M); ".bvh" a BVH of
+// (format's motion_text: 99 values a line for H3.6M); ".bvh" a BVH of
 // the model's skeleton, H3.6M's or a rig learnt from BVH files
-// (model/format's skeleton_bvh, as the server's REST frontend converts it);
+// (format's skeleton_bvh, as the server's REST frontend converts it);
 // "-" is text on standard input or output. The model's layout and skeleton
 // come from the server (model_rig.h). Inputs are brought to the models'
 // 25 Hz and cut to one clip, as the motion-manifold tool does
@@ -12,8 +12,8 @@
 #include <string>
 #include <vector>
 
+#include "client/cli/model_rig.h"
 #include "format/motion_text.h"
-#include "model_rig.h"
 #include "motionmanifold/v1/manifold.pb.h"
 
 namespace mm::client {

@@ -1,4 +1,4 @@
-#include "progress_display.h"
+#include "client/cli/progress_display.h"
 
 #include <cmath>
 #include <map>

@@ -3,9 +3,9 @@
 // JSON error body, WatchJob as the job's Server-Sent Events.
 #include <httplib.h>
 
+#include "client/cli/server_connection.h"
+#include "client/cli/server_error.h"
 #include "format/input_error.h"
-#include "server_connection.h"
-#include "server_error.h"
 #include "wire/bearer_token.h"
 #include "wire/rest_error.h"
 #include "wire/rest_json.h"

@@ -1,4 +1,4 @@
-#include "server_connection.h"
+#include "client/cli/server_connection.h"
 
 namespace mm::client {
 

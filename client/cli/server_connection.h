@@ -10,7 +10,7 @@
 #include <memory>
 #include <string>
 
-#include "connection_options.h"
+#include "client/cli/connection_options.h"
 #include "format/motion_text.h"
 #include "motionmanifold/v1/manifold.pb.h"
 

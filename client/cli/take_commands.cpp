@@ -10,13 +10,13 @@
 #include <map>
 #include <memory>
 
-#include "commands.h"
+#include "client/cli/commands.h"
+#include "client/cli/frame_rate_text.h"
+#include "client/cli/server_connection.h"
+#include "client/cli/server_error.h"
+#include "client/cli/take_io.h"
+#include "client/cli/take_progress.h"
 #include "format/input_error.h"
-#include "frame_rate_text.h"
-#include "server_connection.h"
-#include "server_error.h"
-#include "take_io.h"
-#include "take_progress.h"
 #include "wire/rest_json.h"
 
 namespace mm::client {

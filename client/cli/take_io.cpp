@@ -1,4 +1,4 @@
-#include "take_io.h"
+#include "client/cli/take_io.h"
 
 #include <unistd.h>
 
@@ -8,12 +8,12 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 
-#include "format/atomic_file.h"
+#include "client/cli/motion_io.h"
 #include "format/animation_file.h"
+#include "format/atomic_file.h"
 #include "format/bvh_file.h"
 #include "format/input_error.h"
 #include "format/skeleton_bvh.h"
-#include "motion_io.h"
 #include "wire/rest_json.h"
 
 namespace mm::client {

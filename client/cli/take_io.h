@@ -12,9 +12,9 @@
 #include <string>
 #include <vector>
 
+#include "client/cli/model_rig.h"
+#include "client/cli/server_connection.h"
 #include "format/skeleton.h"
-#include "model_rig.h"
-#include "server_connection.h"
 
 namespace mm::client {
 

@@ -1,4 +1,4 @@
-#include "take_progress.h"
+#include "client/cli/take_progress.h"
 
 #include <unistd.h>
 

@@ -1,4 +1,4 @@
-#include "call_drivers.h"
+#include "client/load/call_drivers.h"
 
 #include <grpcpp/grpcpp.h>
 #include <httplib.h>

@@ -13,10 +13,10 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
-#include "call_drivers.h"
+#include "client/load/call_drivers.h"
+#include "client/load/latency_stats.h"
 #include "format/input_error.h"
 #include "format/motion_text.h"
-#include "latency_stats.h"
 
 namespace {
 

@@ -1,11 +1,11 @@
-#include "render/error_over_time_svg.h"
+#include "model/render/error_over_time_svg.h"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 
 #include "format/input_error.h"
-#include "render/svg_document.h"
+#include "model/render/svg_document.h"
 
 namespace mm::render {
 namespace {

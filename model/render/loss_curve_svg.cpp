@@ -1,4 +1,4 @@
-#include "render/loss_curve_svg.h"
+#include "model/render/loss_curve_svg.h"
 
 #include <algorithm>
 #include <cerrno>
@@ -9,7 +9,7 @@
 
 #include "format/atomic_file.h"
 #include "format/input_error.h"
-#include "render/svg_document.h"
+#include "model/render/svg_document.h"
 
 namespace mm::render {
 namespace {

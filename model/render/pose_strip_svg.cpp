@@ -1,4 +1,4 @@
-#include "render/pose_strip_svg.h"
+#include "model/render/pose_strip_svg.h"
 
 #include <algorithm>
 #include <cmath>
@@ -6,7 +6,7 @@
 #include <limits>
 
 #include "format/input_error.h"
-#include "render/svg_document.h"
+#include "model/render/svg_document.h"
 
 namespace mm::render {
 namespace {

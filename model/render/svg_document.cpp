@@ -1,4 +1,4 @@
-#include "render/svg_document.h"
+#include "model/render/svg_document.h"
 
 #include <cmath>
 #include <cstdio>

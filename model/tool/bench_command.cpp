@@ -22,21 +22,21 @@
 #include <thread>
 #include <utility>
 
-#include "format/foot_contacts.h"
-#include "latent_operations.h"
-#include "cli_validators.h"
-#include "commands.h"
-#include "cuda_graph_replay.h"
-#include "device_option.h"
-#include "file_arguments.h"
 #include "format/atomic_file.h"
+#include "format/foot_contacts.h"
 #include "format/input_error.h"
-#include "gru_inference.h"
-#include "inference_precision.h"
-#include "operation_count.h"
-#include "packed_linear.h"
-#include "synthetic_dataset.h"
-#include "trainer.h"
+#include "model/cuda_graph_replay.h"
+#include "model/gru_inference.h"
+#include "model/inference_precision.h"
+#include "model/latent_operations.h"
+#include "model/packed_linear.h"
+#include "model/synthetic_dataset.h"
+#include "model/tool/cli_validators.h"
+#include "model/tool/commands.h"
+#include "model/tool/device_option.h"
+#include "model/tool/file_arguments.h"
+#include "model/tool/operation_count.h"
+#include "model/trainer.h"
 
 namespace mm::tool {
 namespace {

@@ -1,4 +1,4 @@
-#include "device_option.h"
+#include "model/tool/device_option.h"
 
 #include <torch/cuda.h>
 

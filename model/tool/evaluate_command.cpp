@@ -5,15 +5,15 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 
-#include "cli_validators.h"
-#include "commands.h"
-#include "device_option.h"
-#include "default_model.h"
-#include "evaluation.h"
-#include "file_arguments.h"
 #include "format/atomic_file.h"
 #include "format/input_error.h"
-#include "precision_option.h"
+#include "model/default_model.h"
+#include "model/evaluation.h"
+#include "model/tool/cli_validators.h"
+#include "model/tool/commands.h"
+#include "model/tool/device_option.h"
+#include "model/tool/file_arguments.h"
+#include "model/tool/precision_option.h"
 
 namespace mm::tool {
 namespace {

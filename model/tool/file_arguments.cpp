@@ -1,4 +1,4 @@
-#include "file_arguments.h"
+#include "model/tool/file_arguments.h"
 
 #include <cerrno>
 #include <cstring>

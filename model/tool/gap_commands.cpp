@@ -10,14 +10,14 @@
 #include <cstdio>
 #include <filesystem>
 
-#include "cli_validators.h"
-#include "commands.h"
-#include "default_model.h"
-#include "file_arguments.h"
 #include "format/atomic_file.h"
-#include "gap_evaluation.h"
-#include "transition_evaluation.h"
-#include "motion_files.h"
+#include "model/default_model.h"
+#include "model/gap_evaluation.h"
+#include "model/tool/cli_validators.h"
+#include "model/tool/commands.h"
+#include "model/tool/file_arguments.h"
+#include "model/tool/motion_files.h"
+#include "model/transition_evaluation.h"
 
 namespace mm::tool {
 namespace {

@@ -13,10 +13,10 @@
 #include <string>
 #include <thread>
 
-#include "commands.h"
 #include "format/input_error.h"
-#include "heap_reuse.h"
-#include "usable_cpus.h"
+#include "model/heap_reuse.h"
+#include "model/tool/commands.h"
+#include "model/usable_cpus.h"
 
 namespace {
 

@@ -10,16 +10,16 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "cli_validators.h"
-#include "commands.h"
-#include "format/root_path.h"
 #include "format/atomic_file.h"
 #include "format/input_error.h"
-#include "default_model.h"
-#include "file_arguments.h"
-#include "latent_operations.h"
-#include "motion_files.h"
-#include "precision_option.h"
+#include "format/root_path.h"
+#include "model/default_model.h"
+#include "model/latent_operations.h"
+#include "model/tool/cli_validators.h"
+#include "model/tool/commands.h"
+#include "model/tool/file_arguments.h"
+#include "model/tool/motion_files.h"
+#include "model/tool/precision_option.h"
 
 namespace mm::tool {
 namespace {

@@ -1,4 +1,4 @@
-#include "motion_files.h"
+#include "model/tool/motion_files.h"
 
 #include <cctype>
 #include <cstdio>
@@ -6,11 +6,11 @@
 #include <sstream>
 #include <system_error>
 
-#include "file_arguments.h"
 #include "format/animation_file.h"
 #include "format/atomic_file.h"
-#include "format/skeleton_bvh.h"
 #include "format/input_error.h"
+#include "format/skeleton_bvh.h"
+#include "model/tool/file_arguments.h"
 
 namespace mm::tool {
 

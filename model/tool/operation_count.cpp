@@ -1,4 +1,4 @@
-#include "operation_count.h"
+#include "model/tool/operation_count.h"
 
 #include <ATen/Parallel.h>
 #include <ATen/record_function.h>

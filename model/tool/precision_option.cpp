@@ -1,4 +1,4 @@
-#include "precision_option.h"
+#include "model/tool/precision_option.h"
 
 #include "format/input_error.h"
 

@@ -8,7 +8,7 @@
 
 #include <string>
 
-#include "motion_manifold.h"
+#include "model/motion_manifold.h"
 
 namespace mm::tool {
 

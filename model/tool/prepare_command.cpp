@@ -8,13 +8,13 @@
 #include <filesystem>
 #include <memory>
 
-#include "commands.h"
-#include "file_arguments.h"
-#include "format/rig_folder_dataset.h"
 #include "format/input_error.h"
 #include "format/prepared_dataset.h"
+#include "format/rig_folder_dataset.h"
 #include "format/skeleton.h"
-#include "trainer.h"
+#include "model/tool/commands.h"
+#include "model/tool/file_arguments.h"
+#include "model/trainer.h"
 
 namespace mm::tool {
 namespace {

@@ -11,17 +11,17 @@
 #include <filesystem>
 #include <memory>
 
-#include "cli_validators.h"
-#include "commands.h"
-#include "file_arguments.h"
 #include "format/atomic_file.h"
 #include "format/bvh_file.h"
 #include "format/input_error.h"
 #include "format/motion_text.h"
-#include "forward_kinematics.h"
-#include "motion_files.h"
-#include "render/loss_curve_svg.h"
-#include "render/pose_strip_svg.h"
+#include "model/forward_kinematics.h"
+#include "model/render/loss_curve_svg.h"
+#include "model/render/pose_strip_svg.h"
+#include "model/tool/cli_validators.h"
+#include "model/tool/commands.h"
+#include "model/tool/file_arguments.h"
+#include "model/tool/motion_files.h"
 
 namespace mm::tool {
 namespace {

@@ -7,18 +7,18 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "commands.h"
-#include "default_model.h"
-#include "file_arguments.h"
 #include "format/bvh_file.h"
 #include "format/input_error.h"
 #include "format/motion_resampling.h"
 #include "format/skeleton_bvh.h"
-#include "motion_files.h"
-#include "precision_option.h"
-#include "take_processor.h"
-#include "take_progress_line.h"
-#include "take_windows.h"
+#include "model/default_model.h"
+#include "model/take_processor.h"
+#include "model/take_windows.h"
+#include "model/tool/commands.h"
+#include "model/tool/file_arguments.h"
+#include "model/tool/motion_files.h"
+#include "model/tool/precision_option.h"
+#include "model/tool/take_progress_line.h"
 
 namespace mm::tool {
 namespace {

@@ -1,4 +1,4 @@
-#include "take_progress_line.h"
+#include "model/tool/take_progress_line.h"
 
 #include <unistd.h>
 

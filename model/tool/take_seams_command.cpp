@@ -8,15 +8,15 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
-#include "cli_validators.h"
-#include "commands.h"
-#include "default_model.h"
-#include "file_arguments.h"
 #include "format/atomic_file.h"
-#include "motion_files.h"
-#include "render/error_over_time_svg.h"
-#include "take_seams.h"
-#include "take_windows.h"
+#include "model/default_model.h"
+#include "model/render/error_over_time_svg.h"
+#include "model/take_seams.h"
+#include "model/take_windows.h"
+#include "model/tool/cli_validators.h"
+#include "model/tool/commands.h"
+#include "model/tool/file_arguments.h"
+#include "model/tool/motion_files.h"
 
 namespace mm::tool {
 namespace {

@@ -15,18 +15,18 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 
-#include "cli_validators.h"
-#include "commands.h"
-#include "cuda_graph_replay.h"
-#include "device_option.h"
-#include "file_arguments.h"
 #include "format/atomic_file.h"
-#include "format/rig_folder_dataset.h"
 #include "format/input_error.h"
-#include "motion_files.h"
-#include "progress_line.h"
-#include "trainer.h"
-#include "trajectory_training.h"
+#include "format/rig_folder_dataset.h"
+#include "model/cuda_graph_replay.h"
+#include "model/tool/cli_validators.h"
+#include "model/tool/commands.h"
+#include "model/tool/device_option.h"
+#include "model/tool/file_arguments.h"
+#include "model/tool/motion_files.h"
+#include "model/tool/progress_line.h"
+#include "model/trainer.h"
+#include "model/trajectory_training.h"
 
 namespace mm::tool {
 namespace {

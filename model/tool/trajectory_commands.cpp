@@ -9,20 +9,20 @@
 #include <map>
 #include <nlohmann/json.hpp>
 
-#include "commands.h"
-#include "default_model.h"
 #include "format/atomic_file.h"
-#include "format/rig_folder_dataset.h"
-#include "format/skeleton_bvh.h"
 #include "format/foot_contacts.h"
 #include "format/h36m_corpus.h"
-#include "format/root_path.h"
 #include "format/input_error.h"
-#include "latent_operations.h"
-#include "render/svg_document.h"
-#include "take_processor.h"
-#include "trajectory_evaluation.h"
-#include "trajectory_training.h"
+#include "format/rig_folder_dataset.h"
+#include "format/root_path.h"
+#include "format/skeleton_bvh.h"
+#include "model/default_model.h"
+#include "model/latent_operations.h"
+#include "model/render/svg_document.h"
+#include "model/take_processor.h"
+#include "model/tool/commands.h"
+#include "model/trajectory_evaluation.h"
+#include "model/trajectory_training.h"
 
 namespace mm::tool {
 namespace {

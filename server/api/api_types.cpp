@@ -1,4 +1,4 @@
-#include "api/api_types.h"
+#include "server/api/api_types.h"
 
 namespace mm::service {
 

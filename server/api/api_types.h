@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "training_config.h"
+#include "model/training_config.h"
 
 namespace mm::service {
 

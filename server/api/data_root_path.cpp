@@ -1,9 +1,9 @@
-#include "api/data_root_path.h"
+#include "server/api/data_root_path.h"
 
 #include <algorithm>
 #include <cstdio>
 
-#include "api/api_types.h"
+#include "server/api/api_types.h"
 
 namespace mm::service {
 

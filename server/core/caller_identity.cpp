@@ -1,4 +1,4 @@
-#include "core/caller_identity.h"
+#include "server/core/caller_identity.h"
 
 #include <arpa/inet.h>
 

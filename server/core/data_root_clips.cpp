@@ -1,4 +1,4 @@
-#include "core/data_root_clips.h"
+#include "server/core/data_root_clips.h"
 
 #include "format/animation_file.h"
 
@@ -21,14 +21,14 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
-#include "api/data_root_path.h"
-#include "format/rig_folder_dataset.h"
 #include "format/bvh_file.h"
 #include "format/input_error.h"
 #include "format/motion_text.h"
 #include "format/motion_text_rows.h"
+#include "format/rig_folder_dataset.h"
 #include "format/skeleton_bvh.h"
-#include "jobs/upload_reservations.h"
+#include "server/api/data_root_path.h"
+#include "server/jobs/upload_reservations.h"
 
 namespace mm::service {
 namespace {

@@ -25,8 +25,8 @@
 #include <string>
 #include <vector>
 
-#include "api/api_types.h"
-#include "core/motion_conversion.h"
+#include "server/api/api_types.h"
+#include "server/core/motion_conversion.h"
 
 namespace mm::service {
 

@@ -1,14 +1,14 @@
-#include "core/inference_executor.h"
+#include "server/core/inference_executor.h"
 
 #include <ATen/Parallel.h>
 
 #include <chrono>
 #include <future>
 
-#include "core/manifold_core.h"
-#include "core/service_metrics.h"
-#include "latent_operations.h"
-#include "usable_cpus.h"
+#include "model/latent_operations.h"
+#include "model/usable_cpus.h"
+#include "server/core/manifold_core.h"
+#include "server/core/service_metrics.h"
 
 #include <spdlog/spdlog.h>
 

@@ -29,8 +29,8 @@
 #include <thread>
 #include <vector>
 
-#include "core/model_store.h"
-#include "core/thread_count_tuner.h"
+#include "server/core/model_store.h"
+#include "server/core/thread_count_tuner.h"
 
 namespace mm::service {
 

@@ -1,4 +1,4 @@
-#include "core/manifold_core.h"
+#include "server/core/manifold_core.h"
 
 #include <spdlog/spdlog.h>
 
@@ -12,19 +12,19 @@
 #include <optional>
 #include <thread>
 
-#include "core/caller_identity.h"
-#include "core/data_root_clips.h"
-#include "core/inference_executor.h"
-#include "core/model_store.h"
-#include "core/motion_conversion.h"
-#include "core/service_metrics.h"
-#include "core/shared_deployment.h"
-#include "core/take_operations.h"
 #include "format/foot_contacts.h"
 #include "format/input_error.h"
-#include "jobs/training_jobs.h"
-#include "clip_transition.h"
-#include "latent_operations.h"
+#include "model/clip_transition.h"
+#include "model/latent_operations.h"
+#include "server/core/caller_identity.h"
+#include "server/core/data_root_clips.h"
+#include "server/core/inference_executor.h"
+#include "server/core/model_store.h"
+#include "server/core/motion_conversion.h"
+#include "server/core/service_metrics.h"
+#include "server/core/shared_deployment.h"
+#include "server/core/take_operations.h"
+#include "server/jobs/training_jobs.h"
 
 namespace mm::service {
 namespace {

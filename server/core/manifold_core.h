@@ -14,12 +14,12 @@
 #include <string>
 #include <vector>
 
-#include "api/api_types.h"
-#include "core/data_root_clips.h"
-#include "core/model_precisions.h"
-#include "core/motion_conversion.h"
-#include "core/take_session.h"
-#include "core/watch_streams.h"
+#include "server/api/api_types.h"
+#include "server/core/data_root_clips.h"
+#include "server/core/model_precisions.h"
+#include "server/core/motion_conversion.h"
+#include "server/core/take_session.h"
+#include "server/core/watch_streams.h"
 
 namespace mm::service {
 

@@ -1,4 +1,4 @@
-#include "model_precisions.h"
+#include "server/core/model_precisions.h"
 
 #include "format/input_error.h"
 

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "inference_precision.h"
+#include "model/inference_precision.h"
 
 namespace mm {
 

@@ -1,4 +1,4 @@
-#include "core/model_store.h"
+#include "server/core/model_store.h"
 
 #include <unistd.h>
 
@@ -13,10 +13,10 @@
 
 #include <spdlog/spdlog.h>
 
-#include "core/service_metrics.h"
-#include "jobs/active_model_record.h"
 #include "format/foot_contacts.h"
 #include "format/input_error.h"
+#include "server/core/service_metrics.h"
+#include "server/jobs/active_model_record.h"
 
 namespace mm::service {
 namespace fs = std::filesystem;

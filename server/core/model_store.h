@@ -22,10 +22,10 @@
 #include <string>
 #include <vector>
 
-#include "api/api_types.h"
-#include "core/model_precisions.h"
-#include "core/motion_conversion.h"
-#include "motion_manifold.h"
+#include "model/motion_manifold.h"
+#include "server/api/api_types.h"
+#include "server/core/model_precisions.h"
+#include "server/core/motion_conversion.h"
 
 namespace mm::service {
 

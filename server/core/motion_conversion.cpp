@@ -1,4 +1,4 @@
-#include "core/motion_conversion.h"
+#include "server/core/motion_conversion.h"
 
 #include "format/foot_contacts.h"
 #include "format/root_path.h"

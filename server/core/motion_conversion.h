@@ -10,9 +10,9 @@
 #include <string>
 #include <vector>
 
-#include "api/api_types.h"
 #include "format/motion_text.h"
 #include "format/skeleton.h"
+#include "server/api/api_types.h"
 
 namespace mm::service {
 

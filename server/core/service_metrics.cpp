@@ -1,4 +1,4 @@
-#include "core/service_metrics.h"
+#include "server/core/service_metrics.h"
 
 #include <prometheus/counter.h>
 #include <prometheus/family.h>

@@ -9,7 +9,7 @@
 #include <memory>
 #include <string>
 
-#include "api/api_types.h"
+#include "server/api/api_types.h"
 
 namespace mm::service {
 

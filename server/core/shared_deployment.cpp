@@ -1,12 +1,12 @@
-#include "core/shared_deployment.h"
+#include "server/core/shared_deployment.h"
 
 #include <unistd.h>
 
 #include <spdlog/spdlog.h>
 
-#include "core/model_store.h"
-#include "jobs/active_model_record.h"
-#include "jobs/upload_reservations.h"
+#include "server/core/model_store.h"
+#include "server/jobs/active_model_record.h"
+#include "server/jobs/upload_reservations.h"
 
 namespace mm::service {
 namespace {

@@ -30,7 +30,7 @@
 #include <string>
 #include <thread>
 
-#include "core/data_root_clips.h"
+#include "server/core/data_root_clips.h"
 
 namespace mm::service {
 

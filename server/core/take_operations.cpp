@@ -1,14 +1,14 @@
-#include "core/take_operations.h"
+#include "server/core/take_operations.h"
 
 #include <cctype>
 #include <cmath>
 #include <fstream>
 #include <sstream>
 
-#include "api/data_root_path.h"
 #include "format/animation_file.h"
 #include "format/input_error.h"
 #include "format/motion_resampling.h"
+#include "server/api/data_root_path.h"
 
 namespace mm::service {
 namespace {

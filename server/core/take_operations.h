@@ -9,9 +9,9 @@
 // .cpp files include it.
 #pragma once
 
-#include "core/model_store.h"
-#include "core/take_session.h"
-#include "take_processor.h"
+#include "model/take_processor.h"
+#include "server/core/model_store.h"
+#include "server/core/take_session.h"
 
 namespace mm::service {
 

@@ -1,4 +1,4 @@
-#include "core/take_session.h"
+#include "server/core/take_session.h"
 
 #include <algorithm>
 #include <cstring>

@@ -18,10 +18,10 @@
 #include <string>
 #include <vector>
 
-#include "api/api_types.h"
 #include "format/animation_file.h"
 #include "format/motion_text.h"
 #include "format/skeleton.h"
+#include "server/api/api_types.h"
 
 namespace mm::service {
 

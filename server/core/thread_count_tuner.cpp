@@ -1,4 +1,4 @@
-#include "core/thread_count_tuner.h"
+#include "server/core/thread_count_tuner.h"
 
 namespace mm::service {
 

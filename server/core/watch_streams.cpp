@@ -1,10 +1,10 @@
-#include "core/watch_streams.h"
+#include "server/core/watch_streams.h"
 
 #include <map>
 #include <mutex>
 
-#include "api/api_types.h"
-#include "core/caller_identity.h"
+#include "server/api/api_types.h"
+#include "server/core/caller_identity.h"
 
 namespace mm::service {
 

@@ -1,4 +1,4 @@
-#include "grpc/compression_refusal_log.h"
+#include "server/grpc/compression_refusal_log.h"
 
 #include <cstring>
 #include <mutex>

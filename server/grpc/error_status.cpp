@@ -1,4 +1,4 @@
-#include "grpc/error_status.h"
+#include "server/grpc/error_status.h"
 
 namespace mm::service::wire {
 

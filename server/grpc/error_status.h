@@ -7,7 +7,7 @@
 #include <grpcpp/server_context.h>
 #include <grpcpp/support/status.h>
 
-#include "api/api_types.h"
+#include "server/api/api_types.h"
 
 namespace mm::service::wire {
 

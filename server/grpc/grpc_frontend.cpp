@@ -1,4 +1,4 @@
-#include "grpc/grpc_frontend.h"
+#include "server/grpc/grpc_frontend.h"
 
 #include <algorithm>
 #include <climits>
@@ -12,8 +12,8 @@
 #include <grpcpp/resource_quota.h>
 #include <spdlog/spdlog.h>
 
-#include "grpc/compression_refusal_log.h"
-#include "grpc/manifold_service.h"
+#include "server/grpc/compression_refusal_log.h"
+#include "server/grpc/manifold_service.h"
 
 namespace mm::service {
 

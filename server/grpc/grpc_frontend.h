@@ -14,7 +14,7 @@
 #include <memory>
 #include <string>
 
-#include "core/manifold_core.h"
+#include "server/core/manifold_core.h"
 
 namespace grpc {
 class Server;

@@ -1,4 +1,4 @@
-#include "grpc/manifold_service.h"
+#include "server/grpc/manifold_service.h"
 
 #include <cctype>
 #include <chrono>
@@ -7,9 +7,9 @@
 #include <mutex>
 #include <thread>
 
-#include "core/caller_identity.h"
-#include "grpc/error_status.h"
-#include "translation/proto_translation.h"
+#include "server/core/caller_identity.h"
+#include "server/grpc/error_status.h"
+#include "server/translation/proto_translation.h"
 
 namespace mm::service::wire {
 

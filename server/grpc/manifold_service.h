@@ -12,9 +12,9 @@
 #include <atomic>
 #include <chrono>
 
-#include "core/manifold_core.h"
-#include "grpc/stream_message_deadlines.h"
 #include "motionmanifold/v1/manifold.grpc.pb.h"
+#include "server/core/manifold_core.h"
+#include "server/grpc/stream_message_deadlines.h"
 
 namespace mm::service::wire {
 

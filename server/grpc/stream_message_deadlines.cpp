@@ -1,4 +1,4 @@
-#include "grpc/stream_message_deadlines.h"
+#include "server/grpc/stream_message_deadlines.h"
 
 #include <grpc/grpc.h>
 #include <grpcpp/server_context.h>

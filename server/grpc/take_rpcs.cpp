@@ -6,9 +6,9 @@
 // so a silent client holds its thread for that long at most.
 #include <algorithm>
 
-#include "grpc/error_status.h"
-#include "grpc/manifold_service.h"
-#include "translation/proto_translation.h"
+#include "server/grpc/error_status.h"
+#include "server/grpc/manifold_service.h"
+#include "server/translation/proto_translation.h"
 
 namespace mm::service::wire {
 namespace {

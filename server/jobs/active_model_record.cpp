@@ -1,4 +1,4 @@
-#include "jobs/active_model_record.h"
+#include "server/jobs/active_model_record.h"
 
 #include <pqxx/pqxx>
 

@@ -23,7 +23,7 @@
 #include <optional>
 #include <string>
 
-#include "jobs/reopening_postgres_connection.h"
+#include "server/jobs/reopening_postgres_connection.h"
 
 namespace mm::service {
 

@@ -1,4 +1,4 @@
-#include "jobs/child_process.h"
+#include "server/jobs/child_process.h"
 
 #include <errno.h>
 #include <fcntl.h>

@@ -18,8 +18,8 @@
 
 #include <spdlog/spdlog.h>
 
-#include "jobs/child_process.h"
-#include "jobs/training_jobs_state.h"
+#include "server/jobs/child_process.h"
+#include "server/jobs/training_jobs_state.h"
 
 namespace mm::service {
 namespace {

@@ -1,11 +1,11 @@
-#include "jobs/job_record_json.h"
+#include "server/jobs/job_record_json.h"
 
 #include <limits>
 #include <optional>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
-#include "jobs/job_spec_check.h"
+#include "server/jobs/job_spec_check.h"
 
 namespace mm::service {
 namespace {

@@ -10,7 +10,7 @@
 #include <optional>
 #include <string>
 
-#include "api/api_types.h"
+#include "server/api/api_types.h"
 
 namespace mm::service {
 

@@ -8,9 +8,9 @@
 #include <spdlog/spdlog.h>
 
 #include "format/atomic_file.h"
-#include "jobs/job_spec_check.h"
-#include "jobs/model_publication.h"
-#include "jobs/training_jobs_state.h"
+#include "server/jobs/job_spec_check.h"
+#include "server/jobs/model_publication.h"
+#include "server/jobs/training_jobs_state.h"
 
 namespace mm::service {
 

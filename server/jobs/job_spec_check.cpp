@@ -1,4 +1,4 @@
-#include "jobs/job_spec_check.h"
+#include "server/jobs/job_spec_check.h"
 
 #include <algorithm>
 #include <cstring>
@@ -6,11 +6,11 @@
 #include <nlohmann/json.hpp>
 #include <regex>
 
-#include "api/data_root_path.h"
-#include "format/rig_folder_dataset.h"
 #include "format/input_error.h"
 #include "format/json_text.h"
-#include "training_config.h"
+#include "format/rig_folder_dataset.h"
+#include "model/training_config.h"
+#include "server/api/data_root_path.h"
 
 namespace mm::service {
 namespace {

@@ -14,8 +14,8 @@
 #include <string>
 #include <vector>
 
-#include "api/api_types.h"
-#include "training_config.h"
+#include "model/training_config.h"
+#include "server/api/api_types.h"
 
 namespace mm::service {
 

@@ -1,10 +1,10 @@
-#include "jobs/job_store.h"
+#include "server/jobs/job_store.h"
 
 #include <filesystem>
 #include <stdexcept>
 
-#include "jobs/postgres_job_store.h"
-#include "jobs/sqlite_job_store.h"
+#include "server/jobs/postgres_job_store.h"
+#include "server/jobs/sqlite_job_store.h"
 
 namespace mm::service {
 

@@ -24,8 +24,8 @@
 #include <string>
 #include <vector>
 
-#include "api/api_types.h"
-#include "jobs/job_record_json.h"
+#include "server/api/api_types.h"
+#include "server/jobs/job_record_json.h"
 
 namespace mm::service {
 

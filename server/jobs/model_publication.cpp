@@ -1,4 +1,4 @@
-#include "jobs/model_publication.h"
+#include "server/jobs/model_publication.h"
 
 #include <filesystem>
 #include <fstream>
@@ -6,7 +6,7 @@
 #include <stdexcept>
 #include <vector>
 
-#include "training_config.h"
+#include "model/training_config.h"
 
 namespace mm::service {
 namespace {

@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "api/api_types.h"
+#include "server/api/api_types.h"
 
 namespace mm::service {
 

@@ -1,4 +1,4 @@
-#include "jobs/postgres_job_store.h"
+#include "server/jobs/postgres_job_store.h"
 
 #include <unistd.h>
 

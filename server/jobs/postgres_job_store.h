@@ -19,8 +19,8 @@
 #include <memory>
 #include <string>
 
-#include "jobs/job_store.h"
-#include "jobs/reopening_postgres_connection.h"
+#include "server/jobs/job_store.h"
+#include "server/jobs/reopening_postgres_connection.h"
 
 namespace mm::service {
 

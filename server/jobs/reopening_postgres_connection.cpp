@@ -1,4 +1,4 @@
-#include "jobs/reopening_postgres_connection.h"
+#include "server/jobs/reopening_postgres_connection.h"
 
 #include <pqxx/pqxx>
 

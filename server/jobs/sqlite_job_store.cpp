@@ -1,4 +1,4 @@
-#include "jobs/sqlite_job_store.h"
+#include "server/jobs/sqlite_job_store.h"
 
 #include <sqlite3.h>
 

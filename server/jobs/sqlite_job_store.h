@@ -14,7 +14,7 @@
 #include <memory>
 #include <string>
 
-#include "jobs/job_store.h"
+#include "server/jobs/job_store.h"
 
 struct sqlite3;
 

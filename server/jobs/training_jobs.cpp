@@ -1,6 +1,6 @@
 // The queue and its API: submit, get, list, cancel, remove, watch, the
 // worker that claims jobs (leases) and the recovery of staged models.
-#include "jobs/training_jobs.h"
+#include "server/jobs/training_jobs.h"
 
 #include <chrono>
 #include <filesystem>
@@ -9,10 +9,10 @@
 
 #include <spdlog/spdlog.h>
 
-#include "jobs/job_spec_check.h"
-#include "jobs/job_store.h"
-#include "jobs/model_publication.h"
-#include "jobs/training_jobs_state.h"
+#include "server/jobs/job_spec_check.h"
+#include "server/jobs/job_store.h"
+#include "server/jobs/model_publication.h"
+#include "server/jobs/training_jobs_state.h"
 
 namespace mm::service {
 namespace {

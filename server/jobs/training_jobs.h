@@ -43,8 +43,8 @@
 #include <string>
 #include <vector>
 
-#include "api/api_types.h"
-#include "jobs/jobs_test_hooks.h"
+#include "server/api/api_types.h"
+#include "server/jobs/jobs_test_hooks.h"
 
 namespace mm::service {
 

@@ -13,9 +13,9 @@
 #include <thread>
 #include <vector>
 
-#include "jobs/job_store.h"
-#include "jobs/jobs_test_hooks.h"
-#include "jobs/training_jobs.h"
+#include "server/jobs/job_store.h"
+#include "server/jobs/jobs_test_hooks.h"
+#include "server/jobs/training_jobs.h"
 
 namespace mm::service::jobs_internal {
 

@@ -1,4 +1,4 @@
-#include "jobs/upload_reservations.h"
+#include "server/jobs/upload_reservations.h"
 
 #include <pqxx/pqxx>
 

@@ -22,7 +22,7 @@
 #include <mutex>
 #include <string>
 
-#include "jobs/reopening_postgres_connection.h"
+#include "server/jobs/reopening_postgres_connection.h"
 
 namespace mm::service {
 

@@ -1,4 +1,4 @@
-#include "rest/body_limits.h"
+#include "server/rest/body_limits.h"
 
 namespace mm::service::rest {
 

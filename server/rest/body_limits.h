@@ -12,7 +12,7 @@
 #include <cstddef>
 #include <string>
 
-#include "rest/rest_routes.h"
+#include "server/rest/rest_routes.h"
 
 namespace mm::service::rest {
 

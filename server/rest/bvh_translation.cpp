@@ -1,11 +1,11 @@
-#include "rest/bvh_translation.h"
+#include "server/rest/bvh_translation.h"
 
 #include <cctype>
 #include <cstdio>
 
 #include "format/bvh_file.h"
-#include "format/skeleton_bvh.h"
 #include "format/input_error.h"
+#include "format/skeleton_bvh.h"
 
 namespace mm::service::rest {
 

@@ -15,11 +15,11 @@
 
 #include <string>
 
-#include "api/api_types.h"
 #include "format/animation_file.h"
 #include "format/bvh_file.h"
 #include "format/skeleton.h"
-#include "core/motion_conversion.h"
+#include "server/api/api_types.h"
+#include "server/core/motion_conversion.h"
 
 namespace mm::service::rest {
 

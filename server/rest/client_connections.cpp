@@ -1,4 +1,4 @@
-#include "rest/client_connections.h"
+#include "server/rest/client_connections.h"
 
 namespace mm::service::rest {
 

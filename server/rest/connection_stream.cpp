@@ -1,4 +1,4 @@
-#include "rest/connection_stream.h"
+#include "server/rest/connection_stream.h"
 
 #include <netdb.h>
 #include <sys/socket.h>

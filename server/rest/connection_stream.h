@@ -15,8 +15,8 @@
 #include <functional>
 #include <string>
 
-#include "rest/connection_transport.h"
-#include "rest/request_head_check.h"
+#include "server/rest/connection_transport.h"
+#include "server/rest/request_head_check.h"
 
 namespace mm::service::rest {
 

@@ -1,4 +1,4 @@
-#include "rest/connection_transport.h"
+#include "server/rest/connection_transport.h"
 
 #include <fcntl.h>
 #include <openssl/err.h>

@@ -1,11 +1,11 @@
-#include "rest/guarded_http_server.h"
+#include "server/rest/guarded_http_server.h"
 
 #include <sys/socket.h>
 #include <unistd.h>
 
-#include "core/caller_identity.h"
-#include "rest/connection_stream.h"
-#include "rest/http_errors.h"
+#include "server/core/caller_identity.h"
+#include "server/rest/connection_stream.h"
+#include "server/rest/http_errors.h"
 
 namespace mm::service::rest {
 

@@ -20,9 +20,9 @@
 #include <mutex>
 #include <string>
 
-#include "rest/client_connections.h"
-#include "rest/connection_transport.h"
-#include "rest/request_head_check.h"
+#include "server/rest/client_connections.h"
+#include "server/rest/connection_transport.h"
+#include "server/rest/request_head_check.h"
 
 namespace mm::service::rest {
 

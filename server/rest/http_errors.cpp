@@ -1,4 +1,4 @@
-#include "rest/http_errors.h"
+#include "server/rest/http_errors.h"
 
 #include "wire/rest_error.h"
 

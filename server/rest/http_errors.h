@@ -7,7 +7,7 @@
 
 #include <string>
 
-#include "api/api_types.h"
+#include "server/api/api_types.h"
 
 namespace mm::service::rest {
 

@@ -1,13 +1,13 @@
-#include "rest/join_route.h"
+#include "server/rest/join_route.h"
 
 #include <httplib.h>
 
 #include <cstdlib>
 #include <optional>
 
-#include "rest/bvh_translation.h"
-#include "rest/http_errors.h"
-#include "rest/json_translation.h"
+#include "server/rest/bvh_translation.h"
+#include "server/rest/http_errors.h"
+#include "server/rest/json_translation.h"
 
 namespace mm::service::rest {
 namespace {

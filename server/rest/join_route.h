@@ -17,7 +17,7 @@
 
 #include <string>
 
-#include "core/manifold_core.h"
+#include "server/core/manifold_core.h"
 
 namespace mm::service::rest {
 

@@ -1,9 +1,9 @@
-#include "rest/json_translation.h"
+#include "server/rest/json_translation.h"
 
 #include <nlohmann/json.hpp>
 
 #include "format/json_text.h"
-#include "translation/proto_translation.h"
+#include "server/translation/proto_translation.h"
 #include "wire/rest_json.h"
 
 namespace mm::service::rest {

@@ -23,8 +23,8 @@
 #include <string>
 #include <vector>
 
-#include "api/api_types.h"
-#include "core/take_session.h"
+#include "server/api/api_types.h"
+#include "server/core/take_session.h"
 
 namespace mm::service::rest {
 

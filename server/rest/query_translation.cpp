@@ -1,4 +1,4 @@
-#include "rest/query_translation.h"
+#include "server/rest/query_translation.h"
 
 #include <cerrno>
 #include <cstdlib>

@@ -11,8 +11,8 @@
 #include <map>
 #include <string>
 
-#include "api/api_types.h"
-#include "core/take_session.h"
+#include "server/api/api_types.h"
+#include "server/core/take_session.h"
 
 namespace mm::service::rest {
 

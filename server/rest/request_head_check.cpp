@@ -1,4 +1,4 @@
-#include "rest/request_head_check.h"
+#include "server/rest/request_head_check.h"
 
 #include <cstdio>
 #include <vector>

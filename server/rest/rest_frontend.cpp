@@ -1,4 +1,4 @@
-#include "rest/rest_frontend.h"
+#include "server/rest/rest_frontend.h"
 
 #include <httplib.h>
 #include <sys/socket.h>
@@ -16,18 +16,18 @@
 #include <stdexcept>
 #include <thread>
 
-#include "core/caller_identity.h"
-#include "rest/body_limits.h"
-#include "rest/bvh_translation.h"
-#include "rest/connection_stream.h"
-#include "rest/guarded_http_server.h"
-#include "rest/http_errors.h"
-#include "rest/join_route.h"
-#include "rest/json_translation.h"
-#include "rest/openapi_document.h"
-#include "rest/query_translation.h"
-#include "rest/rest_routes.h"
-#include "rest/take_routes.h"
+#include "server/core/caller_identity.h"
+#include "server/rest/body_limits.h"
+#include "server/rest/bvh_translation.h"
+#include "server/rest/connection_stream.h"
+#include "server/rest/guarded_http_server.h"
+#include "server/rest/http_errors.h"
+#include "server/rest/join_route.h"
+#include "server/rest/json_translation.h"
+#include "server/rest/openapi_document.h"
+#include "server/rest/query_translation.h"
+#include "server/rest/rest_routes.h"
+#include "server/rest/take_routes.h"
 
 namespace mm::service {
 

@@ -13,9 +13,9 @@
 #include <memory>
 #include <string>
 
-#include "core/manifold_core.h"
-#include "core/service_metrics.h"
-#include "rest/rest_routes.h"
+#include "server/core/manifold_core.h"
+#include "server/core/service_metrics.h"
+#include "server/rest/rest_routes.h"
 
 namespace httplib {
 struct Request;

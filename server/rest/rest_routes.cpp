@@ -1,4 +1,4 @@
-#include "rest/rest_routes.h"
+#include "server/rest/rest_routes.h"
 
 namespace mm::service::rest {
 

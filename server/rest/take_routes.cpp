@@ -1,4 +1,4 @@
-#include "rest/take_routes.h"
+#include "server/rest/take_routes.h"
 
 #include <httplib.h>
 
@@ -9,10 +9,10 @@
 
 #include "format/input_error.h"
 #include "format/skeleton_bvh.h"
-#include "rest/bvh_translation.h"
-#include "rest/json_translation.h"
-#include "rest/query_translation.h"
-#include "translation/proto_translation.h"
+#include "server/rest/bvh_translation.h"
+#include "server/rest/json_translation.h"
+#include "server/rest/query_translation.h"
+#include "server/translation/proto_translation.h"
 #include "wire/rest_json.h"
 
 namespace mm::service::rest {

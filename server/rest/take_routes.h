@@ -11,8 +11,8 @@
 
 #include <string>
 
-#include "core/manifold_core.h"
-#include "rest/rest_routes.h"
+#include "server/core/manifold_core.h"
+#include "server/rest/rest_routes.h"
 
 namespace httplib {
 struct Request;

@@ -1,4 +1,4 @@
-#include "translation/proto_translation.h"
+#include "server/translation/proto_translation.h"
 
 namespace mm::service::wire {
 

@@ -15,9 +15,9 @@
 // Thread safety: pure functions of their arguments.
 #pragma once
 
-#include "api/api_types.h"
-#include "core/take_session.h"
 #include "motionmanifold/v1/manifold.pb.h"
+#include "server/api/api_types.h"
+#include "server/core/take_session.h"
 
 namespace mm::service::wire {
 

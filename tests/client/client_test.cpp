@@ -19,11 +19,11 @@
 #include <thread>
 #include <vector>
 
-#include "client_files.h"
-#include "command_run.h"
-#include "rest_call.h"
-#include "server_process.h"
-#include "test_environment.h"
+#include "tests/client/client_files.h"
+#include "tests/common/command_run.h"
+#include "tests/common/test_environment.h"
+#include "tests/server/rest_call.h"
+#include "tests/server/server_process.h"
 
 namespace mm {
 namespace {

@@ -23,10 +23,10 @@
 #include <string>
 #include <vector>
 
-#include "cmu_dance.h"
-#include "command_run.h"
 #include "format/bvh_file.h"
-#include "test_environment.h"
+#include "tests/common/cmu_dance.h"
+#include "tests/common/command_run.h"
+#include "tests/common/test_environment.h"
 
 #ifndef MM_BLENDER_CONVERT_SCRIPT
 #define MM_BLENDER_CONVERT_SCRIPT MM_SOURCE_DIR "/tests/format/blender_convert_bvh.py"

@@ -8,7 +8,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "test_environment.h"
+#include "tests/common/test_environment.h"
 
 namespace mm::test {
 

@@ -10,7 +10,7 @@
 #include <sstream>
 #include <string>
 
-#include "test_environment.h"
+#include "tests/common/test_environment.h"
 
 namespace mm::test {
 

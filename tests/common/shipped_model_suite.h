@@ -6,9 +6,9 @@
 
 #include <gtest/gtest.h>
 
-#include "default_model.h"
-#include "motion_manifold.h"
-#include "test_environment.h"
+#include "model/default_model.h"
+#include "model/motion_manifold.h"
+#include "tests/common/test_environment.h"
 
 namespace mm::test {
 

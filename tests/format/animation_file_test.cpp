@@ -12,14 +12,14 @@
 #include <map>
 #include <nlohmann/json.hpp>
 
-#include "cmu_dance.h"
-#include "command_run.h"
 #include "format/animation_file.h"
 #include "format/h36m_bvh.h"
 #include "format/input_error.h"
 #include "format/motion_text.h"
 #include "format/skeleton_bvh.h"
-#include "test_environment.h"
+#include "tests/common/cmu_dance.h"
+#include "tests/common/command_run.h"
+#include "tests/common/test_environment.h"
 
 namespace mm {
 namespace {

@@ -15,8 +15,8 @@
 #include "format/h36m_bvh.h"
 #include "format/input_error.h"
 #include "format/motion_text.h"
-#include "h36m_pose.h"
-#include "test_environment.h"
+#include "tests/common/test_environment.h"
+#include "tests/format/h36m_pose.h"
 
 namespace mm {
 namespace {

@@ -10,8 +10,8 @@
 #include "format/foot_contacts.h"
 #include "format/motion_text.h"
 #include "format/skeleton_bvh.h"
-#include "h36m_pose.h"
-#include "test_environment.h"
+#include "tests/common/test_environment.h"
+#include "tests/format/h36m_pose.h"
 
 namespace mm {
 namespace {

@@ -4,8 +4,8 @@
 #include <gtest/gtest.h>
 
 #include "format/input_error.h"
-#include "synthetic_h36m.h"
-#include "test_environment.h"
+#include "tests/common/test_environment.h"
+#include "tests/format/synthetic_h36m.h"
 
 namespace mm {
 namespace {

@@ -15,7 +15,7 @@
 #include "format/input_error.h"
 #include "format/motion_text.h"
 #include "format/rotation_matrix.h"
-#include "test_environment.h"
+#include "tests/common/test_environment.h"
 
 namespace mm {
 namespace {

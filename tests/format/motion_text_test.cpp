@@ -8,7 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "format/input_error.h"
-#include "test_environment.h"
+#include "tests/common/test_environment.h"
 
 namespace mm {
 namespace {

@@ -17,8 +17,6 @@
 #include <map>
 #include <string>
 
-#include "blender_dances.h"
-#include "cmu_dance.h"
 #include "format/animation_file.h"
 #include "format/bvh_file.h"
 #include "format/h36m_bvh.h"
@@ -26,7 +24,9 @@
 #include "format/prepared_dataset.h"
 #include "format/rig_folder_dataset.h"
 #include "format/skeleton_bvh.h"
-#include "test_environment.h"
+#include "tests/common/blender_dances.h"
+#include "tests/common/cmu_dance.h"
+#include "tests/common/test_environment.h"
 
 namespace mm {
 namespace {

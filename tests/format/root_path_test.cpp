@@ -6,10 +6,10 @@
 #include <cmath>
 #include <string>
 
-#include "cmu_dance.h"
 #include "format/bvh_file.h"
 #include "format/root_path.h"
 #include "format/skeleton_bvh.h"
+#include "tests/common/cmu_dance.h"
 
 namespace mm {
 namespace {

@@ -12,12 +12,12 @@
 #include <random>
 #include <string>
 
-#include "cmu_dance.h"
 #include "format/bvh_file.h"
 #include "format/h36m_bvh.h"
 #include "format/input_error.h"
 #include "format/skeleton_bvh.h"
-#include "test_environment.h"
+#include "tests/common/cmu_dance.h"
+#include "tests/common/test_environment.h"
 
 namespace mm {
 namespace {

@@ -5,7 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "format/input_error.h"
-#include "test_environment.h"
+#include "tests/common/test_environment.h"
 
 namespace mm {
 namespace {

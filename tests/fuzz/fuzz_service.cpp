@@ -1,4 +1,4 @@
-#include "fuzz_service.h"
+#include "tests/fuzz/fuzz_service.h"
 
 #include <spdlog/spdlog.h>
 #include <unistd.h>
@@ -12,7 +12,7 @@
 #include <memory>
 #include <sstream>
 
-#include "jobs/training_jobs.h"
+#include "server/jobs/training_jobs.h"
 
 namespace mm::fuzz {
 namespace {

@@ -18,8 +18,8 @@
 
 #include <string>
 
-#include "core/manifold_core.h"
-#include "core/service_metrics.h"
+#include "server/core/manifold_core.h"
+#include "server/core/service_metrics.h"
 
 namespace mm::fuzz {
 

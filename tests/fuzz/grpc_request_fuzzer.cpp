@@ -24,9 +24,9 @@
 #include <memory>
 #include <string>
 
-#include "fuzz_service.h"
-#include "grpc/grpc_frontend.h"
 #include "motionmanifold/v1/manifold.pb.h"
+#include "server/grpc/grpc_frontend.h"
+#include "tests/fuzz/fuzz_service.h"
 
 namespace {
 

@@ -21,9 +21,9 @@
 #include <string>
 #include <vector>
 
-#include "fuzz_service.h"
-#include "rest/rest_frontend.h"
-#include "rest/rest_routes.h"
+#include "server/rest/rest_frontend.h"
+#include "server/rest/rest_routes.h"
+#include "tests/fuzz/fuzz_service.h"
 
 namespace {
 

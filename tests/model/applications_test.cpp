@@ -5,10 +5,10 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
-#include "evaluation.h"
 #include "format/input_error.h"
-#include "latent_operations.h"
-#include "model_test_data.h"
+#include "model/evaluation.h"
+#include "model/latent_operations.h"
+#include "tests/model/model_test_data.h"
 
 namespace mm {
 namespace {

@@ -3,16 +3,16 @@
 // capturing call on and for fresh inputs at every replay. The CUDA checks
 // run where a GPU is present (the GPU machine, built by
 // scripts/build-cuda.sh); without one they are skipped.
-#include "cuda_graph_replay.h"
+#include "model/cuda_graph_replay.h"
 
 #include <gtest/gtest.h>
 #include <torch/cuda.h>
 
-#include "decoder.h"
-#include "encoder.h"
-#include "model_test_data.h"
-#include "synthetic_dataset.h"
-#include "trainer.h"
+#include "model/decoder.h"
+#include "model/encoder.h"
+#include "model/synthetic_dataset.h"
+#include "model/trainer.h"
+#include "tests/model/model_test_data.h"
 
 namespace mm {
 namespace {

@@ -5,11 +5,11 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
-#include "default_model.h"
 #include "format/motion_text.h"
-#include "latent_operations.h"
-#include "motion_manifold.h"
-#include "test_environment.h"
+#include "model/default_model.h"
+#include "model/latent_operations.h"
+#include "model/motion_manifold.h"
+#include "tests/common/test_environment.h"
 
 namespace mm {
 namespace {

@@ -12,9 +12,9 @@
 #include <torch/torch.h>
 #include <vector>
 
-#include "evaluation.h"
-#include "motion_manifold.h"
-#include "reference_kinematics.h"
+#include "model/evaluation.h"
+#include "model/motion_manifold.h"
+#include "tests/model/reference_kinematics.h"
 
 namespace mm {
 namespace {

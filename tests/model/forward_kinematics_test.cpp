@@ -1,10 +1,10 @@
-#include "forward_kinematics.h"
+#include "model/forward_kinematics.h"
 
 #include <gtest/gtest.h>
 
 #include "format/input_error.h"
 #include "format/motion_text.h"
-#include "test_environment.h"
+#include "tests/common/test_environment.h"
 
 namespace mm {
 namespace {

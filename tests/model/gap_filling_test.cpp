@@ -12,15 +12,15 @@
 #include <set>
 #include <vector>
 
-#include "default_model.h"
-#include "gap_code_fit.h"
 #include "format/foot_contacts.h"
 #include "format/motion_text.h"
-#include "gap_interpolation.h"
-#include "motion_manifold.h"
-#include "take_processor.h"
-#include "shipped_model_suite.h"
-#include "test_environment.h"
+#include "model/default_model.h"
+#include "model/gap_code_fit.h"
+#include "model/gap_interpolation.h"
+#include "model/motion_manifold.h"
+#include "model/take_processor.h"
+#include "tests/common/shipped_model_suite.h"
+#include "tests/common/test_environment.h"
 
 namespace mm {
 namespace {

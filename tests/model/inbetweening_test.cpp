@@ -12,15 +12,15 @@
 #include <limits>
 #include <vector>
 
-#include "clip_transition.h"
 #include "format/foot_contacts.h"
 #include "format/input_error.h"
 #include "format/motion_text.h"
-#include "gap_code_fit.h"
-#include "gap_interpolation.h"
-#include "shipped_model_suite.h"
-#include "take_processor.h"
-#include "test_environment.h"
+#include "model/clip_transition.h"
+#include "model/gap_code_fit.h"
+#include "model/gap_interpolation.h"
+#include "model/take_processor.h"
+#include "tests/common/shipped_model_suite.h"
+#include "tests/common/test_environment.h"
 
 namespace mm {
 namespace {

@@ -7,9 +7,9 @@
 
 #include "format/prepared_dataset.h"
 #include "format/skeleton.h"
-#include "test_environment.h"
-#include "trainer.h"
-#include "training_config.h"
+#include "model/trainer.h"
+#include "model/training_config.h"
+#include "tests/common/test_environment.h"
 
 namespace mm::test {
 

@@ -1,4 +1,4 @@
-#include "motion_manifold.h"
+#include "model/motion_manifold.h"
 
 #include <gtest/gtest.h>
 
@@ -6,7 +6,7 @@
 #include <fstream>
 
 #include "format/input_error.h"
-#include "model_test_data.h"
+#include "tests/model/model_test_data.h"
 
 namespace mm {
 namespace {

@@ -2,10 +2,10 @@
 #include <gtest/gtest.h>
 #include <torch/cuda.h>
 
-#include "decoder.h"
-#include "discriminator.h"
-#include "encoder.h"
 #include "format/input_error.h"
+#include "model/decoder.h"
+#include "model/discriminator.h"
+#include "model/encoder.h"
 
 namespace mm {
 namespace {

@@ -4,8 +4,8 @@
 
 #include <ATen/ATen.h>
 
-#include "decoder.h"
-#include "operation_count.h"
+#include "model/decoder.h"
+#include "model/tool/operation_count.h"
 
 namespace mm::tool {
 namespace {

@@ -12,14 +12,14 @@
 #include <thread>
 #include <vector>
 
-#include "default_model.h"
 #include "format/input_error.h"
 #include "format/motion_text.h"
-#include "gru_inference.h"
-#include "model_test_data.h"
-#include "motion_manifold.h"
-#include "packed_linear.h"
-#include "test_environment.h"
+#include "model/default_model.h"
+#include "model/gru_inference.h"
+#include "model/motion_manifold.h"
+#include "model/packed_linear.h"
+#include "tests/common/test_environment.h"
+#include "tests/model/model_test_data.h"
 
 namespace mm {
 namespace {

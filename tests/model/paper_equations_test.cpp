@@ -13,11 +13,11 @@
 #include <vector>
 
 #include "format/motion_text.h"
-#include "forward_kinematics.h"
-#include "losses.h"
-#include "reference_kinematics.h"
-#include "rotation.h"
-#include "test_environment.h"
+#include "model/forward_kinematics.h"
+#include "model/losses.h"
+#include "model/rotation.h"
+#include "tests/common/test_environment.h"
+#include "tests/model/reference_kinematics.h"
 
 namespace mm {
 namespace {

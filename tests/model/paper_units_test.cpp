@@ -7,13 +7,13 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
-#include "default_model.h"
-#include "evaluation.h"
 #include "format/input_error.h"
 #include "format/motion_text.h"
-#include "latent_operations.h"
-#include "model_test_data.h"
-#include "paper_units.h"
+#include "model/default_model.h"
+#include "model/evaluation.h"
+#include "model/latent_operations.h"
+#include "model/paper_units.h"
+#include "tests/model/model_test_data.h"
 
 namespace mm {
 namespace {

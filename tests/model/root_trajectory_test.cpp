@@ -14,20 +14,20 @@
 #include <string>
 #include <vector>
 
-#include "default_model.h"
 #include "format/foot_contacts.h"
 #include "format/input_error.h"
 #include "format/motion_text.h"
 #include "format/root_path.h"
-#include "latent_operations.h"
-#include "model_test_data.h"
-#include "motion_manifold.h"
-#include "root_trajectory.h"
-#include "take_processor.h"
-#include "shipped_model_suite.h"
-#include "test_environment.h"
-#include "trajectory_evaluation.h"
-#include "trajectory_training.h"
+#include "model/default_model.h"
+#include "model/latent_operations.h"
+#include "model/motion_manifold.h"
+#include "model/root_trajectory.h"
+#include "model/take_processor.h"
+#include "model/trajectory_evaluation.h"
+#include "model/trajectory_training.h"
+#include "tests/common/shipped_model_suite.h"
+#include "tests/common/test_environment.h"
+#include "tests/model/model_test_data.h"
 
 namespace mm {
 namespace {

@@ -9,10 +9,10 @@
 #include <string>
 #include <vector>
 
-#include "default_model.h"
 #include "format/motion_text.h"
-#include "motion_manifold.h"
-#include "test_environment.h"
+#include "model/default_model.h"
+#include "model/motion_manifold.h"
+#include "tests/common/test_environment.h"
 
 namespace mm {
 namespace {

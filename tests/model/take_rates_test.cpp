@@ -6,14 +6,14 @@
 #include <cmath>
 #include <cstdio>
 
-#include "default_model.h"
 #include "format/bvh_file.h"
 #include "format/h36m_bvh.h"
 #include "format/motion_resampling.h"
 #include "format/motion_text.h"
 #include "format/skeleton_bvh.h"
-#include "take_processor.h"
-#include "test_environment.h"
+#include "model/default_model.h"
+#include "model/take_processor.h"
+#include "tests/common/test_environment.h"
 
 namespace mm {
 namespace {

@@ -1,12 +1,12 @@
 // Where a take's windows meet (model/take_seams.h), on a real S5 take and the
 // shipped model: the cut shows at its seams and the crossfade does not.
-#include "take_seams.h"
+#include "model/take_seams.h"
 
 #include <gtest/gtest.h>
 
-#include "default_model.h"
 #include "format/motion_text.h"
-#include "test_environment.h"
+#include "model/default_model.h"
+#include "tests/common/test_environment.h"
 
 namespace mm {
 namespace {

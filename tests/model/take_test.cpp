@@ -17,16 +17,16 @@
 #include <string>
 #include <vector>
 
-#include "default_model.h"
 #include "format/input_error.h"
 #include "format/motion_resampling.h"
 #include "format/motion_text.h"
-#include "motion_manifold.h"
-#include "take_assembly.h"
-#include "take_processor.h"
-#include "take_windows.h"
-#include "shipped_model_suite.h"
-#include "test_environment.h"
+#include "model/default_model.h"
+#include "model/motion_manifold.h"
+#include "model/take_assembly.h"
+#include "model/take_processor.h"
+#include "model/take_windows.h"
+#include "tests/common/shipped_model_suite.h"
+#include "tests/common/test_environment.h"
 
 namespace mm {
 namespace {

@@ -11,10 +11,10 @@
 #include <cmath>
 #include <vector>
 
-#include "clip_sampler.h"
-#include "losses.h"
-#include "model_test_data.h"
-#include "trainer.h"
+#include "model/clip_sampler.h"
+#include "model/losses.h"
+#include "model/trainer.h"
+#include "tests/model/model_test_data.h"
 
 namespace mm {
 namespace {

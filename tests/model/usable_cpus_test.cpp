@@ -7,8 +7,8 @@
 #include <filesystem>
 #include <fstream>
 
-#include "test_environment.h"
-#include "usable_cpus.h"
+#include "model/usable_cpus.h"
+#include "tests/common/test_environment.h"
 
 namespace mm {
 namespace {

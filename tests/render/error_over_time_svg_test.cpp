@@ -1,5 +1,5 @@
 // A take's per-frame error over time as SVG (render/error_over_time_svg.h).
-#include "render/error_over_time_svg.h"
+#include "model/render/error_over_time_svg.h"
 
 #include <regex>
 

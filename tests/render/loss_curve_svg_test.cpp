@@ -1,5 +1,5 @@
 // Specification of the training-log reader and the loss-curve chart.
-#include "render/loss_curve_svg.h"
+#include "model/render/loss_curve_svg.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -8,7 +8,7 @@
 #include <string>
 
 #include "format/input_error.h"
-#include "test_environment.h"
+#include "tests/common/test_environment.h"
 
 namespace mm::render {
 namespace {

@@ -1,5 +1,5 @@
 // Specification of the pose strip: rows of stick figures as SVG.
-#include "render/pose_strip_svg.h"
+#include "model/render/pose_strip_svg.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>

@@ -28,10 +28,10 @@
 
 #include "format/h36m_bvh.h"
 #include "format/motion_text.h"
-#include "rest_call.h"
-#include "process_cost.h"
-#include "server_process.h"
-#include "test_environment.h"
+#include "tests/common/process_cost.h"
+#include "tests/common/test_environment.h"
+#include "tests/server/rest_call.h"
+#include "tests/server/server_process.h"
 
 namespace mm {
 namespace {

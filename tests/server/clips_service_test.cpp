@@ -23,10 +23,10 @@
 #include "format/h36m_bvh.h"
 #include "format/motion_text.h"
 #include "motionmanifold/v1/manifold.grpc.pb.h"
-#include "command_run.h"
-#include "rest_call.h"
-#include "server_process.h"
-#include "test_environment.h"
+#include "tests/common/command_run.h"
+#include "tests/common/test_environment.h"
+#include "tests/server/rest_call.h"
+#include "tests/server/server_process.h"
 
 namespace mm {
 namespace {

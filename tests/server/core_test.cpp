@@ -16,19 +16,19 @@
 #include <set>
 #include <thread>
 
-#include "cmu_dance.h"
-#include "command_run.h"
-#include "joined_threads.h"
-#include "api/data_root_path.h"
-#include "core/manifold_core.h"
-#include "core/model_store.h"
-#include "core/service_metrics.h"
 #include "format/bvh_file.h"
 #include "format/h36m_bvh.h"
 #include "format/input_error.h"
-#include "jobs/job_spec_check.h"
-#include "latent_operations.h"
-#include "test_environment.h"
+#include "model/latent_operations.h"
+#include "server/api/data_root_path.h"
+#include "server/core/manifold_core.h"
+#include "server/core/model_store.h"
+#include "server/core/service_metrics.h"
+#include "server/jobs/job_spec_check.h"
+#include "tests/common/cmu_dance.h"
+#include "tests/common/command_run.h"
+#include "tests/common/joined_threads.h"
+#include "tests/common/test_environment.h"
 
 namespace mm::service {
 namespace {

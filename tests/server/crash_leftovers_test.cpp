@@ -20,9 +20,9 @@
 #include <string>
 #include <thread>
 
-#include "rest_call.h"
-#include "server_process.h"
-#include "test_environment.h"
+#include "tests/common/test_environment.h"
+#include "tests/server/rest_call.h"
+#include "tests/server/server_process.h"
 
 namespace mm {
 namespace {

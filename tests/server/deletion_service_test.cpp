@@ -17,11 +17,11 @@
 #include <string>
 #include <thread>
 
-#include "command_run.h"
-#include "grpc_calls.h"
-#include "rest_call.h"
-#include "server_process.h"
-#include "test_environment.h"
+#include "tests/common/command_run.h"
+#include "tests/common/test_environment.h"
+#include "tests/server/grpc_calls.h"
+#include "tests/server/rest_call.h"
+#include "tests/server/server_process.h"
 
 namespace mm {
 namespace {

@@ -21,11 +21,11 @@
 #include <string>
 #include <vector>
 
-#include "core/caller_identity.h"
 #include "motionmanifold/v1/manifold.grpc.pb.h"
-#include "rest_call.h"
-#include "server_process.h"
-#include "test_environment.h"
+#include "server/core/caller_identity.h"
+#include "tests/common/test_environment.h"
+#include "tests/server/rest_call.h"
+#include "tests/server/server_process.h"
 
 namespace mm {
 namespace {

@@ -32,10 +32,10 @@
 #include <thread>
 #include <vector>
 
-#include "grpc_calls.h"
 #include "motionmanifold/v1/manifold.grpc.pb.h"
-#include "process_cost.h"
-#include "server_process.h"
+#include "tests/common/process_cost.h"
+#include "tests/server/grpc_calls.h"
+#include "tests/server/server_process.h"
 
 namespace mm {
 namespace {

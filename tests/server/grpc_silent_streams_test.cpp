@@ -20,10 +20,10 @@
 #include <thread>
 #include <vector>
 
-#include "joined_threads.h"
 #include "motionmanifold/v1/manifold.grpc.pb.h"
-#include "process_cost.h"
-#include "server_process.h"
+#include "tests/common/joined_threads.h"
+#include "tests/common/process_cost.h"
+#include "tests/server/server_process.h"
 
 namespace mm {
 namespace {

@@ -35,13 +35,13 @@
 
 #include "format/motion_text.h"
 #include "format/skeleton.h"
-#include "latent_operations.h"
-#include "motion_manifold.h"
+#include "model/latent_operations.h"
+#include "model/motion_manifold.h"
 #include "motionmanifold/v1/manifold.grpc.pb.h"
 #include "probes/health_probe.grpc.pb.h"
 #include "probes/reflection_probe.grpc.pb.h"
-#include "server_process.h"
-#include "test_environment.h"
+#include "tests/common/test_environment.h"
+#include "tests/server/server_process.h"
 
 namespace mm {
 namespace {

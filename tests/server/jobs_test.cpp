@@ -19,12 +19,12 @@
 
 #include <nlohmann/json.hpp>
 
-#include "jobs/job_spec_check.h"
-#include "jobs/model_publication.h"
-#include "jobs/sqlite_job_store.h"
-#include "jobs/training_jobs.h"
-#include "command_run.h"
-#include "test_environment.h"
+#include "server/jobs/job_spec_check.h"
+#include "server/jobs/model_publication.h"
+#include "server/jobs/sqlite_job_store.h"
+#include "server/jobs/training_jobs.h"
+#include "tests/common/command_run.h"
+#include "tests/common/test_environment.h"
 
 namespace mm::service {
 namespace {

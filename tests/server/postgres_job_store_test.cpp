@@ -14,10 +14,10 @@
 #include <set>
 #include <thread>
 
-#include "jobs/job_spec_check.h"
-#include "jobs/postgres_job_store.h"
-#include "jobs/sqlite_job_store.h"
-#include "postgres_cluster.h"
+#include "server/jobs/job_spec_check.h"
+#include "server/jobs/postgres_job_store.h"
+#include "server/jobs/sqlite_job_store.h"
+#include "tests/server/postgres_cluster.h"
 
 namespace mm::service {
 namespace {

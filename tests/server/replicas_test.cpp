@@ -25,10 +25,10 @@
 #include <optional>
 #include <thread>
 
-#include "postgres_cluster.h"
-#include "rest_call.h"
-#include "server_process.h"
-#include "test_environment.h"
+#include "tests/common/test_environment.h"
+#include "tests/server/postgres_cluster.h"
+#include "tests/server/rest_call.h"
+#include "tests/server/server_process.h"
 
 namespace mm::test {
 namespace {

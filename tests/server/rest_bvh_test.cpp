@@ -14,9 +14,9 @@
 #include "format/bvh_file.h"
 #include "format/h36m_bvh.h"
 #include "format/motion_text.h"
-#include "rest_call.h"
-#include "server_process.h"
-#include "test_environment.h"
+#include "tests/common/test_environment.h"
+#include "tests/server/rest_call.h"
+#include "tests/server/server_process.h"
 
 namespace mm {
 namespace {

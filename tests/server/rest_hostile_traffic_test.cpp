@@ -28,8 +28,8 @@
 #include <thread>
 #include <vector>
 
-#include "rest_call.h"
-#include "server_process.h"
+#include "tests/server/rest_call.h"
+#include "tests/server/server_process.h"
 
 namespace mm {
 namespace {

@@ -31,12 +31,12 @@
 
 #include "format/foot_contacts.h"
 #include "format/motion_text.h"
-#include "latent_operations.h"
-#include "motion_manifold.h"
-#include "rest/rest_routes.h"
-#include "rest_call.h"
-#include "server_process.h"
-#include "test_environment.h"
+#include "model/latent_operations.h"
+#include "model/motion_manifold.h"
+#include "server/rest/rest_routes.h"
+#include "tests/common/test_environment.h"
+#include "tests/server/rest_call.h"
+#include "tests/server/server_process.h"
 
 namespace mm {
 namespace {

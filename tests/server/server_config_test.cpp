@@ -15,9 +15,9 @@
 #include <string>
 #include <vector>
 
-#include "command_run.h"
-#include "rest_call.h"
-#include "server_process.h"
+#include "tests/common/command_run.h"
+#include "tests/server/rest_call.h"
+#include "tests/server/server_process.h"
 
 namespace mm::test {
 namespace {

@@ -11,9 +11,9 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
-#include "rest_call.h"
-#include "server_process.h"
-#include "test_environment.h"
+#include "tests/common/test_environment.h"
+#include "tests/server/rest_call.h"
+#include "tests/server/server_process.h"
 
 namespace mm::test {
 namespace {

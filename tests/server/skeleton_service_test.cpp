@@ -25,15 +25,15 @@
 #include <thread>
 #include <vector>
 
-#include "blender_dances.h"
-#include "cmu_dance.h"
-#include "command_run.h"
 #include "format/bvh_file.h"
 #include "format/h36m_bvh.h"
 #include "format/motion_text.h"
-#include "rest_call.h"
-#include "server_process.h"
-#include "test_environment.h"
+#include "tests/common/blender_dances.h"
+#include "tests/common/cmu_dance.h"
+#include "tests/common/command_run.h"
+#include "tests/common/test_environment.h"
+#include "tests/server/rest_call.h"
+#include "tests/server/server_process.h"
 
 namespace mm::test {
 namespace {

@@ -31,7 +31,6 @@
 #include <thread>
 #include <vector>
 
-#include "cmu_dance.h"
 #include "format/bvh_file.h"
 #include "format/expmap_slerp.h"
 #include "format/foot_contacts.h"
@@ -40,9 +39,10 @@
 #include "format/skeleton.h"
 #include "format/skeleton_bvh.h"
 #include "motionmanifold/v1/manifold.grpc.pb.h"
-#include "rest_call.h"
-#include "server_process.h"
-#include "test_environment.h"
+#include "tests/common/cmu_dance.h"
+#include "tests/common/test_environment.h"
+#include "tests/server/rest_call.h"
+#include "tests/server/server_process.h"
 
 namespace mm::test {
 namespace {

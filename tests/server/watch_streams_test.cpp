@@ -26,12 +26,12 @@
 #include <thread>
 #include <vector>
 
-#include "api/api_types.h"
-#include "core/watch_streams.h"
 #include "motionmanifold/v1/manifold.grpc.pb.h"
 #include "probes/health_probe.grpc.pb.h"
-#include "server_process.h"
-#include "test_environment.h"
+#include "server/api/api_types.h"
+#include "server/core/watch_streams.h"
+#include "tests/common/test_environment.h"
+#include "tests/server/server_process.h"
 
 namespace mm {
 namespace {

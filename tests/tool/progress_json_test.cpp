@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "test_environment.h"
+#include "tests/common/test_environment.h"
 
 namespace mm {
 namespace {

@@ -14,11 +14,11 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "blender_dances.h"
-#include "command_run.h"
 #include "format/animation_file.h"
 #include "format/bvh_file.h"
-#include "test_environment.h"
+#include "tests/common/blender_dances.h"
+#include "tests/common/command_run.h"
+#include "tests/common/test_environment.h"
 
 namespace mm {
 namespace {

@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "command_run.h"
-#include "test_environment.h"
+#include "tests/common/command_run.h"
+#include "tests/common/test_environment.h"
 
 namespace mm {
 namespace {

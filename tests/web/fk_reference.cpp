@@ -21,7 +21,7 @@
 #include "format/h36m_bvh.h"
 #include "format/motion_text.h"
 #include "format/skeleton_bvh.h"
-#include "forward_kinematics.h"
+#include "model/forward_kinematics.h"
 
 namespace {
 

@@ -10,7 +10,7 @@
 // The service reads them back too: our glb, and Blender's glb and FBX exports
 // of our BVH, POSTed to /v1/encode, give the BVH's code.
 //
-// FBX is read by the service, not written (model/format/fbx_animation.h), so
+// FBX is read by the service, not written (format/fbx_animation.h), so
 // FBXLoader has nothing of ours to read.
 //
 //   node gltf_loader_test.mjs NODE_MODULES   (ctest: web_gltf_loader_reads_our_export)

@@ -49,7 +49,7 @@ export function bvhToModelRateMotion(text, skeleton) {
 
 // A BVH of `skeleton` as a wire motion at `rate` (null: every frame of the
 // file at its own rate, as the server reads a take), through three.js's
-// BVHLoader: the inverse of model/format/skeleton_bvh.h, joints
+// BVHLoader: the inverse of format/skeleton_bvh.h, joints
 // matched by name (the root's translation is left at zero: the model does
 // not learn it). A joint's local
 // rotation in the row-vector convention is the transpose of the BVH's

@@ -1,5 +1,5 @@
 """BVH files of a model's skeleton to and from its motions, as the server and
-the command-line client convert them (model/format/skeleton_bvh.h).
+the command-line client convert them (format/skeleton_bvh.h).
 
 Reading: joints are matched to the skeleton's by name (a leaf of the skeleton
 may be an End Site in the file), any rotation channel order, position

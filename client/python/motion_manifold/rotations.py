@@ -1,6 +1,6 @@
 """Rotations for the BVH conversions, vectorised over frames with numpy.
 
-The same formulas as the library's model/format/rotation_matrix.cpp, so that
+The same formulas as the library's format/rotation_matrix.cpp, so that
 a BVH this package reads or writes agrees with the server's own conversion
 to rounding. Column-vector matrices (BVH's convention) unless a name says
 otherwise; angles in radians unless a name says degrees. Every function takes

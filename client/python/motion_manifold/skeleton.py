@@ -1,7 +1,7 @@
 """The skeleton of a model's motions, as DescribeModel gives it
 (ModelInfo.skeleton_json), with the BVH layout its motions are written in.
 
-The JSON is that of the library's model/format/skeleton.h: {"name", "joints":
+The JSON is that of the library's format/skeleton.h: {"name", "joints":
 [{"index", "name", "parent", "offset": [x, y, z] in mm}]} and, for a rig
 learnt from BVH files, "bvh": {"millimetres_per_unit", "joints":
 [{"channels", "end_site"}]}. A skeleton without one (H3.6M's) is written as
@@ -80,7 +80,7 @@ class Skeleton:
         `name`, one joint per BVH joint or End Site in file order (End Sites
         named "<parent>_End", "_2", ... where taken), offsets times
         `millimetres_per_unit` (10 for a file in cm), its BVH layout that of
-        the file: the library's bvh_skeleton (model/format/bvh_file.h), the
+        the file: the library's bvh_skeleton (format/bvh_file.h), the
         rig a model trained on such files speaks."""
         names = {j.name for j in bvh.joints if not j.end_site}
         joint_names = []
