@@ -8,6 +8,7 @@
 #include <tuple>
 
 #include "format/input_error.h"
+#include "format/motion_text.h"
 
 namespace mm {
 

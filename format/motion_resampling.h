@@ -20,7 +20,7 @@
 #include <string>
 #include <vector>
 
-#include "format/motion_text.h"
+#include "format/motion_frames.h"
 
 namespace mm {
 

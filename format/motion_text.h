@@ -1,10 +1,7 @@
 // Motion text: the exponential-map text layout of Human3.6M used by Martinez
 // et al. 2017 (one frame a line, comma-separated floats with 7 decimals, no
-// header, 50 Hz), and the in-memory frame matrix it parses into.
-//
-// For H3.6M a frame has 99 values: [0:3] root translation (mm, per-frame
-// change), then 32 joints x 3 exponential-map values in radians, joint j at
-// columns 3+3j..5+3j. Other column counts are accepted for other skeletons.
+// header, 50 Hz), read into and written from MotionFrames
+// (format/motion_frames.h).
 //
 // All functions here are reentrant: they touch only their arguments, so they
 // may be called concurrently on different objects.
@@ -15,33 +12,17 @@
 #include <string>
 #include <vector>
 
-namespace mm {
+#include "format/motion_frames.h"
 
-constexpr int kH36mColumns = 99;
-constexpr double kH36mFrameRate = 50.0;  // frames per second of the text files
+namespace mm {
 
 // The largest magnitudes the parser accepts. Values beyond them cannot come
 // from a motion and would overflow float arithmetic downstream (forward
 // kinematics squares them), so they are refused as bad input. The bounds are
 // generous: in H3.6M the root moves at most about 55 mm a frame and every
 // exponential-map value is within pi.
-constexpr int kRootTranslationValues = 3;                // the first values of a frame
 constexpr double kMaxRootTranslationMm = 1e5;            // 100 m a frame
 constexpr double kMaxRotationRadians = 1e3;              // about 160 turns
-
-// A sequence of frames, row-major: values[i * columns + c] is column c of
-// frame i. Plain value type; not synchronised.
-struct MotionFrames {
-  int columns = kH36mColumns;
-  std::vector<float> values;
-
-  // Number of frames: values.size() / columns (0 when columns <= 0).
-  int64_t frame_count() const;
-  // Pointer to the `columns` values of frame i. No bounds check: i must be in
-  // [0, frame_count()). Valid until `values` is resized.
-  const float* frame(int64_t i) const;
-  float* frame(int64_t i);
-};
 
 // Parses motion text from `in`. `source_name` is used only in error messages
 // (give the file name). Every non-blank line must hold exactly

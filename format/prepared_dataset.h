@@ -34,7 +34,7 @@
 #include <string>
 #include <vector>
 
-#include "format/motion_text.h"
+#include "format/motion_frames.h"
 #include "format/pose_normalization.h"
 #include "format/skeleton.h"
 

@@ -22,7 +22,7 @@
 #pragma once
 
 #include "format/foot_contacts.h"
-#include "format/motion_text.h"
+#include "format/motion_frames.h"
 #include "format/rotation_matrix.h"
 #include "format/skeleton.h"
 

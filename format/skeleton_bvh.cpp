@@ -7,6 +7,7 @@
 #include <set>
 
 #include "format/input_error.h"
+#include "format/motion_text.h"
 
 namespace mm {
 namespace {

@@ -26,7 +26,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "format/motion_text.h"
+#include "format/motion_frames.h"
 #include "model/motion_manifold.h"
 
 namespace mm {

@@ -29,7 +29,7 @@
 #include <string>
 #include <vector>
 
-#include "format/motion_text.h"
+#include "format/motion_frames.h"
 #include "model/gap_code_fit.h"
 #include "model/gap_interpolation.h"
 #include "model/motion_manifold.h"

@@ -17,7 +17,7 @@
 #include <string>
 #include <vector>
 
-#include "format/motion_text.h"
+#include "format/motion_frames.h"
 #include "model/motion_manifold.h"
 
 namespace mm {

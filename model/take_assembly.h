@@ -18,7 +18,7 @@
 #include <string>
 #include <vector>
 
-#include "format/motion_text.h"
+#include "format/motion_frames.h"
 
 namespace mm {
 

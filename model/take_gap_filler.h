@@ -15,7 +15,7 @@
 
 #include <cstdint>
 
-#include "format/motion_text.h"
+#include "format/motion_frames.h"
 #include "model/gap_interpolation.h"
 
 namespace mm {

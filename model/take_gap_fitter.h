@@ -28,7 +28,7 @@
 #include <optional>
 #include <vector>
 
-#include "format/motion_text.h"
+#include "format/motion_frames.h"
 #include "model/gap_code_fit.h"
 
 namespace mm {

@@ -15,6 +15,7 @@
 
 #include "format/input_error.h"
 #include "format/motion_resampling.h"
+#include "format/motion_text.h"
 #include "model/take_gap_filler.h"
 #include "model/take_gap_fitter.h"
 

@@ -24,7 +24,7 @@
 #include <string>
 #include <vector>
 
-#include "format/motion_text.h"
+#include "format/motion_frames.h"
 #include "model/motion_manifold.h"
 #include "model/take_assembly.h"
 

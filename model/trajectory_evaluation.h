@@ -22,7 +22,7 @@
 #include <vector>
 
 #include "format/foot_contacts.h"
-#include "format/motion_text.h"
+#include "format/motion_frames.h"
 
 namespace mm {
 

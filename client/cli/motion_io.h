@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "client/cli/model_rig.h"
-#include "format/motion_text.h"
+#include "format/motion_frames.h"
 #include "motionmanifold/v1/manifold.pb.h"
 
 namespace mm::client {

@@ -11,7 +11,7 @@
 #include <string>
 
 #include "client/cli/connection_options.h"
-#include "format/motion_text.h"
+#include "format/motion_frames.h"
 #include "motionmanifold/v1/manifold.pb.h"
 
 namespace mm::client {

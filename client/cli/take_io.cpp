@@ -13,6 +13,7 @@
 #include "format/atomic_file.h"
 #include "format/bvh_file.h"
 #include "format/input_error.h"
+#include "format/motion_text.h"
 #include "format/skeleton_bvh.h"
 #include "wire/rest_json.h"
 

@@ -9,6 +9,7 @@
 #include "format/animation_file.h"
 #include "format/atomic_file.h"
 #include "format/input_error.h"
+#include "format/motion_text.h"
 #include "format/skeleton_bvh.h"
 #include "model/tool/file_arguments.h"
 

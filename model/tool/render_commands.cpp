@@ -14,7 +14,7 @@
 #include "format/atomic_file.h"
 #include "format/bvh_file.h"
 #include "format/input_error.h"
-#include "format/motion_text.h"
+#include "format/motion_frames.h"
 #include "model/forward_kinematics.h"
 #include "model/render/loss_curve_svg.h"
 #include "model/render/pose_strip_svg.h"

@@ -10,6 +10,7 @@
 #include "format/bvh_file.h"
 #include "format/input_error.h"
 #include "format/motion_resampling.h"
+#include "format/motion_text.h"
 #include "format/skeleton_bvh.h"
 #include "model/default_model.h"
 #include "model/take_processor.h"

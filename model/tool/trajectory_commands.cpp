@@ -13,6 +13,7 @@
 #include "format/foot_contacts.h"
 #include "format/h36m_corpus.h"
 #include "format/input_error.h"
+#include "format/motion_text.h"
 #include "format/rig_folder_dataset.h"
 #include "format/root_path.h"
 #include "format/skeleton_bvh.h"

@@ -1,6 +1,7 @@
 #include "server/core/motion_conversion.h"
 
 #include "format/foot_contacts.h"
+#include "format/motion_text.h"
 #include "format/root_path.h"
 #include "format/skeleton_bvh.h"
 

@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "format/motion_text.h"
+#include "format/motion_frames.h"
 #include "format/skeleton.h"
 #include "server/api/api_types.h"
 

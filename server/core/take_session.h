@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "format/animation_file.h"
-#include "format/motion_text.h"
+#include "format/motion_frames.h"
 #include "format/skeleton.h"
 #include "server/api/api_types.h"
 

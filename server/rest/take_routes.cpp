@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "format/input_error.h"
+#include "format/motion_text.h"
 #include "format/skeleton_bvh.h"
 #include "server/rest/bvh_translation.h"
 #include "server/rest/json_translation.h"

@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "format/input_error.h"
+#include "format/motion_text.h"
 #include "model/evaluation.h"
 #include "model/latent_operations.h"
 #include "tests/model/model_test_data.h"

@@ -27,7 +27,7 @@
 #include <vector>
 
 #include "format/h36m_bvh.h"
-#include "format/motion_text.h"
+#include "format/motion_frames.h"
 #include "tests/common/process_cost.h"
 #include "tests/common/test_environment.h"
 #include "tests/server/rest_call.h"

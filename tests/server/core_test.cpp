@@ -19,6 +19,7 @@
 #include "format/bvh_file.h"
 #include "format/h36m_bvh.h"
 #include "format/input_error.h"
+#include "format/motion_text.h"
 #include "model/latent_operations.h"
 #include "server/api/data_root_path.h"
 #include "server/core/manifold_core.h"

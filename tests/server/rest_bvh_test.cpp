@@ -13,7 +13,7 @@
 
 #include "format/bvh_file.h"
 #include "format/h36m_bvh.h"
-#include "format/motion_text.h"
+#include "format/motion_frames.h"
 #include "tests/common/test_environment.h"
 #include "tests/server/rest_call.h"
 #include "tests/server/server_process.h"
