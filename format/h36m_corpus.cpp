@@ -64,7 +64,7 @@ std::vector<MotionSequence> load_h36m_corpus(const std::string& dir,
                                              const std::vector<std::string>& subjects,
                                              int downsample) {
   if (downsample < 1) {
-    throw InputError("load_h36m_corpus: downsample " + std::to_string(downsample) +
+    throw InputError("load_h36m_corpus", "downsample " + std::to_string(downsample) +
                      " is invalid, expected an integer >= 1");
   }
   const fs::path dataset(resolve_h36m_dataset_dir(dir));
@@ -72,7 +72,7 @@ std::vector<MotionSequence> load_h36m_corpus(const std::string& dir,
   for (const std::string& subject : subjects) {
     if (subject.empty() || subject.find_first_of("/\\") != std::string::npos || subject == "." ||
         subject == "..") {
-      throw InputError("load_h36m_corpus: subject \"" + subject +
+      throw InputError("load_h36m_corpus", "subject \"" + subject +
                        "\" is not a folder name like \"S1\"");
     }
     std::error_code error;

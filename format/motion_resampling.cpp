@@ -26,7 +26,7 @@ std::string number_text(double value) {
 
 void check_take_rate(double rate_hz, const std::string& field) {
   if (!(rate_hz >= kMinTakeRate && rate_hz <= kMaxTakeRate)) {
-    throw InputError(field + ": expected a frame rate of " + number_text(kMinTakeRate) + " to " +
+    throw InputError(field, "expected a frame rate of " + number_text(kMinTakeRate) + " to " +
                      number_text(kMaxTakeRate) + " Hz, found " + number_text(rate_hz));
   }
 }
@@ -41,7 +41,7 @@ MotionResampler::MotionResampler(int columns, double from_hz, double to_hz)
   check_take_rate(from_hz, "from_hz");
   check_take_rate(to_hz, "to_hz");
   if (columns < 3 || (columns - 3) % 3 != 0) {
-    throw InputError("columns: expected 3 root values and 3 per joint, found " + std::to_string(columns));
+    throw InputError("columns", "expected 3 root values and 3 per joint, found " + std::to_string(columns));
   }
 }
 

@@ -264,7 +264,7 @@ void write_motion_text_file(const MotionFrames& motion, const std::string& path)
 
 std::vector<MotionFrames> split_phases(const MotionFrames& motion, int factor) {
   if (factor < 1) {
-    throw InputError("split_phases: factor " + std::to_string(factor) +
+    throw InputError("split_phases", "factor " + std::to_string(factor) +
                      " is invalid, expected an integer >= 1");
   }
   const int64_t frames = motion.frame_count();

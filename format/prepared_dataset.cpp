@@ -93,16 +93,16 @@ std::vector<const PreparedSequence*> PreparedDataset::subset(
 
 PreparedDataset prepare_h36m(const std::string& dataset_dir, const SplitOptions& options) {
   if (options.train_subjects.empty()) {
-    throw InputError("prepare_h36m: train_subjects is empty, expected at least one subject");
+    throw InputError("prepare_h36m", "train_subjects is empty, expected at least one subject");
   }
   for (const std::string& subject : options.test_subjects) {
     if (is_subject_in(subject, options.train_subjects)) {
-      throw InputError("prepare_h36m: subject \"" + subject +
+      throw InputError("prepare_h36m", "subject \"" + subject +
                        "\" is listed as both train and test subject");
     }
   }
   if (options.downsample < 1 || 50 % options.downsample != 0) {
-    throw InputError("prepare_h36m: downsample " + std::to_string(options.downsample) +
+    throw InputError("prepare_h36m", "downsample " + std::to_string(options.downsample) +
                      " is invalid, expected a divisor of 50 (the recording rate in Hz)");
   }
   std::vector<std::string> all_subjects = options.train_subjects;

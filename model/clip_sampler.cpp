@@ -18,7 +18,7 @@ ClipSampler::ClipSampler(std::vector<const PreparedSequence*> sequences, int fra
     total_starts_ += starts;
   }
   if (sequences_.empty()) {
-    throw InputError("dataset: no sequence has the " + std::to_string(frames) + " frames a clip needs");
+    throw InputError("dataset", "no sequence has the " + std::to_string(frames) + " frames a clip needs");
   }
 }
 
@@ -55,7 +55,7 @@ std::string ClipSampler::state() const {
 void ClipSampler::set_state(const std::string& state) {
   std::istringstream s(state);
   s >> engine_;
-  if (!s) throw InputError("checkpoint: sampler_state: not a random engine state");
+  if (!s) throw InputError("checkpoint", "sampler_state: not a random engine state");
 }
 
 }  // namespace mm

@@ -16,13 +16,13 @@ const char* transition_method_name(TransitionMethod method) {
 TransitionMethod parse_transition_method(const std::string& name, const std::string& field) {
   if (name == "generated") return TransitionMethod::kGenerated;
   if (name == "crossfade") return TransitionMethod::kCrossfade;
-  throw InputError(field + ": expected generated or crossfade, found '" + name + "'");
+  throw InputError(field, "expected generated or crossfade, found '" + name + "'");
 }
 
 JoinedClips join_clips(const MotionManifold& model, const MotionFrames& a, const MotionFrames& b,
                        const TransitionOptions& options) {
   if (!(options.seconds >= kMinTransitionSeconds && options.seconds <= kMaxTransitionSeconds)) {
-    throw InputError("transition_seconds: expected " + std::to_string(kMinTransitionSeconds) + " to " +
+    throw InputError("transition_seconds", "expected " + std::to_string(kMinTransitionSeconds) + " to " +
                      std::to_string(kMaxTransitionSeconds) + " s, found " + std::to_string(options.seconds));
   }
   const int columns = model.normalization().input_columns();
@@ -30,18 +30,18 @@ JoinedClips join_clips(const MotionManifold& model, const MotionFrames& a, const
   const auto context = static_cast<int64_t>(kTakeModelRate);
   for (const auto& [clip, name] : {std::pair<const MotionFrames*, const char*>{&a, "a"}, {&b, "b"}}) {
     if (clip->columns != columns) {
-      throw InputError(std::string(name) + ": expected " + std::to_string(columns) + " values per frame, found " +
+      throw InputError(std::string(name), "expected " + std::to_string(columns) + " values per frame, found " +
                        std::to_string(clip->columns));
     }
     if (clip->frame_count() < n + context) {
-      throw InputError(std::string(name) + ": expected at least " + std::to_string(n + context) +
+      throw InputError(std::string(name), "expected at least " + std::to_string(n + context) +
                        " frames at 25 Hz (the transition and 1 s more), found " + std::to_string(clip->frame_count()));
     }
   }
   const int64_t na = a.frame_count(), nb = b.frame_count();
   const int64_t window = model.config().frames;
   if (na + nb - n < window) {
-    throw InputError("b: expected the joined clips to make at least " + std::to_string(window) +
+    throw InputError("b", "expected the joined clips to make at least " + std::to_string(window) +
                      " frames at 25 Hz (one window of the model), found " + std::to_string(na + nb - n));
   }
   JoinedClips joined;

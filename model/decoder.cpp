@@ -32,13 +32,13 @@ DecoderImpl::DecoderImpl(const DecoderShape& shape)
 at::Tensor DecoderImpl::forward(const at::Tensor& z) { return forward_together({this}, z)[0]; }
 
 std::vector<at::Tensor> forward_together(const std::vector<DecoderImpl*>& decoders, const at::Tensor& z) {
-  if (decoders.empty()) throw InputError("decoders: expected at least one decoder");
+  if (decoders.empty()) throw InputError("decoders", "expected at least one decoder");
   const DecoderShape& shape = decoders[0]->shape();
   for (const auto* d : decoders) {
     const DecoderShape& s = d->shape();
     if (s.pose_dims != shape.pose_dims || s.hidden != shape.hidden || s.latent != shape.latent ||
         s.frames != shape.frames || s.feed_code != shape.feed_code) {
-      throw InputError("decoders: expected decoders of one shape to run together");
+      throw InputError("decoders", "expected decoders of one shape to run together");
     }
   }
   // One weight set per decoder along a new first dimension (a view for one).

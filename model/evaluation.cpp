@@ -294,11 +294,11 @@ std::string evaluate_reconstruction(const MotionManifold& model, const std::vect
   c10::InferenceMode inference;
   const auto& config = model.config();
   if (config.frames % options.intervals != 0) {
-    throw InputError("intervals: " + std::to_string(options.intervals) + " does not divide the clip's " +
+    throw InputError("intervals", std::to_string(options.intervals) + " does not divide the clip's " +
                      std::to_string(config.frames) + " frames");
   }
   if (options.spread_seeds < 1) {
-    throw InputError("spread_seeds: expected at least 1, found " + std::to_string(options.spread_seeds));
+    throw InputError("spread_seeds", "expected at least 1, found " + std::to_string(options.spread_seeds));
   }
   auto draw_clips = [&](uint64_t seed) {
     ClipSampler sampler(test, config.frames, seed);

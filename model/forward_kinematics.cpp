@@ -23,7 +23,7 @@ at::Tensor ForwardKinematics::positions(const at::Tensor& frames) const {
   const int joints = joint_count();
   const int64_t columns = frames.size(-1);
   if (columns != 3 + 3 * joints) {
-    throw InputError("frames: expected " + std::to_string(3 + 3 * joints) + " values per frame for a " +
+    throw InputError("frames", "expected " + std::to_string(3 + 3 * joints) + " values per frame for a " +
                      std::to_string(joints) + "-joint skeleton, found " + std::to_string(columns));
   }
   auto batch_shape = frames.sizes().vec();

@@ -183,7 +183,7 @@ void write_fitted_window(const GapFitWindow& fit, const float* clip, int64_t win
 MotionFrames fit_gap_codes(const MotionManifold& model, const MotionFrames& observed, const MotionFrames& decoded,
                            DecoderKind kind, const GapCodeFitOptions& options, GapFitCounts* counts) {
   if (decoded.columns != observed.columns || decoded.frame_count() != observed.frame_count()) {
-    throw InputError("decoded: expected the observed motion's shape");
+    throw InputError("decoded", "expected the observed motion's shape");
   }
   MotionFrames result = decoded;
   GapFitCounts counted;

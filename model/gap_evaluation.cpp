@@ -291,7 +291,7 @@ GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vec
       }
     }
   }
-  if (total_gaps == 0) throw InputError("takes: none is long enough to hold a gap with 1 s of recording on each side");
+  if (total_gaps == 0) throw InputError("takes", "none is long enough to hold a gap with 1 s of recording on each side");
 
   // JSON: every configuration's methods, overall and per action.
   nlohmann::json config_rows = nlohmann::json::array();
@@ -448,7 +448,7 @@ GapBenchmarkResult run_keyframe_benchmark(const MotionManifold& model, const std
       }
     }
   }
-  if (used_takes == 0) throw InputError("takes: none is one window (" + std::to_string(window) + " frames at 25 Hz) long");
+  if (used_takes == 0) throw InputError("takes", "none is one window (" + std::to_string(window) + " frames at 25 Hz) long");
 
   nlohmann::json rows = nlohmann::json::array();
   for (size_t i = 0; i < options.intervals.size(); ++i) {

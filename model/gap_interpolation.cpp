@@ -144,7 +144,7 @@ GapMethod parse_gap_method(const std::string& name, const std::string& field) {
                            GapMethod::kHold, GapMethod::kManifold}) {
     if (name == gap_method_name(method)) return method;
   }
-  throw InputError(field + ": expected \"fitted\", \"matched\", \"cubic\", \"slerp\", \"hold\" or \"manifold\", found \"" +
+  throw InputError(field, "expected \"fitted\", \"matched\", \"cubic\", \"slerp\", \"hold\" or \"manifold\", found \"" +
                    name + "\"");
 }
 

@@ -24,7 +24,7 @@ Precision parse_precision(const std::string& name, const std::string& field) {
   if (name == "fp32") return Precision::kFp32;
   if (name == "bf16") return Precision::kBf16;
   if (name == "int8") return Precision::kInt8;
-  throw InputError(field + ": unknown value \"" + name + "\", expected \"fp32\", \"bf16\" or \"int8\"");
+  throw InputError(field, "unknown value \"" + name + "\", expected \"fp32\", \"bf16\" or \"int8\"");
 }
 
 Precision outside_recurrence(Precision precision) {

@@ -17,25 +17,25 @@ namespace {
 void check_motion(const MotionManifold& model, const MotionFrames& m, size_t index) {
   const std::string name = "motions[" + std::to_string(index) + "]";
   if (m.columns != model.normalization().input_columns()) {
-    throw InputError(name + ": expected " + std::to_string(model.normalization().input_columns()) +
+    throw InputError(name, "expected " + std::to_string(model.normalization().input_columns()) +
                      " values per frame, found " + std::to_string(m.columns));
   }
   if (m.frame_count() != model.config().frames) {
-    throw InputError(name + ": expected " + std::to_string(model.config().frames) + " frames at 25 Hz, found " +
+    throw InputError(name, "expected " + std::to_string(model.config().frames) + " frames at 25 Hz, found " +
                      std::to_string(m.frame_count()));
   }
 }
 
 void check_code(const at::Tensor& code, int64_t latent, const char* name) {
   if (code.dim() != 1 || code.size(0) != latent) {
-    throw InputError(std::string(name) + ": expected a code of " + std::to_string(latent) + " values, found shape " +
+    throw InputError(std::string(name), "expected a code of " + std::to_string(latent) + " values, found shape " +
                      c10::str(code.sizes()));
   }
 }
 
 // Raw frames (n, frames, input columns) of checked motions, on the model's device.
 at::Tensor stack_motions(const MotionManifold& model, const std::vector<MotionFrames>& motions) {
-  if (motions.empty()) throw InputError("motions: expected at least one motion");
+  if (motions.empty()) throw InputError("motions", "expected at least one motion");
   const int64_t frames = model.config().frames, columns = model.normalization().input_columns();
   auto raw = at::empty({static_cast<int64_t>(motions.size()), frames, columns});
   for (size_t i = 0; i < motions.size(); ++i) {
@@ -78,14 +78,14 @@ std::vector<MotionFrames> decode_codes(const MotionManifold& model, const at::Te
   c10::InferenceMode inference;
   const int64_t latent = model.config().latent;
   if (codes.dim() != 2 || codes.size(1) != latent) {
-    throw InputError("codes: expected shape (n, " + std::to_string(latent) + "), found " + c10::str(codes.sizes()));
+    throw InputError("codes", "expected shape (n, " + std::to_string(latent) + "), found " + c10::str(codes.sizes()));
   }
-  if (!at::isfinite(codes).all().item<bool>()) throw InputError("codes: values must be finite numbers");
+  if (!at::isfinite(codes).all().item<bool>()) throw InputError("codes", "values must be finite numbers");
   return to_motions(model, model.decode(codes.to(at::kFloat), kind), translation_from, codes);
 }
 
 at::Tensor sample_codes(const MotionManifold& model, int n, uint64_t seed, double prior_variance) {
-  if (n < 1) throw InputError("count: expected at least 1, found " + std::to_string(n));
+  if (n < 1) throw InputError("count", "expected at least 1, found " + std::to_string(n));
   auto generator = at::detail::createCPUGenerator(seed);
   return at::randn({n, model.config().latent}, generator) * std::sqrt(prior_variance);
 }
@@ -93,7 +93,7 @@ at::Tensor sample_codes(const MotionManifold& model, int n, uint64_t seed, doubl
 at::Tensor interpolate_codes(const at::Tensor& a, const at::Tensor& b, int steps, bool spherical) {
   check_code(a, a.numel(), "from");
   check_code(b, a.numel(), "to");
-  if (steps < 2) throw InputError("steps: expected at least 2, found " + std::to_string(steps));
+  if (steps < 2) throw InputError("steps", "expected at least 2, found " + std::to_string(steps));
   auto t = at::linspace(0.0, 1.0, steps).unsqueeze(1);
   if (!spherical) return a.unsqueeze(0) * (1 - t) + b.unsqueeze(0) * t;
   const double norm_a = a.norm().item<double>(), norm_b = b.norm().item<double>();
@@ -106,7 +106,7 @@ at::Tensor interpolate_codes(const at::Tensor& a, const at::Tensor& b, int steps
   // arc; float codes that nearly are give an angle of pi, and the division
   // by its sine codes of 1e11.
   if (cos_angle < -1.0 + 1e-6) {
-    throw InputError("to: the code points opposite to from's, so no single arc joins them; expected another code, "
+    throw InputError("to", "the code points opposite to from's, so no single arc joins them; expected another code, "
                      "or method linear");
   }
   auto unit_a = a / norm_a, unit_b = b / norm_b;
@@ -124,10 +124,10 @@ std::vector<MotionFrames> denoise_motions(const MotionManifold& model, const std
                                           DecoderKind kind, const DenoiseOptions& options) {
   c10::InferenceMode inference;
   if (options.iterations < 1) {
-    throw InputError("iterations: expected at least 1, found " + std::to_string(options.iterations));
+    throw InputError("iterations", "expected at least 1, found " + std::to_string(options.iterations));
   }
   if (options.keep_observed && !options.zeros_are_missing && !options.means_are_missing) {
-    throw InputError("keep_observed: expected together with zeros_are_missing or means_are_missing (without "
+    throw InputError("keep_observed", "expected together with zeros_are_missing or means_are_missing (without "
                      "missing values every value is observed, and nothing would be denoised)");
   }
   const auto raw = stack_motions(model, motions);
@@ -162,7 +162,7 @@ at::Tensor project_onto_manifold(const MotionManifold& model, const at::Tensor& 
 
 at::Tensor missing_values_mask(const MotionManifold& model, const at::Tensor& raw, const DenoiseOptions& options) {
   if (options.zeros_are_missing && options.means_are_missing) {
-    throw InputError("means_are_missing: expected either zeros_are_missing or means_are_missing, found both");
+    throw InputError("means_are_missing", "expected either zeros_are_missing or means_are_missing, found both");
   }
   if (options.means_are_missing) return model.to_normalized(raw) == 0;
   if (!options.zeros_are_missing) return {};
@@ -178,13 +178,13 @@ const char* corruption_name(Corruption corruption) {
 Corruption parse_corruption(const std::string& name) {
   if (name == "reference") return Corruption::kReference;
   if (name == "zeroed") return Corruption::kZeroed;
-  throw InputError("corruption: expected reference or zeroed, found '" + name + "'");
+  throw InputError("corruption", "expected reference or zeroed, found '" + name + "'");
 }
 
 MotionFrames corrupt_motion(const MotionFrames& motion, const PoseNormalization& normalization, double probability,
                             uint64_t seed, Corruption corruption) {
   if (!(probability >= 0 && probability <= 1)) {
-    throw InputError("probability: expected a value in [0, 1], found " + std::to_string(probability));
+    throw InputError("probability", "expected a value in [0, 1], found " + std::to_string(probability));
   }
   std::mt19937_64 engine(seed);
   std::bernoulli_distribution dropped(probability);

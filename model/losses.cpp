@@ -25,7 +25,7 @@ at::Tensor joint_norm_sum(const at::Tensor& per_joint_difference) {
 at::Tensor as_triplets(const at::Tensor& values) {
   const int64_t count = values.size(-1);
   if (count % 3 != 0) {
-    throw InputError("q: expected a multiple of 3 values per frame (triplets), found " + std::to_string(count));
+    throw InputError("q", "expected a multiple of 3 values per frame (triplets), found " + std::to_string(count));
   }
   auto sizes = values.sizes().vec();
   sizes.back() = count / 3;

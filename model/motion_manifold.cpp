@@ -61,17 +61,17 @@ const char* decoder_name(DecoderKind kind) { return kind == DecoderKind::kRotati
 DecoderKind parse_decoder_kind(const std::string& name) {
   if (name == "rotation") return DecoderKind::kRotation;
   if (name == "velocity") return DecoderKind::kVelocity;
-  throw InputError("decoder: unknown value \"" + name + "\", expected rotation or velocity");
+  throw InputError("decoder", "unknown value \"" + name + "\", expected rotation or velocity");
 }
 
 MotionManifold::MotionManifold(const ModelConfig& config, PoseNormalization normalization, Skeleton skeleton)
     : config_(config), normalization_(std::move(normalization)), skeleton_(std::move(skeleton)), fk_(skeleton_) {
   if (normalization_.dims() != config_.pose_dims) {
-    throw InputError("model.pose_dims: " + std::to_string(config_.pose_dims) + " does not match the " +
+    throw InputError("model.pose_dims", std::to_string(config_.pose_dims) + " does not match the " +
                      std::to_string(normalization_.dims()) + " columns kept by the normalisation");
   }
   if (normalization_.input_columns() != 3 + 3 * skeleton_.joint_count()) {
-    throw InputError("normalization: " + std::to_string(normalization_.input_columns()) +
+    throw InputError("normalization", std::to_string(normalization_.input_columns()) +
                      " columns do not fit the skeleton's " + std::to_string(skeleton_.joint_count()) + " joints");
   }
   encoder_ = Encoder(config_.pose_dims, config_.hidden, config_.latent);
@@ -183,7 +183,7 @@ at::Tensor MotionManifold::encode(const at::Tensor& normalized) const {
 
 at::Tensor MotionManifold::decode(const at::Tensor& codes, DecoderKind kind) const {
   if (!has_decoder(kind)) {
-    throw InputError(std::string("decoder: this model has no ") + decoder_name(kind) + " decoder");
+    throw InputError("decoder", std::string("this model has no ") + decoder_name(kind) + " decoder");
   }
   return decoder(kind)->generate(codes.to(device_));
 }

@@ -185,7 +185,7 @@ PackedLinear::PackedLinear(const at::Tensor& weight, const at::Tensor& bias, Pre
       weight_version_(version_of(weight)),
       bias_version_(version_of(bias)) {
   if (!precision_available(precision)) {
-    throw InputError(std::string("precision: ") + precision_name(precision) + " is not available on this CPU");
+    throw InputError("precision", std::string("") + precision_name(precision) + " is not available on this CPU");
   }
   auto& m = *impl_;
   m.n = weight.size(0);
@@ -275,7 +275,7 @@ PackedLinear::PackedLinear(const at::Tensor& weight, const at::Tensor& bias, Pre
       weight_version_(version_of(weight)),
       bias_version_(version_of(bias)) {
   if (!precision_available(precision)) {
-    throw InputError(std::string("precision: ") + precision_name(precision) +
+    throw InputError("precision", std::string("") + precision_name(precision) +
                      " is not available in this build (it needs oneDNN)");
   }
 }

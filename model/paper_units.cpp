@@ -12,7 +12,7 @@ namespace mm {
 at::Tensor mean_triplet_norm(const at::Tensor& difference) {
   const int64_t values = difference.size(-1);
   if (values % 3 != 0) {
-    throw InputError("difference: expected a last dimension that is a multiple of 3 (triplets), found " +
+    throw InputError("difference", "expected a last dimension that is a multiple of 3 (triplets), found " +
                      std::to_string(values));
   }
   auto sizes = difference.sizes().vec();
@@ -23,7 +23,7 @@ at::Tensor mean_triplet_norm(const at::Tensor& difference) {
 
 CoordinateStandardization CoordinateStandardization::fit(const at::Tensor& coordinates, double min_std) {
   if (coordinates.dim() != 2 || coordinates.size(0) == 0 || coordinates.size(1) % 3 != 0) {
-    throw InputError("coordinates: expected (frames > 0, 3 x joints), found shape " + c10::str(coordinates.sizes()));
+    throw InputError("coordinates", "expected (frames > 0, 3 x joints), found shape " + c10::str(coordinates.sizes()));
   }
   CoordinateStandardization s;
   const auto x = coordinates.to(at::kDouble);
@@ -32,7 +32,7 @@ CoordinateStandardization CoordinateStandardization::fit(const at::Tensor& coord
   s.stddev = x.std(0, /*unbiased=*/false);
   s.kept = s.stddev >= min_std;
   if (!s.kept.any().item<bool>()) {
-    throw InputError("coordinates: none has a std >= " + std::to_string(min_std) + " over the frames");
+    throw InputError("coordinates", "none has a std >= " + std::to_string(min_std) + " over the frames");
   }
   return s;
 }
@@ -69,7 +69,7 @@ CoordinateStandardization fit_position_standardization(const MotionManifold& mod
     if (static_cast<int64_t>(chunk.size()) / dims >= kChunkFrames) flush();
   }
   flush();
-  if (positions.empty()) throw InputError("sequences: expected training frames to fit the position statistics, found none");
+  if (positions.empty()) throw InputError("sequences", "expected training frames to fit the position statistics, found none");
   return CoordinateStandardization::fit(at::cat(positions));
 }
 

@@ -12,12 +12,12 @@ const char* take_blend_name(TakeBlend blend) { return blend == TakeBlend::kCross
 TakeBlend parse_take_blend(const std::string& name) {
   if (name == "crossfade") return TakeBlend::kCrossfade;
   if (name == "cut") return TakeBlend::kCut;
-  throw InputError("blend: expected crossfade or cut, found '" + name + "'");
+  throw InputError("blend", "expected crossfade or cut, found '" + name + "'");
 }
 
 TakeAssembler::TakeAssembler(int columns, TakeBlend blend) : columns_(columns), blend_(blend) {
   if (columns < 3 || (columns - 3) % 3 != 0) {
-    throw InputError("columns: expected 3 root values and 3 per joint, found " + std::to_string(columns));
+    throw InputError("columns", "expected 3 root values and 3 per joint, found " + std::to_string(columns));
   }
   pending_.columns = columns;
 }
@@ -25,12 +25,12 @@ TakeAssembler::TakeAssembler(int columns, TakeBlend blend) : columns_(columns), 
 void TakeAssembler::add(int64_t start, const MotionFrames& window, MotionFrames& out) {
   const int64_t end = assembled_frames();
   if (window.columns != columns_ || window.frame_count() < 1) {
-    throw InputError("window: expected at least one frame of " + std::to_string(columns_) + " values, found " +
+    throw InputError("window", "expected at least one frame of " + std::to_string(columns_) + " values, found " +
                      std::to_string(window.frame_count()) + " frames of " + std::to_string(window.columns));
   }
   const bool first = last_start_ < 0;
   if (first ? start != 0 : (start < last_start_ || start > end)) {
-    throw InputError("start: expected " +
+    throw InputError("start", "expected " +
                      (first ? std::string("0 for the first window")
                             : std::to_string(last_start_) + " to " + std::to_string(end) +
                                   " (at or after the previous window's start, leaving no frame uncovered)") +

@@ -100,11 +100,11 @@ std::vector<float> frame_errors_mm(const MotionManifold& model, const MotionFram
 void check_common_options(const MotionManifold& model, DecoderKind decoder, bool decodes, int batch_windows,
                           double max_seconds, const std::string& max_seconds_name) {
   if (decodes && !model.has_decoder(decoder)) {
-    throw InputError(std::string("decoder: this model has no ") + decoder_name(decoder) + " decoder");
+    throw InputError("decoder", std::string("this model has no ") + decoder_name(decoder) + " decoder");
   }
-  if (batch_windows < 1) throw InputError("batch_windows: expected at least 1, found " + std::to_string(batch_windows));
+  if (batch_windows < 1) throw InputError("batch_windows", "expected at least 1, found " + std::to_string(batch_windows));
   if (!(max_seconds >= 0) || !std::isfinite(max_seconds)) {
-    throw InputError(max_seconds_name + ": expected 0 (no limit) or a number of seconds, found " +
+    throw InputError(max_seconds_name, "expected 0 (no limit) or a number of seconds, found " +
                      number_text(max_seconds));
   }
 }
@@ -403,20 +403,20 @@ TakeProcessor::TakeProcessor(const MotionManifold& model, TakeOptions options, T
                        options.max_seconds, options.max_seconds_name);
   if (options.operation == TakeOperation::kDenoise) {
     const auto& d = options.denoise;
-    if (d.iterations < 1) throw InputError("iterations: expected at least 1, found " + std::to_string(d.iterations));
+    if (d.iterations < 1) throw InputError("iterations", "expected at least 1, found " + std::to_string(d.iterations));
     if (d.zeros_are_missing && d.means_are_missing) {
-      throw InputError("means_are_missing: expected either zeros_are_missing or means_are_missing, found both");
+      throw InputError("means_are_missing", "expected either zeros_are_missing or means_are_missing, found both");
     }
     const auto& fit = options.gap_fit;
     if (fit.iterations < 0 || fit.max_windows < 0 || fit.encoder_rounds < 1 || !(fit.learning_rate > 0) ||
         !std::isfinite(fit.learning_rate) || !(fit.prior_weight >= 0) || !std::isfinite(fit.prior_weight) ||
         !(fit.min_seconds >= 0) || !std::isfinite(fit.min_seconds)) {
-      throw InputError("gap_fit: expected iterations and max_windows of 0 or more, encoder_rounds of at least 1, a "
+      throw InputError("gap_fit", "expected iterations and max_windows of 0 or more, encoder_rounds of at least 1, a "
                        "positive finite learning_rate and finite prior_weight and min_seconds of 0 or more");
     }
   }
   if (options.root == TakeRoot::kGenerated && !model.has_trajectory()) {
-    throw InputError("root: \"generated\" needs a model with a trajectory network, which this model lacks; expected "
+    throw InputError("root", "\"generated\" needs a model with a trajectory network, which this model lacks; expected "
                      "\"input\"");
   }
   state_ = std::make_unique<State>(model, std::move(options), std::move(sink), std::move(run));
@@ -434,7 +434,7 @@ void TakeProcessor::push(const float* values, int64_t frames) {
   if (frames <= 0) return;
   const double rate = s.options.frame_rate;
   if (s.options.max_seconds > 0 && (s.input_frames + frames - 1) / rate > s.options.max_seconds) {
-    throw InputError("take: longer than " + s.options.max_seconds_name + " (" + number_text(s.options.max_seconds) +
+    throw InputError("take", "longer than " + s.options.max_seconds_name + " (" + number_text(s.options.max_seconds) +
                      " s): frame " + std::to_string(s.input_frames + frames - 1) + " at " + number_text(rate) +
                      " Hz lies at " + number_text((s.input_frames + frames - 1) / rate) + " s");
   }
@@ -452,7 +452,7 @@ TakeSummary TakeProcessor::finish() {
   const int64_t minimum = minimum_take_frames(s.windowing, rate);
   if (s.input_frames < minimum) {
     // A duration is frames over rate: 150 frames at 25 Hz are a 6 s window.
-    throw InputError("take: " + std::to_string(s.input_frames) + " frames at " + number_text(rate) + " Hz (" +
+    throw InputError("take", std::to_string(s.input_frames) + " frames at " + number_text(rate) + " Hz (" +
                      number_text(s.input_frames / rate) + " s) is shorter than one window of the model (" +
                      number_text(s.windowing.window_frames / kTakeModelRate) + " s); expected at least " +
                      std::to_string(minimum) + " frames at " + number_text(rate) + " Hz");
@@ -499,7 +499,7 @@ TakeResult process_take(const MotionManifold& model, const MotionFrames& take, c
                         TorchRunner run) {
   const int columns = model.normalization().input_columns();
   if (take.columns != columns) {
-    throw InputError("take: expected " + std::to_string(columns) + " values per frame, found " +
+    throw InputError("take", "expected " + std::to_string(columns) + " values per frame, found " +
                      std::to_string(take.columns));
   }
   TakeResult result;
@@ -523,21 +523,21 @@ TakeSummary decode_code_track(const MotionManifold& model, const std::vector<Tak
                        options.max_seconds_name);
   const int columns = model.normalization().input_columns();
   const int64_t window = model.config().frames, latent = model.config().latent;
-  if (track.empty()) throw InputError("windows: expected at least one window (a code track as encode gives)");
+  if (track.empty()) throw InputError("windows", "expected at least one window (a code track as encode gives)");
   std::vector<int64_t> starts;
   for (size_t i = 0; i < track.size(); ++i) {
     const std::string name = "windows[" + std::to_string(i) + "]";
     const double seconds = track[i].start_seconds;
     const double frame = std::isfinite(seconds) ? std::round(seconds * kTakeModelRate) : -1.0;
     if (i == 0 ? frame != 0 : !(frame >= static_cast<double>(starts.back()))) {
-      throw InputError(name + ".start_seconds: expected " +
+      throw InputError(name + ".start_seconds", "expected " +
                        (i == 0 ? std::string("0 (the track's start)")
                                : "at or after windows[" + std::to_string(i - 1) + "]'s " +
                                      number_text(starts.back() / kTakeModelRate) + " s (windows in order of start)") +
                        ", found " + number_text(seconds));
     }
     if (i > 0 && frame > static_cast<double>(starts.back() + window)) {
-      throw InputError(name + ".start_seconds: expected at most " +
+      throw InputError(name + ".start_seconds", "expected at most " +
                        number_text((starts.back() + window) / kTakeModelRate) + " s (where windows[" +
                        std::to_string(i - 1) + "] ends: a later start leaves frames uncovered), found " +
                        number_text(seconds));
@@ -545,12 +545,12 @@ TakeSummary decode_code_track(const MotionManifold& model, const std::vector<Tak
     starts.push_back(static_cast<int64_t>(frame));
     const auto& code = track[i].code;
     if (static_cast<int64_t>(code.size()) != latent) {
-      throw InputError(name + ".code: expected " + std::to_string(latent) + " numbers, found " +
+      throw InputError(name + ".code", "expected " + std::to_string(latent) + " numbers, found " +
                        std::to_string(code.size()));
     }
     for (size_t k = 0; k < code.size(); ++k) {
       if (!std::isfinite(code[k])) {
-        throw InputError(name + ".code[" + std::to_string(k) + "]: expected a finite number, found " +
+        throw InputError(name + ".code[" + std::to_string(k) + "]", "expected a finite number, found " +
                          number_text(code[k]));
       }
     }
@@ -558,7 +558,7 @@ TakeSummary decode_code_track(const MotionManifold& model, const std::vector<Tak
   const int64_t model_frames = starts.back() + window;
   const int64_t natural = resampled_frame_count(model_frames, kTakeModelRate, options.frame_rate);
   if (options.frames < -1) {
-    throw InputError("frames: expected -1 or 0 (the track's length) or a number of frames, found " +
+    throw InputError("frames", "expected -1 or 0 (the track's length) or a number of frames, found " +
                      std::to_string(options.frames));
   }
   const int64_t output_frames = options.frames > 0 ? options.frames : natural;
@@ -567,7 +567,7 @@ TakeSummary decode_code_track(const MotionManifold& model, const std::vector<Tak
     const double output_seconds = (output_frames - 1) / options.frame_rate;
     if (track_seconds > options.max_seconds || output_seconds > options.max_seconds) {
       const bool track_longer = track_seconds > options.max_seconds;
-      throw InputError(std::string(track_longer ? "windows" : "frames") + ": " +
+      throw InputError(track_longer ? "windows" : "frames",
                        number_text(track_longer ? track_seconds : output_seconds) + " s is longer than " +
                        options.max_seconds_name + " (" + number_text(options.max_seconds) + " s)");
     }
@@ -635,7 +635,7 @@ const char* take_root_name(TakeRoot root) { return root == TakeRoot::kInput ? "i
 TakeRoot parse_take_root(const std::string& name, const std::string& field) {
   if (name == "input") return TakeRoot::kInput;
   if (name == "generated") return TakeRoot::kGenerated;
-  throw InputError(field + ": expected \"input\" or \"generated\", found \"" + name + "\"");
+  throw InputError(field, "expected \"input\" or \"generated\", found \"" + name + "\"");
 }
 
 }  // namespace mm

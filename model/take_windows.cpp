@@ -17,10 +17,10 @@ std::string seconds_text(double seconds) {
 }  // namespace
 
 TakeWindowing take_windowing(int window_frames, double hop_seconds) {
-  if (window_frames < 1) throw InputError("window_frames: expected at least 1, found " + std::to_string(window_frames));
+  if (window_frames < 1) throw InputError("window_frames", "expected at least 1, found " + std::to_string(window_frames));
   const double hop_frames = std::isfinite(hop_seconds) ? std::round(hop_seconds * kTakeModelRate) : -1.0;
   if (!(hop_frames >= 1 && hop_frames <= window_frames)) {
-    throw InputError("hop_seconds: expected " + seconds_text(1 / kTakeModelRate) + " to " +
+    throw InputError("hop_seconds", "expected " + seconds_text(1 / kTakeModelRate) + " to " +
                      seconds_text(window_frames / kTakeModelRate) +
                      " s (one frame at 25 Hz to one window: a longer hop would leave frames out), found " +
                      seconds_text(hop_seconds));
@@ -41,7 +41,7 @@ std::vector<int64_t> take_window_starts(int64_t frames, const TakeWindowing& win
     // A duration is frames over rate: 150 frames at 25 Hz are a 6 s clip.
     char rate[32];
     std::snprintf(rate, sizeof rate, "%g", rate_hz);
-    throw InputError("take: " + seconds_text(frames / kTakeModelRate) + " s (" + std::to_string(frames) +
+    throw InputError("take", seconds_text(frames / kTakeModelRate) + " s (" + std::to_string(frames) +
                      " frames at 25 Hz) is shorter than one window of the model (" +
                      seconds_text(window / kTakeModelRate) + " s); expected at least " +
                      std::to_string(minimum_take_frames(windowing, rate_hz)) + " frames at " + rate + " Hz");

@@ -69,7 +69,7 @@ double position_scale_for(const PreparedDataset& data, const Skeleton& skeleton)
       norm.denormalize(s->normalized.frame(f), raw.data() + raw.size() - norm.input_columns());
   }
   }
-  if (raw.empty()) throw InputError("dataset: no training frames to measure the position scale on");
+  if (raw.empty()) throw InputError("dataset", "no training frames to measure the position scale on");
   const int64_t n = static_cast<int64_t>(raw.size()) / norm.input_columns();
   auto frames = at::from_blob(raw.data(), {n, norm.input_columns()}).to(at::kDouble);
   auto positions = fk.positions(frames).reshape({n, -1});
@@ -85,7 +85,7 @@ Trainer::~Trainer() = default;
 Trainer::Trainer(const TrainConfig& config, const PreparedDataset& data, at::Device device, bool seed_init)
     : config_(config), device_(device), prior_generator_(at::detail::createCPUGenerator(config.seed + 1)) {
   if (data.normalization.dims() != config_.model.pose_dims) {
-    throw InputError("model.pose_dims: " + std::to_string(config_.model.pose_dims) + " does not match the dataset's " +
+    throw InputError("model.pose_dims", std::to_string(config_.model.pose_dims) + " does not match the dataset's " +
                      std::to_string(data.normalization.dims()) + " pose dimensions");
   }
   if (seed_init) torch::manual_seed(config_.seed);
@@ -336,10 +336,10 @@ void Trainer::start_from(const MotionManifold& model, int64_t iteration) {
   check("velocity_decoder", want.velocity_decoder, have.velocity_decoder);
   check("feed_code", want.feed_code, have.feed_code);
   if (model.normalization().to_json_text() != model_->normalization().to_json_text()) {
-    throw InputError("normalization: the starting model was trained on a differently prepared dataset");
+    throw InputError("normalization", "the starting model was trained on a differently prepared dataset");
   }
   if (iteration < 0 || iteration >= config_.iterations) {
-    throw InputError("iteration: expected 0 to " + std::to_string(config_.iterations - 1) + " (the run's iterations), found " +
+    throw InputError("iteration", "expected 0 to " + std::to_string(config_.iterations - 1) + " (the run's iterations), found " +
                      std::to_string(iteration));
   }
   auto copy = [](const torch::nn::Module& from, torch::nn::Module& to) {

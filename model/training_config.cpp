@@ -50,7 +50,7 @@ Enum parse_named(const std::string& name, const std::string& field, const char* 
     if (name == names[i]) return static_cast<Enum>(i);
     accepted += std::string(i ? ", " : "") + "\"" + names[i] + "\"";
   }
-  throw InputError(field + ": unknown value \"" + name + "\", expected one of " + accepted);
+  throw InputError(field, "unknown value \"" + name + "\", expected one of " + accepted);
 }
 
 constexpr const char* kAngleNames[] = {"frame-norm", "triplet-mean", "joint-sum"};
@@ -162,7 +162,7 @@ LossForms loss_preset(const std::string& name, const std::string& field) {
     return LossForms{AngleReduction::kTripletMean, PositionReduction::kStandardizedTripletMean, MmdForm::kSevenScales,
                      AdversarialReduction::kBatchSum};
   }
-  throw InputError(field + ": unknown value \"" + name + "\", expected one of \"frame-norm\", \"paper\", \"reference\"");
+  throw InputError(field, "unknown value \"" + name + "\", expected one of \"frame-norm\", \"paper\", \"reference\"");
 }
 
 std::string loss_preset_name(const LossForms& forms) {
@@ -204,7 +204,7 @@ TrainConfig variant_config(const std::string& variant) {
   } else {
     std::string names;
     for (const auto& n : variant_names()) names += (names.empty() ? "" : ", ") + n;
-    throw InputError("variant: unknown value \"" + variant + "\", expected one of " + names);
+    throw InputError("variant", "unknown value \"" + variant + "\", expected one of " + names);
   }
   return c;
 }

@@ -27,7 +27,7 @@ double distance(const std::array<double, 2>& a, const std::array<double, 2>& b) 
 PathErrors compare_root_paths(const std::vector<MotionFrames>& recorded, const std::vector<MotionFrames>& predicted,
                               double rate_hz) {
   if (recorded.size() != predicted.size()) {
-    throw InputError("predicted: expected " + std::to_string(recorded.size()) + " motions, found " +
+    throw InputError("predicted", "expected " + std::to_string(recorded.size()) + " motions, found " +
                      std::to_string(predicted.size()));
   }
   PathErrors errors;

@@ -85,7 +85,7 @@ TrajectoryTrainingReport train_root_trajectory(MotionManifold& model, const std:
   }
   const WindowPicker picker(motions, length);
   if (picker.starts.empty()) {
-    throw InputError("motions: expected at least one motion of " + std::to_string(length) + " frames or more");
+    throw InputError("motions", "expected at least one motion of " + std::to_string(length) + " frames or more");
   }
   std::mt19937_64 random(options.seed);
   std::uniform_int_distribution<size_t> pick(0, picker.starts.size() - 1);

@@ -74,7 +74,7 @@ GapBenchmarkResult run_transition_benchmark(const MotionManifold& model, const s
   for (const auto& take : takes) {
     if (take.frames.frame_count() >= std::max<int64_t>(clip_frames, model.config().frames)) usable.push_back(&take);
   }
-  if (usable.size() < 2) throw InputError("takes: expected at least two takes of a clip's length, found " + std::to_string(usable.size()));
+  if (usable.size() < 2) throw InputError("takes", "expected at least two takes of a clip's length, found " + std::to_string(usable.size()));
 
   // The poses the manifold gives back of real motion: each take
   // reconstructed, every 5th frame.

@@ -26,7 +26,7 @@ T read_integer(const json& value, const std::string& path, bool strings_allowed)
     const int64_t v = value.get<int64_t>();
     if (v < static_cast<int64_t>(std::numeric_limits<T>::min()) ||
         (v > 0 && static_cast<uint64_t>(v) > static_cast<uint64_t>(std::numeric_limits<T>::max())))
-      throw FieldError(path, "expected " + std::string(expected) + ", got " + std::to_string(v));
+      throw InputError(path, "expected " + std::string(expected) + ", got " + std::to_string(v));
     return static_cast<T>(v);
   }
   if (value.is_number_float()) {
@@ -35,7 +35,7 @@ T read_integer(const json& value, const std::string& path, bool strings_allowed)
     // to that power of two, which is itself out of range.
     if (!(std::floor(v) == v) || v < static_cast<double>(std::numeric_limits<T>::min()) ||
         v >= std::ldexp(1.0, std::numeric_limits<T>::digits))
-      throw FieldError(path, "expected " + std::string(expected) + ", got " + value.dump());
+      throw InputError(path, "expected " + std::string(expected) + ", got " + value.dump());
     return static_cast<T>(v);
   }
   if (value.is_string() && strings_allowed) {
@@ -57,7 +57,7 @@ T read_integer(const json& value, const std::string& path, bool strings_allowed)
       }
     } catch (const std::out_of_range&) {
     }
-    throw FieldError(path,
+    throw InputError(path,
                      "expected " + std::string(expected) + " (a number or its decimal string), got \"" + text + "\"");
   }
   throw type_error(path, expected, value);
@@ -100,8 +100,8 @@ std::string index_path(const std::string& parent, size_t index) {
   return parent + "[" + std::to_string(index) + "]";
 }
 
-FieldError type_error(const std::string& path, const std::string& expected, const json& value) {
-  return FieldError(path, "expected " + expected + ", got " + std::string(value.type_name()));
+InputError type_error(const std::string& path, const std::string& expected, const json& value) {
+  return InputError(path, "expected " + expected + ", got " + std::string(value.type_name()));
 }
 
 void read_floats(const json& value, const std::string& path, google::protobuf::RepeatedField<float>* out) {
@@ -182,7 +182,7 @@ void ObjectReader::finish() const {
     if (known_.count(it.key()) == 0) {
       std::string names;
       for (const auto& name : known_) names += (names.empty() ? "" : ", ") + name;
-      throw FieldError(path(it.key()), names.empty() ? "unknown field; this call takes no fields"
+      throw InputError(path(it.key()), names.empty() ? "unknown field; this call takes no fields"
                                                      : "unknown field; expected one of: " + names);
     }
   }

@@ -23,22 +23,16 @@
 #include <google/protobuf/repeated_field.h>
 #include <nlohmann/json.hpp>
 
+#include "format/input_error.h"
+
 namespace mm::wire {
 
-// A field of a JSON body that cannot be read. `field` is its path in the
-// body ("" for the body as a whole); what() says the value and what was
-// expected ("expected a 32-bit integer, got 1.5"). The server answers it as
+// A field of a JSON body that cannot be read is an InputError
+// (format/input_error.h) whose field() is its path in the body ("" for the
+// body as a whole) and whose detail() says the value and what was expected
+// ("expected a 32-bit integer, got 1.5"). The server answers it as
 // INVALID_ARGUMENT naming the field; the client reports it as a reply it
 // cannot read.
-class FieldError : public std::runtime_error {
- public:
-  FieldError(std::string field, const std::string& message)
-      : std::runtime_error(message), field_(std::move(field)) {}
-  const std::string& field() const { return field_; }
-
- private:
-  std::string field_;
-};
 
 // What a reader does with a member it was not asked for: a request's is
 // refused, so that a misspelt option ("zeros_missing") is never silently
@@ -51,8 +45,8 @@ std::string member_path(const std::string& parent, const std::string& key);
 // "parent[index]".
 std::string index_path(const std::string& parent, size_t index);
 
-// FieldError "expected <expected>, got <the JSON type's name>".
-FieldError type_error(const std::string& path, const std::string& expected, const nlohmann::json& value);
+// InputError "expected <expected>, got <the JSON type's name>".
+InputError type_error(const std::string& path, const std::string& expected, const nlohmann::json& value);
 
 // A JSON array of numbers appended to `out` (reserved first: the arrays of
 // a motion's values are the bulk of a body). A value beyond float's range
@@ -65,7 +59,7 @@ void read_floats(const nlohmann::json& value, const std::string& path, google::p
 // for an absent or null member. The reader keeps a reference to `value`.
 class ObjectReader {
  public:
-  // FieldError when `value` is not an object.
+  // InputError when `value` is not an object.
   ObjectReader(const nlohmann::json& value, std::string path, UnknownFields unknown);
 
   // The member, or nullptr when absent or null; marks it as read.
@@ -85,7 +79,7 @@ class ObjectReader {
   // in the refusal ("the training configuration").
   std::string object_text(const std::string& key, const std::string& what);
 
-  // Call after the last member is read: FieldError for a member not read,
+  // Call after the last member is read: InputError for a member not read,
   // when unknown members are refused.
   void finish() const;
 

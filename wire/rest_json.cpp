@@ -130,7 +130,7 @@ void read_motion_or_code(ObjectReader& parent, const std::string& key, Field&& o
   reader.finish();
   if (motion_value != nullptr && code_value != nullptr) {
     // The oneof holds one: refused here, in the core's words.
-    throw FieldError(parent.path(key), "expected exactly one of motion or code, found both");
+    throw InputError(parent.path(key), "expected exactly one of motion or code, found both");
   }
   if (motion_value != nullptr) out()->mutable_motion()->Swap(&motion);
   if (code_value != nullptr) out()->mutable_code()->Swap(&code);

@@ -28,7 +28,7 @@
 // always written them. The other documents are nlohmann::json.
 //
 // Reading (from_json) takes a parsed document and fills the message
-// (cleared first); it throws FieldError (wire/json_fields.h) naming the
+// (cleared first); it throws InputError (format/input_error.h) naming the
 // field. Requests are read refusing unknown members, replies ignoring them
 // (`unknown`).
 //

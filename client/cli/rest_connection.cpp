@@ -24,9 +24,8 @@ Message reply_message(const json& body) {
   Message message;
   try {
     ::mm::wire::from_json(body, message);
-  } catch (const ::mm::wire::FieldError& error) {
-    throw ServerError("INTERNAL", "", "the server's reply cannot be read: " +
-                                          (error.field().empty() ? "" : error.field() + ": ") + error.what());
+  } catch (const InputError& error) {
+    throw ServerError("INTERNAL", "", std::string("the server's reply cannot be read: ") + error.what());
   }
   return message;
 }

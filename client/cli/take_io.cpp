@@ -189,8 +189,8 @@ void read_code_track(const std::string& path, v1::DecodeTrackRequest& request) {
   v1::CodeTrack track;
   try {
     ::mm::wire::from_json(parsed, track);
-  } catch (const ::mm::wire::FieldError& error) {
-    throw InputError(path + ": " + error.field() + ": " + error.what());
+  } catch (const InputError& error) {
+    throw InputError(path + ": " + error.what());
   }
   if (track.windows().empty()) {
     throw InputError(path + ": windows: expected an array of {\"start_seconds\", \"code\"}, as take encode writes");
@@ -201,9 +201,9 @@ void read_code_track(const std::string& path, v1::DecodeTrackRequest& request) {
     const std::string field = path + ": windows[" + std::to_string(i) + "]";
     const auto& window = parsed["windows"][static_cast<size_t>(i)];
     if (!window.contains("start_seconds") || window["start_seconds"].is_null()) {
-      throw InputError(field + ".start_seconds: expected a number of seconds");
+      throw InputError(field + ".start_seconds", "expected a number of seconds");
     }
-    if (track.windows(i).code().values().empty()) throw InputError(field + ".code: expected an array of numbers");
+    if (track.windows(i).code().values().empty()) throw InputError(field + ".code", "expected an array of numbers");
   }
   request.mutable_windows()->Swap(track.mutable_windows());
 }

@@ -32,7 +32,7 @@ template <typename T>
 T per_input(const std::vector<T>& values, size_t input, T fallback, const char* option, size_t inputs) {
   if (values.empty()) return fallback;
   if (values.size() != 1 && values.size() != inputs) {
-    throw InputError(std::string(option) + ": expected one value or one per input (" + std::to_string(inputs) +
+    throw InputError(std::string(option), "expected one value or one per input (" + std::to_string(inputs) +
                      "), found " + std::to_string(values.size()));
   }
   return values.size() == 1 ? values[0] : values[input];

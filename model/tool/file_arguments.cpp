@@ -66,7 +66,7 @@ void check_one_standard_input(const std::vector<std::pair<std::string, std::stri
   std::string first;
   for (const auto& [option, path] : option_paths) {
     if (!is_standard_stream(path)) continue;
-    if (first == option) throw InputError(option + ": - (standard input) given twice; it can be read only once");
+    if (first == option) throw InputError(option, "- (standard input) given twice; it can be read only once");
     if (!first.empty()) {
       throw InputError(first + " and " + option + " are both - (standard input), which can be read only once");
     }
@@ -85,7 +85,7 @@ void check_output_file(const std::string& path, const std::string& option, const
     throw InputError(option + " -: cannot write to standard output: " + why_no_standard_output +
                      "; expected a file path");
   }
-  if (path.empty()) throw InputError(option + ": the path is empty, expected a file path or - (standard output)");
+  if (path.empty()) throw InputError(option, "the path is empty, expected a file path or - (standard output)");
   std::error_code error;
   if (fs::is_directory(path, error)) {
     throw InputError(option + " " + path + ": is a directory, expected a file path" +

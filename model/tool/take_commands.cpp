@@ -141,9 +141,9 @@ std::vector<TakeWindowCode> parse_track(const std::string& text, const std::stri
     const std::string field = name + ": windows[" + std::to_string(i) + "]";
     const auto& w = windows[i];
     if (!w.is_object() || !w.contains("start_seconds") || !w["start_seconds"].is_number()) {
-      throw InputError(field + ".start_seconds: expected a number");
+      throw InputError(field + ".start_seconds", "expected a number");
     }
-    if (!w.contains("code") || !w["code"].is_array()) throw InputError(field + ".code: expected an array of numbers");
+    if (!w.contains("code") || !w["code"].is_array()) throw InputError(field + ".code", "expected an array of numbers");
     TakeWindowCode window;
     window.start_seconds = w["start_seconds"].get<double>();
     for (size_t k = 0; k < w["code"].size(); ++k) {
@@ -240,7 +240,7 @@ void add_take_operation(CLI::App* take, Action& action, TakeOperation operation)
       try {
         take_windowing(model.config().frames, o->hop);
       } catch (const InputError& e) {
-        throw InputError("--hop" + std::string(e.what()).substr(std::string("hop_seconds").size()));
+        throw InputError("--hop", e.detail());
       }
       const TakeInput take = read_take(o->input, o->rate, operation == TakeOperation::kDenoise, model.skeleton());
       TakeOptions options;

@@ -261,9 +261,9 @@ int run_train(const TrainOptions& o, const std::string& command_line) {
   }
   ResolvedTrainConfig resolved = resolve_config(o);
   TrainConfig& config = resolved.config;
-  if (config.dataset.empty()) throw InputError("train: no dataset: give --dataset or \"dataset\" in the configuration");
+  if (config.dataset.empty()) throw InputError("train", "no dataset: give --dataset or \"dataset\" in the configuration");
   if (config.output_dir.empty()) {
-    throw InputError("train: no output folder: give --out or \"output_dir\" in the configuration");
+    throw InputError("train", "no output folder: give --out or \"output_dir\" in the configuration");
   }
   check_input_file(config.dataset, o.dataset.empty() ? "dataset" : "--dataset");
   const c10::Device device = parse_device(o.device);

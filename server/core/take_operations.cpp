@@ -25,22 +25,11 @@ std::string number(double value) {
   return out.str();
 }
 
-// The library's messages begin with the field they are about ("hop_seconds:
-// expected ..."); that field, or `fallback` for a message that names none.
+// The field the library's error names (InputError::field), or `fallback`
+// for an error that names none; the field once, beside the message, which
+// the frontends and the client print after it.
 ApiError from_input_error(const InputError& error, const std::string& fallback) {
-  const std::string message = error.what();
-  size_t end = 0;
-  while (end < message.size() && (std::isalnum(static_cast<unsigned char>(message[end])) || message[end] == '_' ||
-                                  message[end] == '.' || message[end] == '[' || message[end] == ']')) {
-    ++end;
-  }
-  const bool named = end > 0 && end < message.size() && message[end] == ':';
-  if (!named) return invalid(fallback, message);
-  // The field once: the refusal carries it beside the message, and the
-  // frontends and the client print it before the message.
-  size_t text = end + 1;
-  while (text < message.size() && message[text] == ' ') ++text;
-  return invalid(message.substr(0, end), message.substr(text));
+  return invalid(error.field().empty() ? fallback : error.field(), error.detail());
 }
 
 void check_rate(double rate, const std::string& field) {

@@ -2,6 +2,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "format/input_error.h"
 #include "format/json_text.h"
 #include "server/translation/proto_translation.h"
 #include "wire/rest_json.h"
@@ -50,8 +51,8 @@ Message read_message(const json& document) {
   Message message;
   try {
     ::mm::wire::from_json(document, message);
-  } catch (const ::mm::wire::FieldError& error) {
-    throw ApiError(ErrorCode::kInvalidArgument, error.field(), error.what());
+  } catch (const InputError& error) {
+    throw ApiError(ErrorCode::kInvalidArgument, error.field(), error.detail());
   }
   return message;
 }
@@ -136,8 +137,8 @@ void empty_request_from_json(const std::string& body) {
   const json document = parse_body(body);
   try {
     ::mm::wire::empty_from_json(document);
-  } catch (const ::mm::wire::FieldError& error) {
-    throw ApiError(ErrorCode::kInvalidArgument, error.field(), error.what());
+  } catch (const InputError& error) {
+    throw ApiError(ErrorCode::kInvalidArgument, error.field(), error.detail());
   }
 }
 

@@ -368,8 +368,8 @@ TEST(RestJson, TakeReplyCarriesTheHeaderFramesSummaryAndWindows) {
 std::string refusal(const std::string& body, const std::function<void(const Json&)>& read) {
   try {
     read(Json::parse(body));
-  } catch (const FieldError& error) {
-    return error.field() + ": " + error.what();
+  } catch (const InputError& error) {
+    return error.field() + ": " + error.detail();
   }
   return "read without a refusal";
 }
