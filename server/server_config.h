@@ -6,7 +6,7 @@
 
 #include <string>
 
-#include "server/core/manifold_core.h"
+#include "server/core/core_config.h"
 #include "server/grpc/grpc_frontend.h"
 #include "server/jobs/training_jobs.h"
 #include "server/rest/rest_frontend.h"

@@ -7,7 +7,7 @@
 
 #include "model/latent_operations.h"
 #include "model/usable_cpus.h"
-#include "server/core/manifold_core.h"
+#include "server/core/core_config.h"
 #include "server/core/service_metrics.h"
 
 #include <spdlog/spdlog.h>

@@ -105,7 +105,7 @@ void apply_connection_limits(const GrpcOptions& options, grpc::ServerBuilder& bu
 
 }  // namespace
 
-GrpcFrontend::GrpcFrontend(ManifoldCore& core, GrpcOptions options) : core_(core), options_(std::move(options)) {}
+GrpcFrontend::GrpcFrontend(Core& core, GrpcOptions options) : core_(core), options_(std::move(options)) {}
 
 GrpcFrontend::~GrpcFrontend() { shutdown(std::chrono::seconds(1)); }
 

@@ -1,5 +1,5 @@
 // The gRPC frontend: a gRPC server exposing motionmanifold.v1.MotionManifold
-// over a ManifoldCore, with the standard health service (grpc.health.v1) and
+// over the core (core/core.h), with the standard health service (grpc.health.v1) and
 // server reflection. A thin translator: every rpc is one call of the core
 // (manifold_service.h); the core validates and the error model maps its
 // refusals to status codes (error_status.h).
@@ -14,7 +14,7 @@
 #include <memory>
 #include <string>
 
-#include "server/core/manifold_core.h"
+#include "server/core/core.h"
 
 namespace grpc {
 class Server;
@@ -95,7 +95,7 @@ struct GrpcOptions {
 class GrpcFrontend {
  public:
   // `core` outlives the frontend.
-  GrpcFrontend(ManifoldCore& core, GrpcOptions options);
+  GrpcFrontend(Core& core, GrpcOptions options);
   ~GrpcFrontend();  // shutdown(1 s) when still serving
   GrpcFrontend(const GrpcFrontend&) = delete;
   GrpcFrontend& operator=(const GrpcFrontend&) = delete;
@@ -116,7 +116,7 @@ class GrpcFrontend {
   void shutdown(std::chrono::milliseconds deadline);
 
  private:
-  ManifoldCore& core_;
+  Core& core_;
   GrpcOptions options_;
   std::atomic<bool> stopping_{false};
   bool serving_ = true;

@@ -1,5 +1,5 @@
 // The rpc handlers of motionmanifold.v1.MotionManifold: each translates its
-// request to the core API's types, calls the one ManifoldCore method with
+// request to the core API's types, calls the one Core method with
 // the call_context() below, and translates the reply or the refusal
 // (error_status.h) back. No validation of its own: the core validates, once
 // for both protocols.
@@ -13,7 +13,7 @@
 #include <chrono>
 
 #include "motionmanifold/v1/manifold.grpc.pb.h"
-#include "server/core/manifold_core.h"
+#include "server/core/core.h"
 #include "server/grpc/stream_message_deadlines.h"
 
 namespace mm::service::wire {
@@ -34,7 +34,7 @@ class ManifoldService final : public v1::MotionManifold::Service {
   // `take_message_timeout` (0: for ever), after which the call ends with
   // DEADLINE_EXCEEDED naming --grpc-take-message-timeout-seconds. The
   // service must outlive every call (gRPC's server shut down and waited for).
-  ManifoldService(ManifoldCore& core, const std::atomic<bool>& stopping,
+  ManifoldService(Core& core, const std::atomic<bool>& stopping,
                   std::chrono::milliseconds take_message_timeout)
       : core_(core), stopping_(stopping), take_deadlines_(take_message_timeout, "--grpc-take-message-timeout-seconds") {}
 
@@ -91,7 +91,7 @@ class ManifoldService final : public v1::MotionManifold::Service {
                         grpc::ServerWriter<v1::Job>* writer) override;
 
  private:
-  ManifoldCore& core_;
+  Core& core_;
   const std::atomic<bool>& stopping_;
   StreamMessageDeadlines take_deadlines_;
 };

@@ -131,7 +131,7 @@ void write_summary(grpc::ServerContext* context, Writer* writer, StreamMessageDe
   write_reply(context, writer, deadlines, message);
 }
 
-grpc::Status frames_take(ManifoldCore& core, StreamMessageDeadlines& deadlines, grpc::ServerContext* context,
+grpc::Status frames_take(Core& core, StreamMessageDeadlines& deadlines, grpc::ServerContext* context,
                          TakeKind kind, grpc::ServerReaderWriter<v1::TakeOutput, v1::TakeInput>* stream) {
   return answer_take(context, [&](const CallContext& ctx) {
     const TakeRequest request = read_header(context, stream, deadlines);

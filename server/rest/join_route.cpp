@@ -74,7 +74,7 @@ JoinClipsRequest multipart_request(const httplib::MultipartFormDataItems& parts,
 
 }  // namespace
 
-void answer_join(ManifoldCore& core, const CallContext& context, const httplib::Request& request,
+void answer_join(Core& core, const CallContext& context, const httplib::Request& request,
                  const std::string& body, const httplib::MultipartFormDataItems& parts, httplib::Response& response) {
   ShapedTranslation<JoinClipsRequest, JoinClipsReply> translation;
   AnimationFormat reply_format;

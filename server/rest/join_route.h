@@ -1,5 +1,5 @@
 // REST's POST /v1/join (server/rest/README.md "Joining clips"): clips a and b
-// joined by a generated or crossfaded transition (ManifoldCore::join_clips).
+// joined by a generated or crossfaded transition (Core::join_clips).
 // The body is JSON ({"a": motion, "b": motion, "transition_seconds",
 // "method", "decoder", "model"}, the proto's JoinClipsRequest), or
 // multipart/form-data whose file parts "a" and "b" are BVH, glTF or FBX of
@@ -17,14 +17,14 @@
 
 #include <string>
 
-#include "server/core/manifold_core.h"
+#include "server/core/core.h"
 
 namespace mm::service::rest {
 
 // Answers one POST /v1/join whose body has been read: into `body`, or into
 // `parts` for a multipart/form-data body. Throws ApiError for the caller to
 // answer.
-void answer_join(ManifoldCore& core, const CallContext& context, const httplib::Request& request,
+void answer_join(Core& core, const CallContext& context, const httplib::Request& request,
                  const std::string& body, const httplib::MultipartFormDataItems& parts, httplib::Response& response);
 
 }  // namespace mm::service::rest

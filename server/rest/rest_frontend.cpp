@@ -82,7 +82,7 @@ void send_bvh_motion(httplib::Response& response, const MotionsReply& reply, con
 
 // Answers a call whose reply is motions: JSON, or BVH when the client's
 // Accept names application/x-bvh. BVH is of the model that answers, so it is
-// written inside the call (ManifoldCore's ShapedTranslation), for the model
+// written inside the call (the core's ShapedTranslation), for the model
 // the call chose; JSON is written after it. `call` runs the core's operation
 // with `translation`.
 template <typename Request, typename Call>
@@ -123,7 +123,7 @@ AnimationFormat body_format(const httplib::Request& request) {
 }
 
 // A BVH body read as the request's one motion, for the model that answers
-// (inside the call: ManifoldCore's ShapedTranslation).
+// (inside the call: the core's ShapedTranslation).
 template <typename Request, typename Reply>
 ShapedTranslation<Request, Reply> bvh_body_translation(const std::string& body, AnimationFormat format) {
   ShapedTranslation<Request, Reply> translation;
@@ -175,7 +175,7 @@ struct EventStream {
 }  // namespace
 
 struct RestFrontend::State {
-  ManifoldCore& core;
+  Core& core;
   ServiceMetrics& metrics;
   RestOptions options;
   std::unique_ptr<httplib::Server> server;
@@ -186,7 +186,7 @@ struct RestFrontend::State {
   std::set<std::shared_ptr<EventStream>> streams;  // guarded by streams_mutex
   bool shutting_down = false;                      // guarded by streams_mutex
 
-  State(ManifoldCore& c, ServiceMetrics& m, RestOptions o) : core(c), metrics(m), options(std::move(o)) {}
+  State(Core& c, ServiceMetrics& m, RestOptions o) : core(c), metrics(m), options(std::move(o)) {}
 
   // `parts`: a multipart/form-data body's parts (read_body reads such a
   // body into them, not into `body`).
@@ -546,7 +546,7 @@ void RestFrontend::State::install_error_handlers() {
   });
 }
 
-RestFrontend::RestFrontend(ManifoldCore& core, ServiceMetrics& metrics, RestOptions options)
+RestFrontend::RestFrontend(Core& core, ServiceMetrics& metrics, RestOptions options)
     : state_(std::make_unique<State>(core, metrics, std::move(options))) {}
 
 RestFrontend::~RestFrontend() { shutdown(); }

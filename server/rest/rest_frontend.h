@@ -1,5 +1,5 @@
 // The REST/JSON frontend: an HTTP(S) server (cpp-httplib) that translates
-// each route to one call of ManifoldCore and its answer back to JSON, with
+// each route to one call of the core (Core) and its answer back to JSON, with
 // the same error model as gRPC (http_errors.h). It validates only what JSON
 // itself can get wrong (syntax, a field's type, the body's size); every
 // other check is the core's. Routes: rest_routes.h and openapi.json.
@@ -13,7 +13,7 @@
 #include <memory>
 #include <string>
 
-#include "server/core/manifold_core.h"
+#include "server/core/core.h"
 #include "server/core/service_metrics.h"
 #include "server/rest/rest_routes.h"
 
@@ -80,7 +80,7 @@ struct RestOptions {
 class RestFrontend {
  public:
   // `core` and `metrics` outlive the frontend.
-  RestFrontend(ManifoldCore& core, ServiceMetrics& metrics, RestOptions options);
+  RestFrontend(Core& core, ServiceMetrics& metrics, RestOptions options);
   ~RestFrontend();  // shutdown()
   RestFrontend(const RestFrontend&) = delete;
   RestFrontend& operator=(const RestFrontend&) = delete;

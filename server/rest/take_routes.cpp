@@ -152,10 +152,10 @@ TakeKind kind_of(RouteId route) {
 
 }  // namespace
 
-void answer_take(ManifoldCore& core, RouteId route, const CallContext& context, const httplib::Request& request,
+void answer_take(Core& core, RouteId route, const CallContext& context, const httplib::Request& request,
                  const std::string& body, httplib::Response& response) {
   // The reply (and a body) are translated inside the core's call, for the
-  // model it chose (ManifoldCore's TakeTranslation): a BVH reply is of that
+  // model it chose (the core's TakeTranslation): a BVH reply is of that
   // model's skeleton, a body read in its columns or skeleton.
   GatheredTake take;
   const auto send = [&](const TakeSummaryReply& summary, const ModelShape& shape) {

@@ -11,7 +11,7 @@
 
 #include <string>
 
-#include "server/core/manifold_core.h"
+#include "server/core/core.h"
 #include "server/rest/rest_routes.h"
 
 namespace httplib {
@@ -24,7 +24,7 @@ namespace mm::service::rest {
 // Answers one request of a take route (kEncodeTake, kReconstructTake,
 // kDenoiseTake, kDecodeTrack) whose body has been read. Throws ApiError
 // for the caller to answer.
-void answer_take(ManifoldCore& core, RouteId route, const CallContext& context, const httplib::Request& request,
+void answer_take(Core& core, RouteId route, const CallContext& context, const httplib::Request& request,
                  const std::string& body, httplib::Response& response);
 
 }  // namespace mm::service::rest

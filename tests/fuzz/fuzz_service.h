@@ -18,14 +18,14 @@
 
 #include <string>
 
-#include "server/core/manifold_core.h"
+#include "server/core/core.h"
 #include "server/core/service_metrics.h"
 
 namespace mm::fuzz {
 
 struct FuzzService {
   service::ServiceMetrics& metrics;
-  service::ManifoldCore& core;
+  service::Core& core;  // the real ManifoldCore, seen as the frontends see it
 };
 
 // Starts the service on first call. Exits the process naming what is
