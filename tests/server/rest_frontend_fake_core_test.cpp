@@ -1,0 +1,201 @@
+// The REST frontend's own job, against a fake core (tests/server/fake_core.h):
+// the real frontend on a loopback port and httplib's client, so that what is
+// pinned is the frontend alone: a request's JSON fields and query parameters
+// reach the core as sent, the core's reply comes back as JSON, each of the
+// core's refusals maps to its HTTP status and names its field, and what JSON
+// itself gets wrong is refused without calling the core. No model, no
+// LibTorch: each test takes milliseconds.
+#include <gtest/gtest.h>
+#include <httplib.h>
+
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "server/core/service_metrics.h"
+#include "server/rest/rest_frontend.h"
+#include "tests/server/fake_core.h"
+#include "tests/server/rest_call.h"
+
+namespace mm {
+namespace {
+
+using json = nlohmann::json;
+using service::ApiError;
+using service::ErrorCode;
+
+class RestFrontendFakeCore : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    service::RestOptions options;
+    options.address = "127.0.0.1";
+    options.port = 0;
+    options.threads = 2;
+    options.watch_streams = 1;
+    frontend_ = std::make_unique<service::RestFrontend>(core_, metrics_, options);
+    frontend_->start();
+    port_ = frontend_->port();
+  }
+  void TearDown() override { frontend_->shutdown(); }
+
+  test::Reply post_json(const std::string& path, const json& body) { return test::post(port_, path, body); }
+
+  test::FakeCore core_;
+  service::ServiceMetrics metrics_;
+  std::unique_ptr<service::RestFrontend> frontend_;
+  int port_ = -1;
+};
+
+service::MotionsReply one_motion_reply() {
+  service::MotionsReply reply;
+  reply.answered_by = {"fake-model", "0123456789abcdef"};
+  service::Motion motion;
+  motion.frames = 2;
+  motion.columns = 3;
+  motion.frame_rate = 25;
+  motion.layout = "test-layout-3";
+  motion.values = {1, 2, 3, 4, 5, 6.5f};
+  motion.root = "generated";
+  motion.contacts = {1, 2};
+  reply.motions.push_back(motion);
+  reply.codes = {{0.25f, -0.5f}};
+  return reply;
+}
+
+TEST_F(RestFrontendFakeCore, DecodeFieldsReachTheCoreAsSent) {
+  core_.decode_answer.reply = one_motion_reply();
+  const test::Reply reply = post_json(
+      "/v1/decode",
+      {{"model", "m1"}, {"codes", {{0.5, -1.25}, {2, 3}}}, {"decoder", "velocity"}, {"plant_feet", true}});
+  ASSERT_EQ(reply.status, 200) << reply.body;
+  ASSERT_TRUE(core_.decode_request.has_value());
+  const service::DecodeRequest& sent = *core_.decode_request;
+  EXPECT_EQ(sent.model, "m1");
+  ASSERT_EQ(sent.codes.size(), 2u);
+  EXPECT_EQ(sent.codes[0], (service::Code{0.5f, -1.25f}));
+  EXPECT_EQ(sent.codes[1], (service::Code{2, 3}));
+  EXPECT_EQ(sent.decoder, "velocity");
+  EXPECT_TRUE(sent.plant_feet);
+  EXPECT_EQ(core_.context.protocol, "rest");
+  EXPECT_EQ(core_.context.peer_ip, "127.0.0.1");
+}
+
+TEST_F(RestFrontendFakeCore, TheCoresReplyComesBackAsJson) {
+  core_.decode_answer.reply = one_motion_reply();
+  const test::Reply reply = post_json("/v1/decode", {{"codes", {{0.5}}}});
+  ASSERT_EQ(reply.status, 200) << reply.body;
+  const json& doc = reply.document;
+  EXPECT_EQ(doc.at("answered_by").at("model"), "fake-model");
+  EXPECT_EQ(doc.at("answered_by").at("version"), "0123456789abcdef");
+  ASSERT_EQ(doc.at("motions").size(), 1u);
+  const json& motion = doc.at("motions")[0];
+  EXPECT_EQ(motion.at("frames"), 2);
+  EXPECT_EQ(motion.at("columns"), 3);
+  EXPECT_EQ(motion.at("frame_rate"), 25.0);
+  EXPECT_EQ(motion.at("layout"), "test-layout-3");
+  EXPECT_EQ(motion.at("values"), json({1, 2, 3, 4, 5, 6.5}));
+  EXPECT_EQ(motion.at("root"), "generated");
+  EXPECT_EQ(motion.at("contacts"), json({1, 2}));
+  EXPECT_EQ(doc.at("codes"), json({{0.25, -0.5}}));
+}
+
+TEST_F(RestFrontendFakeCore, SampleFieldsReachTheCoreAsSent) {
+  core_.sample_answer.reply = one_motion_reply();
+  const test::Reply reply = post_json(
+      "/v1/sample", {{"model", "m2"}, {"count", 3}, {"seed", 18446744073709551615ull}, {"decoder", "rotation"}});
+  ASSERT_EQ(reply.status, 200) << reply.body;
+  ASSERT_TRUE(core_.sample_request.has_value());
+  EXPECT_EQ(core_.sample_request->model, "m2");
+  EXPECT_EQ(core_.sample_request->count, 3);
+  EXPECT_EQ(core_.sample_request->seed, 18446744073709551615ull);
+  EXPECT_EQ(core_.sample_request->decoder, "rotation");
+  EXPECT_FALSE(core_.sample_request->plant_feet);
+}
+
+// Each of the core's refusals: its HTTP status, and its code, field and
+// message in the error body.
+struct Refusal {
+  ApiError error;
+  int status;
+  std::string code;
+};
+
+TEST_F(RestFrontendFakeCore, TheCoresRefusalsMapToTheirStatusWithTheirField) {
+  const Refusal refusals[] = {
+      {ApiError(ErrorCode::kInvalidArgument, "codes[1]", "expected 64 values, got 2"), 400, "INVALID_ARGUMENT"},
+      {ApiError(ErrorCode::kNotFound, "model", "no model \"m9\""), 404, "NOT_FOUND"},
+      {ApiError(ErrorCode::kResourceExhausted, "codes", "65 codes, more than --max-motions 64", true), 413,
+       "RESOURCE_EXHAUSTED"},
+      {ApiError(ErrorCode::kResourceExhausted, "", "the executor's queue is full (256)"), 429, "RESOURCE_EXHAUSTED"},
+      {ApiError(ErrorCode::kFailedPrecondition, "model", "the state forbids it"), 409, "FAILED_PRECONDITION"},
+      {ApiError(ErrorCode::kUnavailable, "", "shutting down"), 503, "UNAVAILABLE"},
+  };
+  for (const Refusal& refusal : refusals) {
+    SCOPED_TRACE(refusal.code + " " + refusal.error.what());
+    core_.decode_answer.error = refusal.error;
+    const test::Reply reply = post_json("/v1/decode", {{"codes", {{0.5}}}});
+    EXPECT_EQ(reply.status, refusal.status) << reply.body;
+    ASSERT_TRUE(reply.document.is_object()) << reply.body;
+    EXPECT_EQ(reply.error().at("code"), refusal.code);
+    EXPECT_EQ(reply.field(), refusal.error.field());
+    EXPECT_EQ(reply.error().at("message"), refusal.error.what());
+    EXPECT_EQ(reply.header("WWW-Authenticate"), "");
+  }
+}
+
+TEST_F(RestFrontendFakeCore, UnauthenticatedIs401WithWwwAuthenticate) {
+  core_.decode_answer.error = ApiError(ErrorCode::kUnauthenticated, "", "this call needs the bearer token");
+  const test::Reply reply = test::post(port_, "/v1/decode", json{{"codes", {{0.5}}}}, test::bearer("wrong"));
+  EXPECT_EQ(reply.status, 401) << reply.body;
+  EXPECT_EQ(reply.header("WWW-Authenticate"), "Bearer");
+  EXPECT_EQ(reply.error().at("code"), "UNAUTHENTICATED");
+  EXPECT_EQ(core_.context.bearer_token, "wrong");  // the header's token reached the core
+}
+
+TEST_F(RestFrontendFakeCore, AnUnknownJsonFieldIsRefusedWithoutCallingTheCore) {
+  core_.decode_answer.reply = one_motion_reply();
+  const test::Reply reply = post_json("/v1/decode", {{"codes", {{0.5}}}, {"plant_foot", true}});
+  EXPECT_EQ(reply.status, 400) << reply.body;
+  EXPECT_EQ(reply.field(), "plant_foot");
+  const std::string message = reply.error().at("message").get<std::string>();
+  EXPECT_NE(message.find("unknown field"), std::string::npos) << reply.body;
+  EXPECT_NE(message.find("plant_feet"), std::string::npos) << reply.body;  // the fields it knows
+  EXPECT_EQ(core_.calls, 0);
+}
+
+TEST_F(RestFrontendFakeCore, AFieldOfTheWrongTypeIsRefusedWithoutCallingTheCore) {
+  const test::Reply reply = post_json("/v1/sample", {{"count", "three"}});
+  EXPECT_EQ(reply.status, 400) << reply.body;
+  EXPECT_EQ(reply.field(), "count");
+  EXPECT_EQ(core_.calls, 0);
+}
+
+TEST_F(RestFrontendFakeCore, ATakeRoutesQueryReachesTheCore) {
+  core_.take_answer.error = ApiError(ErrorCode::kNotFound, "model", "no model \"m3\"");
+  const test::Reply reply = test::post(
+      port_, "/v1/takes:reconstruct?model=m3&frame_rate=120&hop_seconds=1.5&blend=cut&decoder=velocity&root=input",
+      std::string("1 2 3\n4 5 6\n"), {}, "text/plain");
+  EXPECT_EQ(reply.status, 404) << reply.body;
+  EXPECT_EQ(reply.field(), "model");
+  ASSERT_TRUE(core_.take_request.has_value());
+  EXPECT_EQ(core_.take_kind, service::TakeKind::kReconstruct);
+  const service::TakeRequest& sent = *core_.take_request;
+  EXPECT_EQ(sent.model, "m3");
+  EXPECT_EQ(sent.frame_rate, 120);
+  EXPECT_EQ(sent.hop_seconds, 1.5);
+  EXPECT_EQ(sent.blend, "cut");
+  EXPECT_EQ(sent.decoder, "velocity");
+  EXPECT_EQ(sent.root, "input");
+  EXPECT_EQ(sent.path, "");
+  EXPECT_TRUE(core_.take_body_translated);  // the body is read inside the call, for the model it chose
+}
+
+TEST_F(RestFrontendFakeCore, AnUnknownQueryParameterOfATakeIsRefusedWithoutCallingTheCore) {
+  const test::Reply reply =
+      test::post(port_, "/v1/takes:reconstruct?hop=1.5", std::string("1 2 3\n"), {}, "text/plain");
+  EXPECT_EQ(reply.status, 400) << reply.body;
+  EXPECT_EQ(reply.field(), "hop");
+  EXPECT_EQ(core_.calls, 0);
+}
+
+}  // namespace
+}  // namespace mm
