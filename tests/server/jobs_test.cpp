@@ -134,6 +134,24 @@ class TrainingJobsTest : public ::testing::Test {
     return spec;
   }
 
+  // The record of job `id` in the state folder's SQLite store, its spec
+  // column as a server that did not resolve configurations wrote it (the spec
+  // alone, of `variant`), read back.
+  std::optional<JobInfo> record_stored_without_configuration(const std::string& id, const std::string& variant) {
+    fs::create_directories(config_.state_dir);
+    const std::string database = (fs::path(config_.state_dir) / "jobs.sqlite").string();
+    JobInfo job;
+    job.id = id;
+    job.spec = tiny_spec(20);
+    job.created_at = 1;
+    SqliteJobStore records(database);
+    if (!records.insert_if_room(job, 10)) return std::nullopt;
+    SqliteDatabase(database).execute(
+        R"(UPDATE jobs SET spec = '{"batch":4,"config":"","dataset":"h36m","hidden":16,"iterations":20,)"
+        R"("model_name":"","seed":"3","variant":")" + variant + R"("}' WHERE id = ')" + id + "'");
+    return records.find(id);
+  }
+
   std::unique_ptr<TrainingJobs> make_jobs(const JobsConfig& config) {
     auto jobs = std::make_unique<TrainingJobs>(
         config,
@@ -485,21 +503,9 @@ TEST_F(TrainingJobsTest, ASubmittedJobHoldsItsWholeConfigurationAndItsChildIsGiv
 // column holds the spec alone) loads with its spec resolved by the same rule,
 // and runs.
 TEST_F(TrainingJobsTest, ARecordStoredWithoutAResolvedConfigurationLoadsResolvedAndRuns) {
-  fs::create_directories(config_.state_dir);
-  const std::string database = (fs::path(config_.state_dir) / "jobs.sqlite").string();
   const std::string id = "0123456789ab";
   {
-    JobInfo job;
-    job.id = id;
-    job.spec = tiny_spec(20);
-    job.created_at = 1;
-    SqliteJobStore records(database);
-    ASSERT_TRUE(records.insert_if_room(job, 10));
-    // The spec column as such a server wrote it.
-    SqliteDatabase(database).execute(
-        R"(UPDATE jobs SET spec = '{"batch":4,"config":"","dataset":"h36m","hidden":16,"iterations":20,)"
-        R"("model_name":"","seed":"3","variant":"D"}' WHERE id = ')" + id + "'");
-    const auto stored = records.find(id);
+    const auto stored = record_stored_without_configuration(id, "D");
     ASSERT_TRUE(stored);
     EXPECT_EQ(stored->spec.hidden, 16);
     // Typed, and the wire's text of the same.
@@ -527,20 +533,9 @@ TEST_F(TrainingJobsTest, ARecordStoredWithoutAResolvedConfigurationLoadsResolved
 // loads without a configuration, and its job fails at once saying so,
 // rather than training something else.
 TEST_F(TrainingJobsTest, ARecordStoredWithoutAConfigurationThatNoLongerResolvesFailsSayingSo) {
-  fs::create_directories(config_.state_dir);
-  const std::string database = (fs::path(config_.state_dir) / "jobs.sqlite").string();
   const std::string id = "0123456789cd";
   {
-    JobInfo job;
-    job.id = id;
-    job.spec = tiny_spec(20);
-    job.created_at = 1;
-    SqliteJobStore records(database);
-    ASSERT_TRUE(records.insert_if_room(job, 10));
-    SqliteDatabase(database).execute(
-        R"(UPDATE jobs SET spec = '{"batch":4,"config":"","dataset":"h36m","hidden":16,"iterations":20,)"
-        R"("model_name":"","seed":"3","variant":"DQ"}' WHERE id = ')" + id + "'");
-    const auto stored = records.find(id);
+    const auto stored = record_stored_without_configuration(id, "DQ");
     ASSERT_TRUE(stored);
     EXPECT_FALSE(stored->resolved_config);
     EXPECT_EQ(stored->resolved_config_json, "");
