@@ -27,7 +27,7 @@ import os from 'node:os';
 import path from 'node:path';
 import { pathToFileURL } from 'node:url';
 import { largestDistanceMm, referencePositions, writeMotionText } from './fk_reference.mjs';
-import { TOKEN, environment, h36mDatasetDir, startServer, trainDanceModel } from './server_harness.mjs';
+import { TOKEN, consoleErrorsOf, environment, h36mDatasetDir, launchBrowser, startServer, trainDanceModel } from './server_harness.mjs';
 
 const TOLERANCE_MM = 0.1;
 const nodeModules = process.argv[2];
@@ -42,18 +42,10 @@ function step(text) {
 
 const server = await startServer();
 let rigServer;
-const browser = await puppeteer.launch({
-  executablePath: environment('MM_CHROMIUM'),
-  headless: true,
-  // WebGL on the CPU (no GPU here); --no-sandbox because ctest may run as root.
-  args: ['--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--window-size=1500,1000'],
-  defaultViewport: { width: 1500, height: 1000 },
-});
+const browser = await launchBrowser(puppeteer);
 try {
   const page = await browser.newPage();
-  const consoleErrors = [];
-  page.on('console', (message) => message.type() === 'error' && consoleErrors.push(message.text()));
-  page.on('pageerror', (error) => consoleErrors.push(`uncaught: ${error.message}`));
+  const consoleErrors = consoleErrorsOf(page);
   let promptsAnswered = 0;
   page.on('dialog', async (dialog) => {
     promptsAnswered += 1;

@@ -140,3 +140,22 @@ export async function startServer({ models = {}, defaultModel = 'h36m-dkgm-cpu' 
     },
   };
 }
+
+// Debian's Chromium, headless, with WebGL on the CPU (no GPU here);
+// --no-sandbox because ctest may run as root.
+export function launchBrowser(puppeteer) {
+  return puppeteer.launch({
+    executablePath: environment('MM_CHROMIUM'),
+    headless: true,
+    args: ['--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--window-size=1500,1000'],
+    defaultViewport: { width: 1500, height: 1000 },
+  });
+}
+
+// The page's console errors and uncaught exceptions, as they come.
+export function consoleErrorsOf(page) {
+  const errors = [];
+  page.on('console', (message) => message.type() === 'error' && errors.push(message.text()));
+  page.on('pageerror', (error) => errors.push(`uncaught: ${error.message}`));
+  return errors;
+}

@@ -21,7 +21,7 @@ import os from 'node:os';
 import path from 'node:path';
 import { pathToFileURL } from 'node:url';
 import { largestDistanceMm } from './fk_reference.mjs';
-import { environment, h36mDatasetDir, startServer } from './server_harness.mjs';
+import { consoleErrorsOf, h36mDatasetDir, launchBrowser, startServer } from './server_harness.mjs';
 
 const TOLERANCE_MM = 0.1;
 const RATE = 50;
@@ -42,17 +42,10 @@ function sameAsSent(sent, value) {
 }
 
 const server = await startServer();
-const browser = await puppeteer.launch({
-  executablePath: environment('MM_CHROMIUM'),
-  headless: true,
-  args: ['--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--window-size=1500,1000'],
-  defaultViewport: { width: 1500, height: 1000 },
-});
+const browser = await launchBrowser(puppeteer);
 try {
   const page = await browser.newPage();
-  const consoleErrors = [];
-  page.on('console', (message) => message.type() === 'error' && consoleErrors.push(message.text()));
-  page.on('pageerror', (error) => consoleErrors.push(`uncaught: ${error.message}`));
+  const consoleErrors = consoleErrorsOf(page);
   const describe = () => page.evaluate(() => window.motionManifoldPage.view.describe());
   const banner = () => page.$eval('#error', (e) => (e.hidden ? '' : e.textContent));
   const seek = (frame) => page.$eval('#frame', (input, v) => {
