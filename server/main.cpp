@@ -17,8 +17,8 @@
 #include <nlohmann/json.hpp>
 
 #include "server/core/caller_identity.h"
-#include "server/core/manifold_core.h"
 #include "server/core/service_metrics.h"
+#include "server/engine/manifold_core.h"
 #include "server/grpc/grpc_frontend.h"
 #include "server/jobs/training_jobs.h"
 #include "server/rest/rest_frontend.h"

@@ -1,6 +1,6 @@
 // The core as the frontends see it: every operation of the service once, in
 // plain C++ types (gRPC and REST translate to and from these calls and
-// nothing else). ManifoldCore (core/manifold_core.h, the LibTorch side) is the
+// nothing else). ManifoldCore (engine/manifold_core.h, the LibTorch side) is the
 // one the server runs; the frontends' own tests run against a fake one
 // (tests/server/fake_core.h), so they build without LibTorch.
 //
@@ -98,7 +98,7 @@ class Core {
   // Loads `name` if needed and makes it the active model; requests in flight
   // finish on the model they started with. Needs the token.
   virtual ModelInfo activate_model(const CallContext& ctx, const std::string& name) = 0;
-  // Takes model `name` out of the store (core/model_store.h: its folder is
+  // Takes model `name` out of the store (engine/model_store.h: its folder is
   // removed, calls in flight finish on it) and returns it as it was.
   // FAILED_PRECONDITION "model" for the active model and for the one the
   // server activates at start (--default-model), which it could not start

@@ -37,7 +37,7 @@ struct BatchingConfig {
   int max_batch = 32;
   int max_queue_delay_us = 60000;
   int max_queue_length = 256;
-  int threads = 0;  // LibTorch intra-op threads of the executor; 0: chosen by timing (core/thread_count_tuner.h)
+  int threads = 0;  // LibTorch intra-op threads of the executor; 0: chosen by timing (engine/thread_count_tuner.h)
 };
 
 struct CoreConfig {
@@ -54,7 +54,7 @@ struct CoreConfig {
   DataRootQuota data_root_quota;  // what uploads may add to the data root
   // The training jobs' store (--job-store): a PostgreSQL one makes the
   // replicas sharing it one deployment, with one active model and one quota
-  // of the data root (core/shared_deployment.h); "" or SQLite: one server.
+  // of the data root (engine/shared_deployment.h); "" or SQLite: one server.
   std::string job_store;
   int max_loaded_models = 4;  // models kept in memory, the active one included
   ModelPrecisions precisions;  // the number format of each model's inference weights

@@ -1,7 +1,7 @@
 // ActiveModelRecord: the deployment's active model, one row in the
 // PostgreSQL database that replicas share with their job store, so that an
 // ActivateModel sent to any replica is the whole deployment's: each replica
-// reads the row every second (core/shared_deployment.h) and activates
+// reads the row every second (engine/shared_deployment.h) and activates
 // what it names. A generation number, raised by every write, tells a
 // follower that the row changed even when the same name is written again
 // (a model retrained in place is loaded afresh).

@@ -12,7 +12,7 @@
 #include <memory>
 #include <sstream>
 
-#include "server/core/manifold_core.h"
+#include "server/engine/manifold_core.h"
 #include "server/jobs/training_jobs.h"
 
 namespace mm::fuzz {

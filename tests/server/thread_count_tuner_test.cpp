@@ -5,7 +5,7 @@
 // costs not counted, and a fixed count when there is nothing to choose.
 #include <gtest/gtest.h>
 
-#include "server/core/thread_count_tuner.h"
+#include "server/engine/thread_count_tuner.h"
 
 namespace mm::service {
 namespace {

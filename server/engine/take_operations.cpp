@@ -1,4 +1,4 @@
-#include "server/core/take_operations.h"
+#include "server/engine/take_operations.h"
 
 #include <cctype>
 #include <cmath>

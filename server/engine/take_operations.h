@@ -10,8 +10,8 @@
 #pragma once
 
 #include "model/take_processor.h"
-#include "server/core/model_store.h"
 #include "server/core/take_session.h"
+#include "server/engine/model_store.h"
 
 namespace mm::service {
 

@@ -1,4 +1,4 @@
-#include "server/core/thread_count_tuner.h"
+#include "server/engine/thread_count_tuner.h"
 
 namespace mm::service {
 

@@ -1,4 +1,4 @@
-#include "server/core/inference_executor.h"
+#include "server/engine/inference_executor.h"
 
 #include <ATen/Parallel.h>
 

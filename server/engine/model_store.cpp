@@ -1,4 +1,4 @@
-#include "server/core/model_store.h"
+#include "server/engine/model_store.h"
 
 #include <unistd.h>
 

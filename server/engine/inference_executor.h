@@ -29,8 +29,8 @@
 #include <thread>
 #include <vector>
 
-#include "server/core/model_store.h"
-#include "server/core/thread_count_tuner.h"
+#include "server/engine/model_store.h"
+#include "server/engine/thread_count_tuner.h"
 
 namespace mm::service {
 

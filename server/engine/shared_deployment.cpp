@@ -1,10 +1,10 @@
-#include "server/core/shared_deployment.h"
+#include "server/engine/shared_deployment.h"
 
 #include <unistd.h>
 
 #include <spdlog/spdlog.h>
 
-#include "server/core/model_store.h"
+#include "server/engine/model_store.h"
 #include "server/jobs/active_model_record.h"
 #include "server/jobs/upload_reservations.h"
 

@@ -1,4 +1,4 @@
-#include "server/core/manifold_core.h"
+#include "server/engine/manifold_core.h"
 
 #include <spdlog/spdlog.h>
 
@@ -18,12 +18,12 @@
 #include "model/latent_operations.h"
 #include "server/core/caller_identity.h"
 #include "server/core/data_root_clips.h"
-#include "server/core/inference_executor.h"
-#include "server/core/model_store.h"
 #include "server/core/motion_conversion.h"
 #include "server/core/service_metrics.h"
-#include "server/core/shared_deployment.h"
-#include "server/core/take_operations.h"
+#include "server/engine/inference_executor.h"
+#include "server/engine/model_store.h"
+#include "server/engine/shared_deployment.h"
+#include "server/engine/take_operations.h"
 #include "server/jobs/training_jobs.h"
 
 namespace mm::service {

@@ -11,7 +11,7 @@
 //
 // With replicas sharing a PostgreSQL job store, the active model is the
 // deployment's (share_active_model): an activation writes the shared record
-// and every replica follows it (core/shared_deployment.h).
+// and every replica follows it (engine/shared_deployment.h).
 //
 // Thread safety: every method may be called concurrently.
 #pragma once
