@@ -50,22 +50,6 @@ class GrpcFrontendFakeCore : public ::testing::Test {
   std::unique_ptr<v1::MotionManifold::Stub> stub_;
 };
 
-service::MotionsReply one_motion_reply() {
-  service::MotionsReply reply;
-  reply.answered_by = {"fake-model", "0123456789abcdef"};
-  service::Motion motion;
-  motion.frames = 2;
-  motion.columns = 3;
-  motion.frame_rate = 25;
-  motion.layout = "test-layout-3";
-  motion.values = {1, 2, 3, 4, 5, 6.5f};
-  motion.root = "generated";
-  motion.contacts = {1, 2};
-  reply.motions.push_back(motion);
-  reply.codes = {{0.25f, -0.5f}};
-  return reply;
-}
-
 v1::DecodeRequest decode_message() {
   v1::DecodeRequest request;
   request.set_model("m1");
@@ -79,7 +63,7 @@ v1::DecodeRequest decode_message() {
 }
 
 TEST_F(GrpcFrontendFakeCore, DecodeFieldsReachTheCoreAsSent) {
-  core_.decode_answer.reply = one_motion_reply();
+  core_.decode_answer.reply = test::one_motion_reply();
   grpc::ClientContext context;
   deadline(context);
   context.AddMetadata("authorization", "Bearer sesame");
@@ -100,7 +84,7 @@ TEST_F(GrpcFrontendFakeCore, DecodeFieldsReachTheCoreAsSent) {
 }
 
 TEST_F(GrpcFrontendFakeCore, TheCoresReplyComesBackAsTheMessage) {
-  core_.decode_answer.reply = one_motion_reply();
+  core_.decode_answer.reply = test::one_motion_reply();
   grpc::ClientContext context;
   deadline(context);
   v1::MotionsReply reply;
@@ -123,7 +107,7 @@ TEST_F(GrpcFrontendFakeCore, TheCoresReplyComesBackAsTheMessage) {
 }
 
 TEST_F(GrpcFrontendFakeCore, SampleFieldsReachTheCoreAsSent) {
-  core_.sample_answer.reply = one_motion_reply();
+  core_.sample_answer.reply = test::one_motion_reply();
   v1::SampleRequest request;
   request.set_model("m2");
   request.set_count(3);

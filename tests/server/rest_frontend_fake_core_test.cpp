@@ -45,24 +45,8 @@ class RestFrontendFakeCore : public ::testing::Test {
   int port_ = -1;
 };
 
-service::MotionsReply one_motion_reply() {
-  service::MotionsReply reply;
-  reply.answered_by = {"fake-model", "0123456789abcdef"};
-  service::Motion motion;
-  motion.frames = 2;
-  motion.columns = 3;
-  motion.frame_rate = 25;
-  motion.layout = "test-layout-3";
-  motion.values = {1, 2, 3, 4, 5, 6.5f};
-  motion.root = "generated";
-  motion.contacts = {1, 2};
-  reply.motions.push_back(motion);
-  reply.codes = {{0.25f, -0.5f}};
-  return reply;
-}
-
 TEST_F(RestFrontendFakeCore, DecodeFieldsReachTheCoreAsSent) {
-  core_.decode_answer.reply = one_motion_reply();
+  core_.decode_answer.reply = test::one_motion_reply();
   const test::Reply reply = post_json(
       "/v1/decode",
       {{"model", "m1"}, {"codes", {{0.5, -1.25}, {2, 3}}}, {"decoder", "velocity"}, {"plant_feet", true}});
@@ -80,7 +64,7 @@ TEST_F(RestFrontendFakeCore, DecodeFieldsReachTheCoreAsSent) {
 }
 
 TEST_F(RestFrontendFakeCore, TheCoresReplyComesBackAsJson) {
-  core_.decode_answer.reply = one_motion_reply();
+  core_.decode_answer.reply = test::one_motion_reply();
   const test::Reply reply = post_json("/v1/decode", {{"codes", {{0.5}}}});
   ASSERT_EQ(reply.status, 200) << reply.body;
   const json& doc = reply.document;
@@ -99,7 +83,7 @@ TEST_F(RestFrontendFakeCore, TheCoresReplyComesBackAsJson) {
 }
 
 TEST_F(RestFrontendFakeCore, SampleFieldsReachTheCoreAsSent) {
-  core_.sample_answer.reply = one_motion_reply();
+  core_.sample_answer.reply = test::one_motion_reply();
   const test::Reply reply = post_json(
       "/v1/sample", {{"model", "m2"}, {"count", 3}, {"seed", 18446744073709551615ull}, {"decoder", "rotation"}});
   ASSERT_EQ(reply.status, 200) << reply.body;
@@ -152,7 +136,7 @@ TEST_F(RestFrontendFakeCore, UnauthenticatedIs401WithWwwAuthenticate) {
 }
 
 TEST_F(RestFrontendFakeCore, AnUnknownJsonFieldIsRefusedWithoutCallingTheCore) {
-  core_.decode_answer.reply = one_motion_reply();
+  core_.decode_answer.reply = test::one_motion_reply();
   const test::Reply reply = post_json("/v1/decode", {{"codes", {{0.5}}}, {"plant_foot", true}});
   EXPECT_EQ(reply.status, 400) << reply.body;
   EXPECT_EQ(reply.field(), "plant_foot");
