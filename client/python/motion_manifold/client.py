@@ -343,7 +343,7 @@ class Client:
 
     def denoise_take(self, take, frame_rate=None, hop=0.0, blend="", decoder="", at_model_rate=False, root="",
                      zeros_are_missing=False, means_are_missing=False, iterations=0, keep_observed=False,
-                     gap_fill="", model="", timeout=None):
+                     model="", timeout=None, gap_fill=""):
         """The take projected onto the manifold window by window, NaN values
         filled (keep_observed: only those): TakeResult. With keep_observed,
         gap_fill says how a gap is filled: "fitted" ("" means this: a code
