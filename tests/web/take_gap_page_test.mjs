@@ -158,11 +158,16 @@ try {
   const byDefault = await fill('fitted');
   checkKeepsObserved(byDefault, 'fitted');
   await checkDrawn('fitted');
+  // The fitted fill's work, as the reply's summary counts it: the one gap,
+  // in one window fitted to it.
+  const infoText = () => page.$eval('#take-info', (e) => e.textContent);
+  assert.match(await infoText(), /filled by fitted \(1 gap fitted in 1 window\)/, 'the fitted fill\'s counts shown');
 
   step('fill it with slerp');
   const bySlerp = await fill('slerp');
   checkKeepsObserved(bySlerp, 'slerp');
   await checkDrawn('slerp');
+  assert.match(await infoText(), /filled by slerp, /, 'slerp fits nothing and says so by saying nothing of fits');
   let largest = 0;
   for (let f = GAP.first; f <= GAP.last; ++f) {
     for (let c = 3; c < columns; ++c) {

@@ -195,7 +195,8 @@ async function showTake(view, name, reply, original, gap = null) {
   const { summary } = reply;
   if (gap) {
     $('take-info').textContent = `${name}: frames ${gap.first} to ${gap.last} (${(gap.first / reply.frame_rate).toFixed(2)} ` +
-      `to ${(gap.last / reply.frame_rate).toFixed(2)} s) of ${gap.joints} filled by ${gap.method}, ${gapMeanMm.toFixed(1)} mm from the recording there; ` +
+      `to ${(gap.last / reply.frame_rate).toFixed(2)} s) of ${gap.joints} filled by ${gap.method}${fittedWork(summary)}, ` +
+      `${gapMeanMm.toFixed(1)} mm from the recording there; ` +
       `the plot: each frame's distance from the recording, 0 outside the gap; answered by ${reply.answered_by.model}`;
     $('result').textContent = 'gap filled: the filled frames are drawn and shaded in violet, the recording beside them';
     return;
@@ -204,6 +205,19 @@ async function showTake(view, name, reply, original, gap = null) {
     `windows of ${summary.window_seconds} s every ${summary.hop_seconds} s; error mean ${summary.mean_error_mm.toFixed(1)} ` +
     `mm, max ${summary.max_error_mm.toFixed(1)} mm; answered by ${reply.answered_by.model}`;
   $('result').textContent = `take reconstructed window by window: click the strip or the plot to seek`;
+}
+
+// What the fitted fill did, from the reply's summary (its counts are 0 for
+// the other methods): " (1 gap fitted in 1 window)", with the gaps left to
+// the matched fill past the server's bound of windows a take (--max-take-gap-fits).
+function fittedWork(summary) {
+  const windows = summary.gap_windows_fitted ?? 0;
+  const gaps = summary.gaps_fitted ?? 0;
+  const over = summary.gaps_over_fit_limit ?? 0;
+  if (windows === 0 && over === 0) return '';
+  const plural = (n, word) => `${n} ${word}${n === 1 ? '' : 's'}`;
+  const beyond = over > 0 ? `, ${plural(over, 'gap')} past the server's bound filled as matched` : '';
+  return ` (${plural(gaps, 'gap')} fitted in ${plural(windows, 'window')}${beyond})`;
 }
 
 // Takes `takeShown` to a reconstructed take (or a filled one: `made` names
