@@ -169,22 +169,4 @@ class FakeCore final : public service::Core {
   }
 };
 
-// A reply of one small motion (2 frames of 3 columns) and its code, with
-// every field set, for the frontends to translate.
-inline service::MotionsReply one_motion_reply() {
-  service::MotionsReply reply;
-  reply.answered_by = {"fake-model", "0123456789abcdef"};
-  service::Motion motion;
-  motion.frames = 2;
-  motion.columns = 3;
-  motion.frame_rate = 25;
-  motion.layout = "test-layout-3";
-  motion.values = {1, 2, 3, 4, 5, 6.5f};
-  motion.root = "generated";
-  motion.contacts = {1, 2};
-  reply.motions.push_back(motion);
-  reply.codes = {{0.25f, -0.5f}};
-  return reply;
-}
-
 }  // namespace mm::test

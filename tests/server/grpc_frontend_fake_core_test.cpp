@@ -16,6 +16,7 @@
 #include "server/grpc/error_status.h"
 #include "server/grpc/grpc_frontend.h"
 #include "tests/server/fake_core.h"
+#include "tests/server/fake_core_exchange.h"
 
 namespace mm {
 namespace {
@@ -70,14 +71,7 @@ TEST_F(GrpcFrontendFakeCore, DecodeFieldsReachTheCoreAsSent) {
   v1::MotionsReply reply;
   const grpc::Status status = stub_->Decode(&context, decode_message(), &reply);
   ASSERT_TRUE(status.ok()) << status.error_message();
-  ASSERT_TRUE(core_.decode_request.has_value());
-  const service::DecodeRequest& sent = *core_.decode_request;
-  EXPECT_EQ(sent.model, "m1");
-  ASSERT_EQ(sent.codes.size(), 2u);
-  EXPECT_EQ(sent.codes[0], (service::Code{0.5f, -1.25f}));
-  EXPECT_EQ(sent.codes[1], (service::Code{2, 3}));
-  EXPECT_EQ(sent.decoder, "velocity");
-  EXPECT_TRUE(sent.plant_feet);
+  test::expect_the_decode_sent(core_.decode_request);
   EXPECT_EQ(core_.context.protocol, "grpc");
   EXPECT_EQ(core_.context.bearer_token, "sesame");
   EXPECT_EQ(core_.context.peer_ip, "127.0.0.1");
@@ -117,12 +111,7 @@ TEST_F(GrpcFrontendFakeCore, SampleFieldsReachTheCoreAsSent) {
   deadline(context);
   v1::MotionsReply reply;
   ASSERT_TRUE(stub_->Sample(&context, request, &reply).ok());
-  ASSERT_TRUE(core_.sample_request.has_value());
-  EXPECT_EQ(core_.sample_request->model, "m2");
-  EXPECT_EQ(core_.sample_request->count, 3);
-  EXPECT_EQ(core_.sample_request->seed, 18446744073709551615ull);
-  EXPECT_EQ(core_.sample_request->decoder, "rotation");
-  EXPECT_FALSE(core_.sample_request->plant_feet);
+  test::expect_the_sample_sent(core_.sample_request);
   EXPECT_EQ(reply.motions_size(), 1);
 }
 

@@ -14,6 +14,7 @@
 #include "server/core/service_metrics.h"
 #include "server/rest/rest_frontend.h"
 #include "tests/server/fake_core.h"
+#include "tests/server/fake_core_exchange.h"
 #include "tests/server/rest_call.h"
 
 namespace mm {
@@ -51,14 +52,7 @@ TEST_F(RestFrontendFakeCore, DecodeFieldsReachTheCoreAsSent) {
       "/v1/decode",
       {{"model", "m1"}, {"codes", {{0.5, -1.25}, {2, 3}}}, {"decoder", "velocity"}, {"plant_feet", true}});
   ASSERT_EQ(reply.status, 200) << reply.body;
-  ASSERT_TRUE(core_.decode_request.has_value());
-  const service::DecodeRequest& sent = *core_.decode_request;
-  EXPECT_EQ(sent.model, "m1");
-  ASSERT_EQ(sent.codes.size(), 2u);
-  EXPECT_EQ(sent.codes[0], (service::Code{0.5f, -1.25f}));
-  EXPECT_EQ(sent.codes[1], (service::Code{2, 3}));
-  EXPECT_EQ(sent.decoder, "velocity");
-  EXPECT_TRUE(sent.plant_feet);
+  test::expect_the_decode_sent(core_.decode_request);
   EXPECT_EQ(core_.context.protocol, "rest");
   EXPECT_EQ(core_.context.peer_ip, "127.0.0.1");
 }
@@ -87,12 +81,7 @@ TEST_F(RestFrontendFakeCore, SampleFieldsReachTheCoreAsSent) {
   const test::Reply reply = post_json(
       "/v1/sample", {{"model", "m2"}, {"count", 3}, {"seed", 18446744073709551615ull}, {"decoder", "rotation"}});
   ASSERT_EQ(reply.status, 200) << reply.body;
-  ASSERT_TRUE(core_.sample_request.has_value());
-  EXPECT_EQ(core_.sample_request->model, "m2");
-  EXPECT_EQ(core_.sample_request->count, 3);
-  EXPECT_EQ(core_.sample_request->seed, 18446744073709551615ull);
-  EXPECT_EQ(core_.sample_request->decoder, "rotation");
-  EXPECT_FALSE(core_.sample_request->plant_feet);
+  test::expect_the_sample_sent(core_.sample_request);
 }
 
 // Each of the core's refusals: its HTTP status, and its code, field and
