@@ -2,7 +2,11 @@
 // plain C++ types (gRPC and REST translate to and from these calls and
 // nothing else). ManifoldCore (engine/manifold_core.h, the LibTorch side) is the
 // one the server runs; the frontends' own tests run against a fake one
-// (tests/server/fake_core.h), so they build without LibTorch.
+// (tests/server/fake_core.h), so they build without LibTorch. The core
+// never reads or writes a frontend's formats: a frontend whose body or reply
+// depends on the model that answers chooses that model first (ChosenModel,
+// below), reads the body for it, runs the operation on it and writes the
+// reply for it, each step its own.
 //
 // Torch-free header. Thread safety: every method may be called concurrently.
 // Errors are thrown as ApiError (api/api_types.h), whose code and field the
@@ -11,7 +15,9 @@
 
 #include <atomic>
 #include <functional>
+#include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "server/api/api_types.h"
@@ -21,29 +27,51 @@
 
 namespace mm::service {
 
-// A frontend's translation that depends on the model answering a call: REST
-// reads application/x-bvh bodies and writes BVH replies in that model's
-// skeleton (rest/bvh_translation.h). An operation given one resolves its
-// model once, inside its call, and hands that model's shape to `read` right
-// after (before it checks the request) and to `write` once the reply is
-// complete. So the model a request is read for is the model that answers it,
-// whatever is activated meanwhile, and what they throw is the call's error:
-// refused while draining, counted in the metrics, mapped as the call's
-// (an InputError becomes INVALID_ARGUMENT). Either may be empty. `read` fills
-// in a copy of the request (its motions); the model it names is already
-// chosen, so changing request.model changes nothing.
-template <typename Request, typename Reply>
-struct ShapedTranslation {
-  std::function<void(Request& request, const ModelShape& shape)> read;
-  std::function<void(const Reply& reply, const ModelShape& shape)> write;
-};
+// The model one call runs on, chosen before the call's body is read
+// (Core::choose_model), for a frontend whose body or reply depends on it:
+// REST reads an application/x-bvh body and writes a BVH reply in that
+// model's skeleton, a take's motion text in its columns. The frontend reads
+// what it needs (model(), shape()) and hands the handle to the operation,
+// which runs on exactly the model held here, whatever is activated meanwhile.
+//
+// The handle is the call begun: choose_model admitted it (its refusals
+// counted as the operation's), the call is in flight until the handle goes
+// (the server's drain waits for it, the reply's writing included), and its
+// outcome is counted once: by the operation it is given to, or by
+// Core::refuse_body when the frontend cannot read the body for its shape.
+// A handle let go with neither (the frontend failed otherwise) ends its call
+// counted as INTERNAL. One handle, one call: it cannot be copied, and an
+// operation given one whose call has ended refuses it (INTERNAL). Not
+// synchronised: one thread uses a handle at a time.
+//
+// A default-constructed handle holds no model: an operation given it
+// resolves its request's `model` itself (gRPC, and REST's JSON calls).
+class ChosenModel {
+ public:
+  // What the core keeps for the call (the model loaded, the call's
+  // admission); opaque to the frontends.
+  class Hold {
+   public:
+    virtual ~Hold() = default;
+  };
 
-// The same for a take: `read` returns the take's frames read for the model's
-// shape (REST: a body of motion text in its columns or BVH of its skeleton)
-// and may set request.frame_rate (a BVH body's own).
-struct TakeTranslation {
-  std::function<TakeChunkReader(TakeRequest& request, const ModelShape& shape)> read;
-  std::function<void(const TakeSummaryReply& reply, const ModelShape& shape)> write;
+  ChosenModel() = default;
+  ChosenModel(AnsweredBy model, ModelShape shape, std::shared_ptr<Hold> hold)
+      : model_(std::move(model)), shape_(std::move(shape)), hold_(std::move(hold)) {}
+  ChosenModel(ChosenModel&&) = default;
+  ChosenModel& operator=(ChosenModel&&) = default;
+  ChosenModel(const ChosenModel&) = delete;
+  ChosenModel& operator=(const ChosenModel&) = delete;
+
+  explicit operator bool() const { return hold_ != nullptr; }
+  const AnsweredBy& model() const { return model_; }  // its name and version, as the reply's answered_by
+  const ModelShape& shape() const { return shape_; }  // what a body is read and a reply written for
+  Hold* hold() const { return hold_.get(); }          // for the core that chose it
+
+ private:
+  AnsweredBy model_;
+  ModelShape shape_;
+  std::shared_ptr<Hold> hold_;
 };
 
 class Core {
@@ -52,20 +80,41 @@ class Core {
 
   virtual bool ready() const = 0;  // a model is loaded and the core accepts calls
 
-  // Each may be given a ShapedTranslation (above): the frontend's reading of
-  // the request and writing of the reply for the model that answers.
+  // Begins a call of `operation` on model `name` ("" for the active one)
+  // for a frontend that must know the model before it reads the call's body
+  // or writes its reply (ChosenModel, above). `operation` is the name the
+  // metrics count the call by, one of "encode", "decode", "sample",
+  // "interpolate", "analogy", "denoise", "join_clips", "encode_take",
+  // "reconstruct_take", "denoise_take" (take_kind_name) and "decode_track";
+  // the handle must then be given to that operation. Refused as the
+  // operation would be, before any body is read, and counted as its call:
+  // UNAVAILABLE while the server is not accepting calls (drain), for a take
+  // RESOURCE_EXHAUSTED when --max-take-streams are running, NOT_FOUND for an
+  // unknown model, FAILED_PRECONDITION for one that cannot be loaded.
+  virtual ChosenModel choose_model(const CallContext& ctx, const std::string& operation,
+                                   const std::string& name) = 0;
+  // Ends the call of `chosen` with `error`, the frontend's refusal of a body
+  // it could not read for the chosen model's shape (INVALID_ARGUMENT naming
+  // the body's line): counted as the call's outcome, as an operation's
+  // refusal is. The frontend then answers `error`; `chosen` runs no
+  // operation after. Nothing is counted for a call that has ended already.
+  virtual void refuse_body(const ChosenModel& chosen, const ApiError& error) = 0;
+
+  // Each runs on `chosen`'s model when given one (choose_model, for the same
+  // operation; the request's `model` is then not read), otherwise on the
+  // model its request names.
   virtual EncodeReply encode(const CallContext& ctx, const EncodeRequest& request,
-                             const ShapedTranslation<EncodeRequest, EncodeReply>& translation = {}) = 0;
+                             const ChosenModel& chosen = {}) = 0;
   virtual MotionsReply decode(const CallContext& ctx, const DecodeRequest& request,
-                              const ShapedTranslation<DecodeRequest, MotionsReply>& translation = {}) = 0;
+                              const ChosenModel& chosen = {}) = 0;
   virtual MotionsReply sample(const CallContext& ctx, const SampleRequest& request,
-                              const ShapedTranslation<SampleRequest, MotionsReply>& translation = {}) = 0;
+                              const ChosenModel& chosen = {}) = 0;
   virtual MotionsReply interpolate(const CallContext& ctx, const InterpolateRequest& request,
-                                   const ShapedTranslation<InterpolateRequest, MotionsReply>& translation = {}) = 0;
+                                   const ChosenModel& chosen = {}) = 0;
   virtual MotionsReply analogy(const CallContext& ctx, const AnalogyRequest& request,
-                               const ShapedTranslation<AnalogyRequest, MotionsReply>& translation = {}) = 0;
+                               const ChosenModel& chosen = {}) = 0;
   virtual MotionsReply denoise(const CallContext& ctx, const DenoiseRequest& request,
-                               const ShapedTranslation<DenoiseRequest, MotionsReply>& translation = {}) = 0;
+                               const ChosenModel& chosen = {}) = 0;
   // Clips a and b joined by a transition (model/clip_transition.h). Checked
   // before any work: decoder, transition_seconds (0.5 to 4), method, then
   // each clip as Encode checks a motion but of any length, from the
@@ -74,24 +123,23 @@ class Core {
   // generated transition's code fit (15 decoder passes forward and back on
   // one window, whatever the clips' length) runs on the inference executor.
   virtual JoinClipsReply join_clips(const CallContext& ctx, const JoinClipsRequest& request,
-                                    const ShapedTranslation<JoinClipsRequest, JoinClipsReply>& translation = {}) = 0;
+                                    const ChosenModel& chosen = {}) = 0;
 
-  // Takes (core/take_session.h): the take's frames come from `read`, or
-  // from the data-root file request.path (which needs the clip-read
-  // access); the reply goes to `sink` as it becomes final. The same access
-  // as Encode. At most --max-take-streams run at once, beyond that
-  // RESOURCE_EXHAUSTED (429) naming it; a take longer than
-  // --max-take-seconds is refused (413) as its frames arrive. The call is in
-  // flight (the server's drain waits for it) until it returns. With
-  // translation.read the take's frames are those it reads for the model
-  // that answers (a REST body), not `read`'s.
+  // Takes (core/take_session.h): the take's frames come from `read` (gRPC's
+  // stream, or a REST body the frontend read for `chosen`'s model), or from
+  // the data-root file request.path (which needs the clip-read access); the
+  // reply goes to `sink` as it becomes final. The same access as Encode. At
+  // most --max-take-streams run at once, beyond that RESOURCE_EXHAUSTED
+  // (429) naming it (a chosen model's call holds its place from
+  // choose_model); a take longer than --max-take-seconds is refused (413) as
+  // its frames arrive. The call is in flight (the server's drain waits for
+  // it) until it returns.
   virtual TakeSummaryReply run_take(const CallContext& ctx, TakeKind kind, const TakeRequest& request,
                                     const TakeChunkReader& read, const TakeReplySink& sink,
-                                    const TakeTranslation& translation = {}) = 0;
+                                    const ChosenModel& chosen = {}) = 0;
   // A code track decoded into one motion, streamed to `sink` as run_take's.
-  virtual TakeSummaryReply decode_track(
-      const CallContext& ctx, const DecodeTrackRequest& request, const TakeReplySink& sink,
-      const ShapedTranslation<DecodeTrackRequest, TakeSummaryReply>& translation = {}) = 0;
+  virtual TakeSummaryReply decode_track(const CallContext& ctx, const DecodeTrackRequest& request,
+                                        const TakeReplySink& sink, const ChosenModel& chosen = {}) = 0;
 
   virtual std::vector<ModelInfo> list_models(const CallContext& ctx) = 0;
   virtual ModelInfo describe_model(const CallContext& ctx, const std::string& name) = 0;

@@ -2,12 +2,14 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <condition_variable>
 #include <cstring>
 #include <filesystem>
+#include <iterator>
 #include <mutex>
 #include <optional>
 #include <thread>
@@ -65,24 +67,6 @@ std::vector<Code> to_codes(const at::Tensor& tensor) {
     result[i].assign(row, row + codes.size(1));
   }
   return result;
-}
-
-// The request as `translation.read` fills it in for `model` (in `read`), or
-// the request itself when the translation reads nothing.
-template <typename Request, typename Translation>
-const Request& read_for(const LoadedModel& model, const Request& request, const Translation& translation,
-                        std::optional<Request>& read) {
-  if (!translation.read) return request;
-  read.emplace(request);
-  translation.read(*read, model.shape);
-  return *read;
-}
-
-// `reply`, after `translation.write` has taken it for `model`.
-template <typename Reply, typename Translation>
-Reply written(const LoadedModel& model, Reply reply, const Translation& translation) {
-  if (translation.write) translation.write(reply, model.shape);
-  return reply;
 }
 
 }  // namespace
@@ -224,60 +208,127 @@ struct ManifoldCore::State {
     return reply;
   }
 
-  // Runs one call: refuses it while not accepting, counts it for drain(),
-  // announces it to the executor, records its metrics, and turns the
-  // library's own input errors (which the checks here should pre-empt) and
-  // anything unexpected into the error model.
-  template <typename Work>
-  auto call(const char* operation, const CallContext& ctx, Work&& work) -> decltype(work()) {
-    return call(operation, ctx, false, std::forward<Work>(work));
-  }
-  // `inference`: the call reaches the executor, which may wait for it to
-  // join a batch.
-  template <typename Work>
-  auto call(const char* operation, const CallContext& ctx, bool inference, Work&& work) -> decltype(work()) {
-    const auto started = std::chrono::steady_clock::now();
-    std::string code = "OK";
-    auto record = [&] {
-      metrics.observe_request(operation, ctx.protocol,
-                              code, std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count());
-    };
-    {
-      std::lock_guard<std::mutex> lock(calls_mutex);
-      if (!accepting) {
-        code = error_code_name(ErrorCode::kUnavailable);
-        record();
+  // One call from its admission to its outcome: admitted only while the
+  // core accepts calls (else UNAVAILABLE, counted), in flight for drain()
+  // until it goes, its outcome counted once in the metrics. An operation
+  // begins its own, or runs on the one choose_model began (the hold of the
+  // ChosenModel it hands out, with the model chosen and a take's place).
+  class Call final : public ChosenModel::Hold {
+   public:
+    Call(State& state, std::string operation, const CallContext& ctx)
+        : state_(state), operation_(std::move(operation)), protocol_(ctx.protocol) {
+      std::lock_guard<std::mutex> lock(state_.calls_mutex);
+      if (!state_.accepting) {
+        count(ErrorCode::kUnavailable);
         throw ApiError(ErrorCode::kUnavailable, "", "the server is not accepting calls (starting or shutting down)");
       }
-      ++calls_in_flight;
+      ++state_.calls_in_flight;
     }
-    struct Leave {
-      State& state;
-      ~Leave() {
-        std::lock_guard<std::mutex> lock(state.calls_mutex);
-        if (--state.calls_in_flight == 0) state.calls_done.notify_all();
+    Call(const Call&) = delete;
+    Call& operator=(const Call&) = delete;
+    // A chosen model's call let go without an outcome: its frontend failed
+    // between choose_model and the operation (core.h).
+    ~Call() override {
+      if (!counted_) count(ErrorCode::kInternal);
+      std::lock_guard<std::mutex> lock(state_.calls_mutex);
+      if (--state_.calls_in_flight == 0) state_.calls_done.notify_all();
+    }
+
+    const std::string& operation() const { return operation_; }
+    bool counted() const { return counted_; }
+    bool of(const State& state) const { return &state_ == &state; }
+    void count_ok() { count("OK"); }
+    void count(ErrorCode code) { count(error_code_name(code)); }
+
+    // Counts the exception being handled as the call's outcome and throws
+    // it as the error model's ApiError: the library's own input errors
+    // (which the checks should pre-empt) as INVALID_ARGUMENT, anything
+    // unexpected as INTERNAL.
+    [[noreturn]] void fail() {
+      try {
+        throw;
+      } catch (const ApiError& e) {
+        count(e.code());
+        throw;
+      } catch (const InputError& e) {
+        count(ErrorCode::kInvalidArgument);
+        throw ApiError(ErrorCode::kInvalidArgument, "", e.what());
+      } catch (const std::exception& e) {
+        count(ErrorCode::kInternal);
+        std::string what = e.what();
+        spdlog::error("{} failed: {}", operation_, what);
+        throw ApiError(ErrorCode::kInternal, "", what.substr(0, what.find('\n')));
       }
-    } leave{*this};
+    }
+
+    std::shared_ptr<const LoadedModel> model;  // chosen by choose_model
+    std::shared_ptr<void> take_slot;           // a take's place, admitted by choose_model
+
+   private:
+    void count(const char* code) {
+      counted_ = true;
+      state_.metrics.observe_request(operation_, protocol_, code,
+                                     std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count());
+    }
+
+    State& state_;
+    const std::string operation_;
+    const std::string protocol_;
+    const std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
+    bool counted_ = false;  // a call is used by one frontend thread at a time
+  };
+
+  // The call `chosen` began for `operation`; INTERNAL (a frontend's
+  // mistake) for one chosen by another core, for another operation, or
+  // whose call has ended.
+  Call& chosen_call(const ChosenModel& chosen, const std::string& operation) const {
+    auto* call = dynamic_cast<Call*>(chosen.hold());
+    if (call == nullptr || !call->of(*this)) {
+      throw ApiError(ErrorCode::kInternal, "", operation + " was given a model that this core did not choose");
+    }
+    if (call->operation() != operation) {
+      throw ApiError(ErrorCode::kInternal, "",
+                     operation + " was given a model chosen for " + call->operation() + " (choose_model)");
+    }
+    if (call->counted()) {
+      throw ApiError(ErrorCode::kInternal, "", operation + " was given a chosen model whose call has ended");
+    }
+    return *call;
+  }
+  // The model a call runs on: `chosen`'s (checked by call()), else the one
+  // the request names.
+  std::shared_ptr<const LoadedModel> model_for(const ChosenModel& chosen, const std::string& name) {
+    if (chosen) return static_cast<const Call*>(chosen.hold())->model;
+    return store.get(name);
+  }
+  // A take's place: the one choose_model admitted, else one admitted now.
+  std::shared_ptr<void> take_slot_for(const ChosenModel& chosen) {
+    if (chosen) return static_cast<const Call*>(chosen.hold())->take_slot;
+    return admit_take();
+  }
+
+  // Runs one call (Call, above) on `chosen`'s or its own: counts its
+  // outcome and maps its errors.
+  template <typename Work>
+  auto call(const char* operation, const CallContext& ctx, Work&& work) -> decltype(work()) {
+    return call(operation, ctx, false, ChosenModel(), std::forward<Work>(work));
+  }
+  // `inference`: the call reaches the executor, which may wait for it to
+  // join a batch (announced only now, not while a chosen model's body was
+  // read).
+  template <typename Work>
+  auto call(const char* operation, const CallContext& ctx, bool inference, const ChosenModel& chosen, Work&& work)
+      -> decltype(work()) {
+    std::optional<Call> own;
+    Call& begun = chosen ? chosen_call(chosen, operation) : own.emplace(*this, operation, ctx);
     std::optional<InferenceExecutor::Expected> expected;
     if (inference) expected.emplace(executor);
     try {
       auto result = work();
-      record();
+      begun.count_ok();
       return result;
-    } catch (const ApiError& e) {
-      code = error_code_name(e.code());
-      record();
-      throw;
-    } catch (const InputError& e) {
-      code = error_code_name(ErrorCode::kInvalidArgument);
-      record();
-      throw ApiError(ErrorCode::kInvalidArgument, "", e.what());
-    } catch (const std::exception& e) {
-      code = error_code_name(ErrorCode::kInternal);
-      record();
-      std::string what = e.what();
-      spdlog::error("{} failed: {}", operation, what);
-      throw ApiError(ErrorCode::kInternal, "", what.substr(0, what.find('\n')));
+    } catch (...) {
+      begun.fail();
     }
   }
 };
@@ -329,12 +380,50 @@ void ManifoldCore::start() {
 
 bool ManifoldCore::ready() const { return state_->accepting; }
 
-EncodeReply ManifoldCore::encode(const CallContext& ctx, const EncodeRequest& given,
-                                 const ShapedTranslation<EncodeRequest, EncodeReply>& translation) {
-  return state_->call("encode", ctx, true, [&] {
-    const auto model = state_->store.get(given.model);
-    std::optional<EncodeRequest> read;
-    const EncodeRequest& request = read_for(*model, given, translation, read);
+namespace {
+
+// The operations a model is chosen for (Core::choose_model), as the metrics
+// name them; whether each is a take, which holds a place among those running.
+bool chooses_a_model(const std::string& operation, bool* take) {
+  static const char* const kCalls[] = {"encode", "decode", "sample", "interpolate", "analogy", "denoise", "join_clips"};
+  static const char* const kTakes[] = {"encode_take", "reconstruct_take", "denoise_take", "decode_track"};
+  *take = std::find(std::begin(kTakes), std::end(kTakes), operation) != std::end(kTakes);
+  return *take || std::find(std::begin(kCalls), std::end(kCalls), operation) != std::end(kCalls);
+}
+
+}  // namespace
+
+ChosenModel ManifoldCore::choose_model(const CallContext& ctx, const std::string& operation,
+                                       const std::string& name) {
+  bool take = false;
+  if (!chooses_a_model(operation, &take)) {
+    throw ApiError(ErrorCode::kInternal, "", "no operation \"" + operation + "\" runs on a chosen model");
+  }
+  // Refused and counted as the operation's call would be, in its order:
+  // the core accepting, a take's place, the model.
+  auto call = std::make_shared<State::Call>(*state_, operation, ctx);
+  try {
+    if (take) call->take_slot = state_->admit_take();
+    call->model = state_->store.get(name);
+  } catch (...) {
+    call->fail();
+  }
+  const LoadedModel& model = *call->model;
+  return ChosenModel({model.name, model.version}, model.shape, std::move(call));
+}
+
+void ManifoldCore::refuse_body(const ChosenModel& chosen, const ApiError& error) {
+  auto* call = dynamic_cast<State::Call*>(chosen.hold());
+  if (call == nullptr || !call->of(*state_)) {
+    throw ApiError(ErrorCode::kInternal, "", "refuse_body was given a model that this core did not choose");
+  }
+  if (!call->counted()) call->count(error.code());
+}
+
+EncodeReply ManifoldCore::encode(const CallContext& ctx, const EncodeRequest& request,
+                                 const ChosenModel& chosen) {
+  return state_->call("encode", ctx, true, chosen, [&] {
+    const auto model = state_->model_for(chosen, request.model);
     check_count(static_cast<int>(request.motions.size()), 1, state_->config.limits.max_motions, "motions",
                 "max_motions");
     std::vector<MotionFrames> frames;
@@ -344,49 +433,40 @@ EncodeReply ManifoldCore::encode(const CallContext& ctx, const EncodeRequest& gi
     EncodeReply reply;
     reply.codes = to_codes(state_->executor.encode(model, std::move(frames)));
     reply.answered_by = {model->name, model->version};
-    return written(*model, std::move(reply), translation);
+    return reply;
   });
 }
 
-MotionsReply ManifoldCore::decode(const CallContext& ctx, const DecodeRequest& given,
-                                  const ShapedTranslation<DecodeRequest, MotionsReply>& translation) {
-  return state_->call("decode", ctx, true, [&] {
-    const auto model = state_->store.get(given.model);
-    std::optional<DecodeRequest> read;
-    const DecodeRequest& request = read_for(*model, given, translation, read);
+MotionsReply ManifoldCore::decode(const CallContext& ctx, const DecodeRequest& request,
+                                  const ChosenModel& chosen) {
+  return state_->call("decode", ctx, true, chosen, [&] {
+    const auto model = state_->model_for(chosen, request.model);
     const DecoderKind kind = state_->decoder_for(*model, request.decoder);
     check_count(static_cast<int>(request.codes.size()), 1, state_->config.limits.max_motions, "codes",
                 "max_motions");
     for (size_t i = 0; i < request.codes.size(); ++i) {
       check_code(request.codes[i], model->shape, "codes[" + std::to_string(i) + "]");
     }
-    return written(*model,
-                   state_->decode_reply(model, codes_tensor(request.codes, model->shape.latent), kind,
-                                        request.plant_feet, /*with_codes=*/false),
-                   translation);
+    return state_->decode_reply(model, codes_tensor(request.codes, model->shape.latent), kind, request.plant_feet,
+                                /*with_codes=*/false);
   });
 }
 
-MotionsReply ManifoldCore::sample(const CallContext& ctx, const SampleRequest& given,
-                                  const ShapedTranslation<SampleRequest, MotionsReply>& translation) {
-  return state_->call("sample", ctx, true, [&] {
-    const auto model = state_->store.get(given.model);
-    std::optional<SampleRequest> read;
-    const SampleRequest& request = read_for(*model, given, translation, read);
+MotionsReply ManifoldCore::sample(const CallContext& ctx, const SampleRequest& request,
+                                  const ChosenModel& chosen) {
+  return state_->call("sample", ctx, true, chosen, [&] {
+    const auto model = state_->model_for(chosen, request.model);
     const DecoderKind kind = state_->decoder_for(*model, request.decoder);
     check_count(request.count, 1, state_->config.limits.max_sample_count, "count", "max_sample_count");
-    return written(*model, state_->decode_reply(model, sample_codes(model->model, request.count, request.seed), kind,
-                                                     request.plant_feet),
-                   translation);
+    return state_->decode_reply(model, sample_codes(model->model, request.count, request.seed), kind,
+                                request.plant_feet);
   });
 }
 
-MotionsReply ManifoldCore::interpolate(const CallContext& ctx, const InterpolateRequest& given,
-                                       const ShapedTranslation<InterpolateRequest, MotionsReply>& translation) {
-  return state_->call("interpolate", ctx, true, [&] {
-    const auto model = state_->store.get(given.model);
-    std::optional<InterpolateRequest> read;
-    const InterpolateRequest& request = read_for(*model, given, translation, read);
+MotionsReply ManifoldCore::interpolate(const CallContext& ctx, const InterpolateRequest& request,
+                                       const ChosenModel& chosen) {
+  return state_->call("interpolate", ctx, true, chosen, [&] {
+    const auto model = state_->model_for(chosen, request.model);
     const DecoderKind kind = state_->decoder_for(*model, request.decoder);
     check_count(request.steps, 2, state_->config.limits.max_steps, "steps", "max_steps");
     if (request.method != "linear" && request.method != "spherical" && !request.method.empty()) {
@@ -395,32 +475,26 @@ MotionsReply ManifoldCore::interpolate(const CallContext& ctx, const Interpolate
     const auto from = state_->latent_of(model, request.from, "from");
     const auto to = state_->latent_of(model, request.to, "to");
     const auto codes = interpolate_codes(from, to, request.steps, request.method == "spherical");
-    return written(*model, state_->decode_reply(model, codes, kind, request.plant_feet), translation);
+    return state_->decode_reply(model, codes, kind, request.plant_feet);
   });
 }
 
-MotionsReply ManifoldCore::analogy(const CallContext& ctx, const AnalogyRequest& given,
-                                   const ShapedTranslation<AnalogyRequest, MotionsReply>& translation) {
-  return state_->call("analogy", ctx, true, [&] {
-    const auto model = state_->store.get(given.model);
-    std::optional<AnalogyRequest> read;
-    const AnalogyRequest& request = read_for(*model, given, translation, read);
+MotionsReply ManifoldCore::analogy(const CallContext& ctx, const AnalogyRequest& request,
+                                   const ChosenModel& chosen) {
+  return state_->call("analogy", ctx, true, chosen, [&] {
+    const auto model = state_->model_for(chosen, request.model);
     const DecoderKind kind = state_->decoder_for(*model, request.decoder);
     const auto a = state_->latent_of(model, request.a, "a");
     const auto b = state_->latent_of(model, request.b, "b");
     const auto c = state_->latent_of(model, request.c, "c");
-    return written(*model,
-                   state_->decode_reply(model, analogy_code(a, b, c).unsqueeze(0), kind, request.plant_feet),
-                   translation);
+    return state_->decode_reply(model, analogy_code(a, b, c).unsqueeze(0), kind, request.plant_feet);
   });
 }
 
-MotionsReply ManifoldCore::denoise(const CallContext& ctx, const DenoiseRequest& given,
-                                   const ShapedTranslation<DenoiseRequest, MotionsReply>& translation) {
-  return state_->call("denoise", ctx, true, [&] {
-    const auto model = state_->store.get(given.model);
-    std::optional<DenoiseRequest> read;
-    const DenoiseRequest& request = read_for(*model, given, translation, read);
+MotionsReply ManifoldCore::denoise(const CallContext& ctx, const DenoiseRequest& request,
+                                   const ChosenModel& chosen) {
+  return state_->call("denoise", ctx, true, chosen, [&] {
+    const auto model = state_->model_for(chosen, request.model);
     const DecoderKind kind = state_->decoder_for(*model, request.decoder);
     check_count(static_cast<int>(request.motions.size()), 1, state_->config.limits.max_motions, "motions",
                 "max_motions");
@@ -447,16 +521,14 @@ MotionsReply ManifoldCore::denoise(const CallContext& ctx, const DenoiseRequest&
     MotionsReply reply;
     reply.answered_by = {model->name, model->version};
     for (const auto& motion : denoised) reply.motions.push_back(to_wire_motion(motion, model->shape, "input"));
-    return written(*model, std::move(reply), translation);
+    return reply;
   });
 }
 
-JoinClipsReply ManifoldCore::join_clips(const CallContext& ctx, const JoinClipsRequest& given,
-                                       const ShapedTranslation<JoinClipsRequest, JoinClipsReply>& translation) {
-  return state_->call("join_clips", ctx, true, [&] {
-    const auto model = state_->store.get(given.model);
-    std::optional<JoinClipsRequest> read;
-    const JoinClipsRequest& request = read_for(*model, given, translation, read);
+JoinClipsReply ManifoldCore::join_clips(const CallContext& ctx, const JoinClipsRequest& request,
+                                       const ChosenModel& chosen) {
+  return state_->call("join_clips", ctx, true, chosen, [&] {
+    const auto model = state_->model_for(chosen, request.model);
     TransitionOptions options;
     options.decoder = state_->decoder_for(*model, request.decoder);
     const double seconds = request.transition_seconds;
@@ -503,26 +575,22 @@ JoinClipsReply ManifoldCore::join_clips(const CallContext& ctx, const JoinClipsR
     reply.motion = to_wire_motion(joined.frames, model->shape, "input");
     reply.transition_first_frame = static_cast<int>(joined.transition_first);
     reply.transition_last_frame = static_cast<int>(joined.transition_last);
-    return written(*model, std::move(reply), translation);
+    return reply;
   });
 }
 
-TakeSummaryReply ManifoldCore::run_take(const CallContext& ctx, TakeKind kind, const TakeRequest& given,
-                                        const TakeChunkReader& given_read, const TakeReplySink& sink,
-                                        const TakeTranslation& translation) {
+TakeSummaryReply ManifoldCore::run_take(const CallContext& ctx, TakeKind kind, const TakeRequest& request,
+                                        const TakeChunkReader& read, const TakeReplySink& sink,
+                                        const ChosenModel& chosen) {
   // Not announced to the executor as inference: a take spends most of its
   // time waiting for its frames, and batches must not wait for it.
-  return state_->call(take_kind_name(kind), ctx, [&] {
-    const auto slot = state_->admit_take();
-    const auto model = state_->store.get(given.model);
-    TakeRequest request = given;
-    const TakeChunkReader read = translation.read ? translation.read(request, model->shape) : given_read;
+  return state_->call(take_kind_name(kind), ctx, false, chosen, [&] {
+    const auto slot = state_->take_slot_for(chosen);
+    const auto model = state_->model_for(chosen, request.model);
     const DecoderKind decoder = state_->decoder_for(*model, request.decoder);
     if (request.path.empty()) {
-      return written(*model,
-                     run_take_on_model(*model, decoder, kind, request, read, sink, state_->take_runner(),
-                                       state_->take_bounds()),
-                     translation);
+      return run_take_on_model(*model, decoder, kind, request, read, sink, state_->take_runner(),
+                               state_->take_bounds());
     }
     state_->require_clip_reader(ctx);
     auto file = std::make_shared<const TakeFile>(read_take_file(state_->config.data_root, request.path, model->shape,
@@ -530,25 +598,18 @@ TakeSummaryReply ManifoldCore::run_take(const CallContext& ctx, TakeKind kind, c
                                                                 state_->config.max_take_bytes));
     TakeRequest from_file = request;
     from_file.frame_rate = file->frame_rate;
-    return written(*model,
-                   run_take_on_model(*model, decoder, kind, from_file, take_file_reader(file), sink,
-                                     state_->take_runner(), state_->take_bounds()),
-                   translation);
+    return run_take_on_model(*model, decoder, kind, from_file, take_file_reader(file), sink, state_->take_runner(),
+                             state_->take_bounds());
   });
 }
 
-TakeSummaryReply ManifoldCore::decode_track(
-    const CallContext& ctx, const DecodeTrackRequest& given, const TakeReplySink& sink,
-    const ShapedTranslation<DecodeTrackRequest, TakeSummaryReply>& translation) {
-  return state_->call("decode_track", ctx, [&] {
-    const auto slot = state_->admit_take();
-    const auto model = state_->store.get(given.model);
-    std::optional<DecodeTrackRequest> read;
-    const DecodeTrackRequest& request = read_for(*model, given, translation, read);
+TakeSummaryReply ManifoldCore::decode_track(const CallContext& ctx, const DecodeTrackRequest& request,
+                                            const TakeReplySink& sink, const ChosenModel& chosen) {
+  return state_->call("decode_track", ctx, false, chosen, [&] {
+    const auto slot = state_->take_slot_for(chosen);
+    const auto model = state_->model_for(chosen, request.model);
     const DecoderKind decoder = state_->decoder_for(*model, request.decoder);
-    return written(*model,
-                   decode_track_on_model(*model, decoder, request, sink, state_->take_runner(), state_->take_bounds()),
-                   translation);
+    return decode_track_on_model(*model, decoder, request, sink, state_->take_runner(), state_->take_bounds());
   });
 }
 

@@ -43,29 +43,26 @@ class ManifoldCore final : public Core {
   void start();
   bool ready() const override;
 
+  ChosenModel choose_model(const CallContext& ctx, const std::string& operation, const std::string& name) override;
+  void refuse_body(const ChosenModel& chosen, const ApiError& error) override;
+
   // The default arguments are Core's, repeated for callers holding a
   // ManifoldCore (the core's own tests).
-  EncodeReply encode(const CallContext& ctx, const EncodeRequest& request,
-                     const ShapedTranslation<EncodeRequest, EncodeReply>& translation = {}) override;
-  MotionsReply decode(const CallContext& ctx, const DecodeRequest& request,
-                      const ShapedTranslation<DecodeRequest, MotionsReply>& translation = {}) override;
-  MotionsReply sample(const CallContext& ctx, const SampleRequest& request,
-                      const ShapedTranslation<SampleRequest, MotionsReply>& translation = {}) override;
+  EncodeReply encode(const CallContext& ctx, const EncodeRequest& request, const ChosenModel& chosen = {}) override;
+  MotionsReply decode(const CallContext& ctx, const DecodeRequest& request, const ChosenModel& chosen = {}) override;
+  MotionsReply sample(const CallContext& ctx, const SampleRequest& request, const ChosenModel& chosen = {}) override;
   MotionsReply interpolate(const CallContext& ctx, const InterpolateRequest& request,
-                           const ShapedTranslation<InterpolateRequest, MotionsReply>& translation = {}) override;
-  MotionsReply analogy(const CallContext& ctx, const AnalogyRequest& request,
-                       const ShapedTranslation<AnalogyRequest, MotionsReply>& translation = {}) override;
-  MotionsReply denoise(const CallContext& ctx, const DenoiseRequest& request,
-                       const ShapedTranslation<DenoiseRequest, MotionsReply>& translation = {}) override;
+                           const ChosenModel& chosen = {}) override;
+  MotionsReply analogy(const CallContext& ctx, const AnalogyRequest& request, const ChosenModel& chosen = {}) override;
+  MotionsReply denoise(const CallContext& ctx, const DenoiseRequest& request, const ChosenModel& chosen = {}) override;
   JoinClipsReply join_clips(const CallContext& ctx, const JoinClipsRequest& request,
-                            const ShapedTranslation<JoinClipsRequest, JoinClipsReply>& translation = {}) override;
+                            const ChosenModel& chosen = {}) override;
 
   TakeSummaryReply run_take(const CallContext& ctx, TakeKind kind, const TakeRequest& request,
                             const TakeChunkReader& read, const TakeReplySink& sink,
-                            const TakeTranslation& translation = {}) override;
+                            const ChosenModel& chosen = {}) override;
   TakeSummaryReply decode_track(const CallContext& ctx, const DecodeTrackRequest& request,
-                                const TakeReplySink& sink,
-                                const ShapedTranslation<DecodeTrackRequest, TakeSummaryReply>& translation = {}) override;
+                                const TakeReplySink& sink, const ChosenModel& chosen = {}) override;
 
   std::vector<ModelInfo> list_models(const CallContext& ctx) override;
   ModelInfo describe_model(const CallContext& ctx, const std::string& name) override;

@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <optional>
 
+#include "server/rest/body_for_model.h"
 #include "server/rest/bvh_translation.h"
 #include "server/rest/http_errors.h"
 #include "server/rest/json_translation.h"
@@ -44,8 +45,8 @@ double seconds_field(const httplib::MultipartFormData& part) {
   return value;
 }
 
-// The request of a multipart body, its clips read by `translation` for the
-// model that answers.
+// The request of a multipart body but its clips, which are read for the
+// model that answers (answer_join), and the parts that hold them.
 JoinClipsRequest multipart_request(const httplib::MultipartFormDataItems& parts, std::optional<ClipPart>& a,
                                    std::optional<ClipPart>& b) {
   JoinClipsRequest request;
@@ -76,7 +77,6 @@ JoinClipsRequest multipart_request(const httplib::MultipartFormDataItems& parts,
 
 void answer_join(Core& core, const CallContext& context, const httplib::Request& request,
                  const std::string& body, const httplib::MultipartFormDataItems& parts, httplib::Response& response) {
-  ShapedTranslation<JoinClipsRequest, JoinClipsReply> translation;
   AnimationFormat reply_format;
   const bool file_reply = names_animation(request.get_header_value("Accept"), &reply_format);
   if (file_reply && reply_format == AnimationFormat::kFbx) {
@@ -88,40 +88,43 @@ void answer_join(Core& core, const CallContext& context, const httplib::Request&
                             "written as application/x-bvh, model/gltf-binary, model/gltf+json or application/json")),
         kJsonType);
   }
-  if (file_reply) {
-    translation.write = [&response, reply_format](const JoinClipsReply& reply, const ModelShape& shape) {
-      MotionsReply motions;
-      motions.answered_by = reply.answered_by;
-      motions.motions.push_back(reply.motion);
-      response.status = 200;
-      response.set_header("X-Transition-First-Frame", std::to_string(reply.transition_first_frame));
-      response.set_header("X-Transition-Last-Frame", std::to_string(reply.transition_last_frame));
-      response.set_content(motions_reply_to_bvh(motions, shape, reply_format),
-                           animation_format_media_type(reply_format));
-    };
-  }
-  const std::string content_type = request.get_header_value("Content-Type");
-  std::optional<JoinClipsReply> reply;
+  // Files (parts a and b, the joined motion as a file) are of the skeleton
+  // of the model that answers: it is chosen first (Core::choose_model), the
+  // parts read for it, the clips joined on it, the reply written for it.
+  JoinClipsRequest join;
+  ChosenModel chosen;
   if (request.is_multipart_form_data()) {
     std::optional<ClipPart> a, b;
-    const JoinClipsRequest join = multipart_request(parts, a, b);
-    translation.read = [&a, &b](JoinClipsRequest& read, const ModelShape& shape) {
-      read.a = clip_from_animation_body(*a->content, shape, a->format, "a");
-      read.b = clip_from_animation_body(*b->content, shape, b->format, "b");
-    };
-    reply = core.join_clips(context, join, translation);
+    join = multipart_request(parts, a, b);
+    chosen = core.choose_model(context, "join_clips", join.model);
+    read_body_for_model(core, chosen, [&](const ModelShape& shape) {
+      join.a = clip_from_animation_body(*a->content, shape, a->format, "a");
+      join.b = clip_from_animation_body(*b->content, shape, b->format, "b");
+    });
   } else {
+    const std::string content_type = request.get_header_value("Content-Type");
     AnimationFormat body_format;
     if (names_animation(content_type, &body_format)) {
       throw invalid("", "POST /v1/join takes two clips: send them as JSON, or as the files \"a\" and \"b\" of a "
                         "multipart/form-data body (curl -F a=@first.bvh -F b=@second.bvh), not one " +
                             content_type + " body");
     }
-    reply = core.join_clips(context, join_clips_request_from_json(body), translation);
+    join = join_clips_request_from_json(body);
+    if (file_reply) chosen = core.choose_model(context, "join_clips", join.model);
   }
-  if (file_reply) return;
+  const JoinClipsReply reply = core.join_clips(context, join, chosen);
+  if (!file_reply) {
+    response.status = 200;
+    return response.set_content(join_clips_reply_to_json(reply), kJsonType);
+  }
+  MotionsReply motions;
+  motions.answered_by = reply.answered_by;
+  motions.motions.push_back(reply.motion);
   response.status = 200;
-  response.set_content(join_clips_reply_to_json(*reply), kJsonType);
+  response.set_header("X-Transition-First-Frame", std::to_string(reply.transition_first_frame));
+  response.set_header("X-Transition-Last-Frame", std::to_string(reply.transition_last_frame));
+  response.set_content(motions_reply_to_bvh(motions, chosen.shape(), reply_format),
+                       animation_format_media_type(reply_format));
 }
 
 }  // namespace mm::service::rest

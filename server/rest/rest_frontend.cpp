@@ -17,6 +17,7 @@
 #include <thread>
 
 #include "server/core/caller_identity.h"
+#include "server/rest/body_for_model.h"
 #include "server/rest/body_limits.h"
 #include "server/rest/bvh_translation.h"
 #include "server/rest/connection_stream.h"
@@ -80,21 +81,21 @@ void send_bvh_motion(httplib::Response& response, const MotionsReply& reply, con
   response.set_content(rest::motions_reply_to_bvh(reply, shape, format), animation_format_media_type(format));
 }
 
-// Answers a call whose reply is motions: JSON, or BVH when the client's
-// Accept names application/x-bvh. BVH is of the model that answers, so it is
-// written inside the call (the core's ShapedTranslation), for the model
-// the call chose; JSON is written after it. `call` runs the core's operation
-// with `translation`.
-template <typename Request, typename Call>
-void answer_motions(httplib::Response& response, const httplib::Request& request,
-                    ShapedTranslation<Request, MotionsReply> translation, Call&& call) {
+// Answers a call whose reply is motions (Decode, Sample, Interpolate,
+// Analogy, Denoise): JSON, or one motion as an animation file (BVH, glTF)
+// when the client's Accept names one. Such a file is of the skeleton of the
+// model that answers, and so is an animation body (`body_for_model`): for
+// either, the model is chosen first (Core::choose_model, on request model
+// `model` for `operation`), then `run` reads the body for it and runs the
+// operation on it, and the reply is written for its shape, so that an
+// activation meanwhile never pairs one rig with another model. Otherwise
+// `run` is given no chosen model and the operation resolves the request's.
+template <typename Run>
+void answer_motions(Core& core, const CallContext& context, const char* operation, const std::string& model,
+                    bool body_for_model, const httplib::Request& request, httplib::Response& response, Run&& run) {
   AnimationFormat format;
-  if (!rest::names_animation(request.get_header_value("Accept"), &format)) {
-    const MotionsReply reply = call(translation);
-    response.status = 200;
-    return response.set_content(rest::motions_reply_to_json(reply), kJsonType);
-  }
-  if (format == AnimationFormat::kFbx) {
+  const bool file_reply = rest::names_animation(request.get_header_value("Accept"), &format);
+  if (file_reply && format == AnimationFormat::kFbx) {
     // FBX is read, never written (format/fbx_animation.h says why).
     const ApiError error(ErrorCode::kInvalidArgument, "",
                          "Accept: application/octet-stream (FBX) cannot be answered: motions are written as "
@@ -102,10 +103,13 @@ void answer_motions(httplib::Response& response, const httplib::Request& request
     response.status = 406;
     return response.set_content(rest::error_body(error), kJsonType);
   }
-  translation.write = [&response, format](const MotionsReply& reply, const ModelShape& shape) {
-    send_bvh_motion(response, reply, shape, format);
-  };
-  call(translation);
+  if (!file_reply && !body_for_model) {
+    return send_json(response, 200, rest::motions_reply_to_json(run(ChosenModel())));
+  }
+  const ChosenModel chosen = core.choose_model(context, operation, model);
+  const MotionsReply reply = run(chosen);
+  if (!file_reply) return send_json(response, 200, rest::motions_reply_to_json(reply));
+  send_bvh_motion(response, reply, chosen.shape(), format);
 }
 
 // An encode or denoise body: JSON, or one BVH motion (Content-Type
@@ -122,15 +126,12 @@ AnimationFormat body_format(const httplib::Request& request) {
   return format;
 }
 
-// A BVH body read as the request's one motion, for the model that answers
-// (inside the call: the core's ShapedTranslation).
-template <typename Request, typename Reply>
-ShapedTranslation<Request, Reply> bvh_body_translation(const std::string& body, AnimationFormat format) {
-  ShapedTranslation<Request, Reply> translation;
-  translation.read = [&body, format](Request& request, const ModelShape& shape) {
-    request.motions.push_back(rest::motion_from_bvh_body(body, shape, format));
-  };
-  return translation;
+// An animation body read as the request's one motion for the chosen model
+// (a body it cannot read is the call's refusal: rest/body_for_model.h).
+Motion body_motion(Core& core, const ChosenModel& chosen, const std::string& body, AnimationFormat format) {
+  return rest::read_body_for_model(core, chosen, [&](const ModelShape& shape) {
+    return rest::motion_from_bvh_body(body, shape, format);
+  });
 }
 
 void send_error(httplib::Response& response, const ApiError& error) {
@@ -329,46 +330,50 @@ void RestFrontend::State::handle(RouteId route, const httplib::Request& request,
     switch (route) {
       case RouteId::kEncode:
         if (is_bvh_body(request)) {
+          // The model first, then the body read for its skeleton.
+          const ChosenModel chosen = core.choose_model(context, "encode", request.get_param_value("model"));
           EncodeRequest encode;
-          encode.model = request.get_param_value("model");
-          return send_json(response, 200,
-                           rest::encode_reply_to_json(core.encode(
-                               context, encode, bvh_body_translation<EncodeRequest, EncodeReply>(body, body_format(request)))));
+          encode.model = chosen.model().model;
+          encode.motions.push_back(body_motion(core, chosen, body, body_format(request)));
+          return send_json(response, 200, rest::encode_reply_to_json(core.encode(context, encode, chosen)));
         }
         return send_json(response, 200,
                          rest::encode_reply_to_json(core.encode(context, rest::encode_request_from_json(body))));
       case RouteId::kDecode: {
         const DecodeRequest decode = rest::decode_request_from_json(body);
-        return answer_motions(response, request, ShapedTranslation<DecodeRequest, MotionsReply>(),
-                              [&](const auto& translation) { return core.decode(context, decode, translation); });
+        return answer_motions(core, context, "decode", decode.model, false, request, response,
+                              [&](const ChosenModel& chosen) { return core.decode(context, decode, chosen); });
       }
       case RouteId::kSample: {
         const SampleRequest sample = rest::sample_request_from_json(body);
-        return answer_motions(response, request, ShapedTranslation<SampleRequest, MotionsReply>(),
-                              [&](const auto& translation) { return core.sample(context, sample, translation); });
+        return answer_motions(core, context, "sample", sample.model, false, request, response,
+                              [&](const ChosenModel& chosen) { return core.sample(context, sample, chosen); });
       }
       case RouteId::kInterpolate: {
         const InterpolateRequest interpolate = rest::interpolate_request_from_json(body);
         return answer_motions(
-            response, request, ShapedTranslation<InterpolateRequest, MotionsReply>(),
-            [&](const auto& translation) { return core.interpolate(context, interpolate, translation); });
+            core, context, "interpolate", interpolate.model, false, request, response,
+            [&](const ChosenModel& chosen) { return core.interpolate(context, interpolate, chosen); });
       }
       case RouteId::kAnalogy: {
         const AnalogyRequest analogy = rest::analogy_request_from_json(body);
-        return answer_motions(response, request, ShapedTranslation<AnalogyRequest, MotionsReply>(),
-                              [&](const auto& translation) { return core.analogy(context, analogy, translation); });
+        return answer_motions(core, context, "analogy", analogy.model, false, request, response,
+                              [&](const ChosenModel& chosen) { return core.analogy(context, analogy, chosen); });
       }
       case RouteId::kDenoise: {
         if (is_bvh_body(request)) {
-          DenoiseRequest denoise;
-          denoise.model = request.get_param_value("model");
-          return answer_motions(response, request,
-                                bvh_body_translation<DenoiseRequest, MotionsReply>(body, body_format(request)),
-                                [&](const auto& translation) { return core.denoise(context, denoise, translation); });
+          // A BVH body takes denoise's defaults; it is read for the chosen model.
+          return answer_motions(core, context, "denoise", request.get_param_value("model"), true, request, response,
+                                [&](const ChosenModel& chosen) {
+                                  DenoiseRequest denoise;
+                                  denoise.model = chosen.model().model;
+                                  denoise.motions.push_back(body_motion(core, chosen, body, body_format(request)));
+                                  return core.denoise(context, denoise, chosen);
+                                });
         }
         const DenoiseRequest denoise = rest::denoise_request_from_json(body);
-        return answer_motions(response, request, ShapedTranslation<DenoiseRequest, MotionsReply>(),
-                              [&](const auto& translation) { return core.denoise(context, denoise, translation); });
+        return answer_motions(core, context, "denoise", denoise.model, false, request, response,
+                              [&](const ChosenModel& chosen) { return core.denoise(context, denoise, chosen); });
       }
       case RouteId::kJoinClips:
         return rest::answer_join(core, context, request, body, parts, response);

@@ -10,6 +10,7 @@
 #include "format/input_error.h"
 #include "format/motion_text.h"
 #include "format/skeleton_bvh.h"
+#include "server/rest/body_for_model.h"
 #include "server/rest/bvh_translation.h"
 #include "server/rest/json_translation.h"
 #include "server/rest/query_translation.h"
@@ -154,49 +155,48 @@ TakeKind kind_of(RouteId route) {
 
 void answer_take(Core& core, RouteId route, const CallContext& context, const httplib::Request& request,
                  const std::string& body, httplib::Response& response) {
-  // The reply (and a body) are translated inside the core's call, for the
-  // model it chose (the core's TakeTranslation): a BVH reply is of that
-  // model's skeleton, a body read in its columns or skeleton.
+  // The model is chosen first (Core::choose_model), then a body is read in
+  // its columns or skeleton, the core's operation runs on it, and the reply
+  // is written for its shape (a BVH reply is of its skeleton): an activation
+  // meanwhile changes none of them. What the Accept header asks for is
+  // checked before any of it.
   GatheredTake take;
-  const auto send = [&](const TakeSummaryReply& summary, const ModelShape& shape) {
-    finish(take, summary);
-    send_frames(take, shape, response);
-  };
   if (route == RouteId::kDecodeTrack) {
     const DecodeTrackRequest track = decode_track_request_from_json(body);
     take.form = reply_form(request);
-    ShapedTranslation<DecodeTrackRequest, TakeSummaryReply> translation;
-    translation.write = send;
-    core.decode_track(context, track, gathering_sink(take), translation);
-    return;
+    const ChosenModel chosen = core.choose_model(context, "decode_track", track.model);
+    finish(take, core.decode_track(context, track, gathering_sink(take), chosen));
+    return send_frames(take, chosen.shape(), response);
   }
   const TakeKind kind = kind_of(route);
   AnimationFormat body_format = AnimationFormat::kBvh;
   const bool bvh_body = names_animation(request.get_header_value("Content-Type"), &body_format);
-  const TakeRequest take_request = take_request_from_query(request.params, kind == TakeKind::kDenoise, bvh_body);
-  TakeTranslation translation;
-  if (take_request.path.empty()) {
-    if (body.empty()) {
-      throw ApiError(ErrorCode::kInvalidArgument, "body",
-                     "the body is empty, expected the take (motion text, or BVH with Content-Type: "
-                     "application/x-bvh) or path=<a file under the data root>");
-    }
-    translation.read = [&body, bvh_body, body_format, kind](TakeRequest& read_request, const ModelShape& shape) {
-      auto file = std::make_shared<const TakeFile>(
-          bvh_body ? take_from_bvh(body, "request body", "body", shape.skeleton, sniffed_body_format(body, body_format))
-                   : take_from_text(body, "request body", "body", shape.columns, read_request.frame_rate,
-                                    kind == TakeKind::kDenoise));
-      read_request.frame_rate = file->frame_rate;
-      return take_file_reader(std::move(file));
-    };
-  } else if (!body.empty()) {
+  TakeRequest take_request = take_request_from_query(request.params, kind == TakeKind::kDenoise, bvh_body);
+  if (take_request.path.empty() && body.empty()) {
+    throw ApiError(ErrorCode::kInvalidArgument, "body",
+                   "the body is empty, expected the take (motion text, or BVH with Content-Type: "
+                   "application/x-bvh) or path=<a file under the data root>");
+  }
+  if (!take_request.path.empty() && !body.empty()) {
     throw ApiError(ErrorCode::kInvalidArgument, "body",
                    "a take named by path= has an empty body, found " + std::to_string(body.size()) + " bytes");
   }
+  // The code track is JSON whatever Accept says.
+  if (kind != TakeKind::kEncode) take.form = reply_form(request);
+  const ChosenModel chosen = core.choose_model(context, take_kind_name(kind), take_request.model);
+  TakeChunkReader read;  // none for a take named by path=, which the core reads
+  if (take_request.path.empty()) {
+    auto file = std::make_shared<const TakeFile>(read_body_for_model(core, chosen, [&](const ModelShape& shape) {
+      return bvh_body ? take_from_bvh(body, "request body", "body", shape.skeleton,
+                                      sniffed_body_format(body, body_format))
+                      : take_from_text(body, "request body", "body", shape.columns, take_request.frame_rate,
+                                       kind == TakeKind::kDenoise);
+    }));
+    take_request.frame_rate = file->frame_rate;
+    read = take_file_reader(std::move(file));
+  }
+  const TakeSummaryReply summary = core.run_take(context, kind, take_request, read, gathering_sink(take), chosen);
   if (kind == TakeKind::kEncode) {
-    // The code track is JSON whatever Accept says.
-    const TakeSummaryReply summary =
-        core.run_take(context, kind, take_request, TakeChunkReader(), gathering_sink(take), translation);
     ::motionmanifold::v1::CodeTrack track;
     *track.mutable_answered_by() = take.reply.header.answered_by();
     track.mutable_windows()->Swap(take.reply.summary.mutable_windows());
@@ -204,9 +204,8 @@ void answer_take(Core& core, RouteId route, const CallContext& context, const ht
     response.status = 200;
     return response.set_content(::mm::wire::body_text(::mm::wire::to_json(track)), kJsonType);
   }
-  take.form = reply_form(request);
-  translation.write = send;
-  core.run_take(context, kind, take_request, TakeChunkReader(), gathering_sink(take), translation);
+  finish(take, summary);
+  send_frames(take, chosen.shape(), response);
 }
 
 }  // namespace mm::service::rest

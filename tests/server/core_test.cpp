@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -494,18 +495,20 @@ TEST_F(CoreTest, AfterDrainCallsAreUnavailable) {
   EXPECT_EQ(error_of([&] { core_->sample(kCall, {"", 1, 0, ""}); }).code(), ErrorCode::kUnavailable);
 }
 
-// A call whose request a frontend reads for the model that answers it
-// (REST's BVH bodies: ShapedTranslation) is a call like every other: an
-// unknown model is NOT_FOUND and, after drain(), UNAVAILABLE, both before the
-// body is read and both counted; a body that does not parse is the call's
-// INVALID_ARGUMENT, counted too; read and write get the shape of the model
-// the call names.
+// A call whose body a frontend reads for the model that answers it (REST's
+// BVH bodies) begins with choose_model and is a call like every other: an
+// unknown model is NOT_FOUND and, after drain(), UNAVAILABLE, both before any
+// body is read and both counted; a body the frontend cannot read is the
+// call's INVALID_ARGUMENT (refuse_body), counted too; the operation runs on
+// the model chosen, whose shape the body was read for. The chosen model's
+// call is in flight until its handle goes (drain() waits for it), and a
+// handle let go with no outcome is counted as INTERNAL.
 TEST_F(CoreTest, ACallReadForItsModelIsRefusedAndCountedAsEveryCall) {
   start();
-  int reads = 0;
-  ShapedTranslation<EncodeRequest, EncodeReply> translation;
-  translation.read = [&](EncodeRequest& request, const ModelShape& shape) {
-    ++reads;
+  {
+    const ChosenModel chosen = core_->choose_model(kCall, "encode", "h36m-dkgm-cpu");
+    const ModelShape& shape = chosen.shape();
+    EXPECT_EQ(chosen.model().model, "h36m-dkgm-cpu");
     EXPECT_EQ(shape.columns, 99);
     Motion motion;
     motion.frames = shape.frames;
@@ -513,34 +516,36 @@ TEST_F(CoreTest, ACallReadForItsModelIsRefusedAndCountedAsEveryCall) {
     motion.frame_rate = 25;
     motion.layout = shape.layout;
     motion.values.assign(static_cast<size_t>(shape.frames * shape.columns), 0.1f);
+    EncodeRequest request;  // its model is not read: the chosen one answers
     request.motions.push_back(motion);
-  };
-  std::string answered_by;
-  translation.write = [&](const EncodeReply& reply, const ModelShape& shape) {
-    EXPECT_EQ(shape.latent, static_cast<int>(reply.codes.at(0).size()));
-    answered_by = reply.answered_by.model;
-  };
-  EncodeRequest request;
-  request.model = "h36m-dkgm-cpu";
-  const EncodeReply reply = core_->encode(kCall, request, translation);
-  EXPECT_EQ(reply.answered_by.model, "h36m-dkgm-cpu");
-  EXPECT_EQ(answered_by, "h36m-dkgm-cpu");
-  EXPECT_EQ(reads, 1);
+    const EncodeReply reply = core_->encode(kCall, request, chosen);
+    EXPECT_EQ(reply.answered_by.model, "h36m-dkgm-cpu");
+    EXPECT_EQ(reply.answered_by.version, chosen.model().version);
+    EXPECT_EQ(static_cast<int>(reply.codes.at(0).size()), shape.latent);
+    // One handle, one call: its call has ended, and nothing more is counted.
+    EXPECT_EQ(error_of([&] { core_->encode(kCall, request, chosen); }).code(), ErrorCode::kInternal);
+  }
+  {
+    const ChosenModel unreadable = core_->choose_model(kCall, "encode", "");
+    core_->refuse_body(unreadable, ApiError(ErrorCode::kInvalidArgument, "", "request body:3: not a BVH"));
+  }
+  EXPECT_EQ(error_of([&] { core_->choose_model(kCall, "encode", "missing"); }).code(), ErrorCode::kNotFound);
 
-  ShapedTranslation<EncodeRequest, EncodeReply> unparsable;
-  unparsable.read = [](EncodeRequest&, const ModelShape&) { throw InputError("request body:3: not a BVH"); };
-  const ApiError bad_body = error_of([&] { core_->encode(kCall, EncodeRequest{}, unparsable); });
-  EXPECT_EQ(bad_body.code(), ErrorCode::kInvalidArgument);
-  EXPECT_STREQ(bad_body.what(), "request body:3: not a BVH");
+  ChosenModel held = core_->choose_model(kCall, "encode", "");
+  std::atomic<bool> drained{false};
+  std::thread drain([&] {
+    core_->drain();
+    drained = true;
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  EXPECT_FALSE(drained) << "drain() returned while a chosen model's call was in flight";
+  held = ChosenModel();  // let go with no outcome
+  drain.join();
+  EXPECT_TRUE(drained);
+  EXPECT_EQ(error_of([&] { core_->choose_model(kCall, "encode", ""); }).code(), ErrorCode::kUnavailable);
 
-  request.model = "missing";
-  EXPECT_EQ(error_of([&] { core_->encode(kCall, request, translation); }).code(), ErrorCode::kNotFound);
-  core_->drain();
-  request.model = "";
-  EXPECT_EQ(error_of([&] { core_->encode(kCall, request, translation); }).code(), ErrorCode::kUnavailable);
-  EXPECT_EQ(reads, 1);
   const std::string text = metrics_.text();
-  for (const std::string code : {"OK", "INVALID_ARGUMENT", "NOT_FOUND", "UNAVAILABLE"}) {
+  for (const std::string code : {"OK", "INVALID_ARGUMENT", "NOT_FOUND", "UNAVAILABLE", "INTERNAL"}) {
     const std::string labels = "{code=\"" + code + "\",operation=\"encode\",protocol=\"test\"}";
     EXPECT_EQ(metric(text, "mm_requests_total" + labels), 1) << code;
   }

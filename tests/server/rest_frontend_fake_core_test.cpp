@@ -3,14 +3,19 @@
 // pinned is the frontend alone: a request's JSON fields and query parameters
 // reach the core as sent, the core's reply comes back as JSON, each of the
 // core's refusals maps to its HTTP status and names its field, and what JSON
-// itself gets wrong is refused without calling the core. No model, no
-// LibTorch: each test takes milliseconds.
+// itself gets wrong is refused without calling the core, and a body or reply
+// of the model's skeleton (BVH) is read and written for the model the core
+// chose before the operation (Core::choose_model), never by the core. No
+// model, no LibTorch: each test takes milliseconds.
 #include <gtest/gtest.h>
 #include <httplib.h>
 
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
+#include "format/h36m_bvh.h"
+#include "format/motion_frames.h"
 #include "server/core/service_metrics.h"
 #include "server/rest/rest_frontend.h"
 #include "tests/server/fake_core.h"
@@ -39,6 +44,13 @@ class RestFrontendFakeCore : public ::testing::Test {
   void TearDown() override { frontend_->shutdown(); }
 
   test::Reply post_json(const std::string& path, const json& body) { return test::post(port_, path, body); }
+
+  // The shape of a model of `columns` values a frame (H3.6M's skeleton).
+  static service::ModelShape shape_of_columns(int columns) {
+    service::ModelShape shape;
+    shape.columns = columns;
+    return shape;
+  }
 
   test::FakeCore core_;
   service::ServiceMetrics metrics_;
@@ -142,11 +154,71 @@ TEST_F(RestFrontendFakeCore, AFieldOfTheWrongTypeIsRefusedWithoutCallingTheCore)
   EXPECT_EQ(core_.calls, 0);
 }
 
+// A BVH body is of the skeleton of the model that answers: the frontend
+// chooses the model first, reads the body for that model's shape, and runs
+// the operation on the model it chose (the core reads no body).
+TEST_F(RestFrontendFakeCore, ABvhBodyIsReadForTheModelChosenBeforeTheCall) {
+  core_.choose_answer.reply = service::ModelShape();  // H3.6M's: 150 frames of 99 values
+  service::EncodeReply answer;
+  answer.answered_by = {"m5", test::FakeCore::kChosenVersion};
+  answer.codes = {{0.25f}};
+  core_.encode_answer.reply = answer;
+  MotionFrames still;
+  still.values.assign(150 * static_cast<size_t>(still.columns), 0.0f);
+  const test::Reply reply =
+      test::post(port_, "/v1/encode?model=m5", h36m_motion_to_bvh_text(still, 25), {}, "application/x-bvh");
+  ASSERT_EQ(reply.status, 200) << reply.body;
+  EXPECT_EQ(core_.steps, (std::vector<std::string>{"choose_model encode m5", "encode on chosen m5"}));
+  ASSERT_TRUE(core_.encode_request.has_value());
+  ASSERT_EQ(core_.encode_request->motions.size(), 1u);
+  const service::Motion& motion = core_.encode_request->motions[0];
+  EXPECT_EQ(motion.frames, 150);
+  EXPECT_EQ(motion.columns, 99);
+  EXPECT_EQ(reply.document.at("codes"), json({{0.25}}));
+}
+
+// A body that cannot be read for the chosen model ends its call through the
+// core (counted there as the call's refusal), and no operation runs.
+TEST_F(RestFrontendFakeCore, ABodyUnreadableForTheChosenModelIsRefusedThroughTheCore) {
+  core_.choose_answer.reply = service::ModelShape();
+  core_.encode_answer.reply = service::EncodeReply();
+  const test::Reply reply =
+      test::post(port_, "/v1/encode?model=m5", std::string("HIERARCHY\nnot a joint\n"), {}, "application/x-bvh");
+  EXPECT_EQ(reply.status, 400) << reply.body;
+  EXPECT_NE(reply.error().at("message").get<std::string>().find("request body:"), std::string::npos) << reply.body;
+  EXPECT_EQ(core_.steps,
+            (std::vector<std::string>{"choose_model encode m5", "refuse_body encode INVALID_ARGUMENT"}));
+  EXPECT_FALSE(core_.encode_request.has_value());
+}
+
+// A BVH reply is of the skeleton of the model chosen before the call; a
+// JSON reply chooses none (the core resolves the request's model).
+TEST_F(RestFrontendFakeCore, ABvhReplyIsWrittenForTheModelChosenBeforeTheCall) {
+  core_.choose_answer.reply = service::ModelShape();
+  service::MotionsReply answer = test::one_motion_reply();
+  service::Motion& motion = answer.motions[0];
+  motion.columns = 99;
+  motion.layout = service::kH36mLayout;
+  motion.values.assign(2 * 99, 0.0f);
+  core_.decode_answer.reply = answer;
+  const test::Reply reply =
+      test::post(port_, "/v1/decode", json{{"model", "m1"}, {"codes", {{0.5}}}}.dump(), {{"Accept", "application/x-bvh"}});
+  ASSERT_EQ(reply.status, 200) << reply.body;
+  EXPECT_EQ(reply.header("Content-Type"), "application/x-bvh");
+  EXPECT_EQ(reply.body.rfind("HIERARCHY", 0), 0u) << reply.body.substr(0, 80);
+  EXPECT_EQ(core_.steps, (std::vector<std::string>{"choose_model decode m1", "decode on chosen m1"}));
+
+  core_.steps.clear();
+  ASSERT_EQ(post_json("/v1/decode", {{"model", "m1"}, {"codes", {{0.5}}}}).status, 200);
+  EXPECT_EQ(core_.steps, (std::vector<std::string>{"decode on request m1"}));
+}
+
 TEST_F(RestFrontendFakeCore, ATakeRoutesQueryReachesTheCore) {
+  core_.choose_answer.reply = shape_of_columns(3);
   core_.take_answer.error = ApiError(ErrorCode::kNotFound, "model", "no model \"m3\"");
   const test::Reply reply = test::post(
       port_, "/v1/takes:reconstruct?model=m3&frame_rate=120&hop_seconds=1.5&blend=cut&decoder=velocity&root=input",
-      std::string("1 2 3\n4 5 6\n"), {}, "text/plain");
+      std::string("1,2,3\n4,5,6\n"), {}, "text/plain");
   EXPECT_EQ(reply.status, 404) << reply.body;
   EXPECT_EQ(reply.field(), "model");
   ASSERT_TRUE(core_.take_request.has_value());
@@ -159,7 +231,11 @@ TEST_F(RestFrontendFakeCore, ATakeRoutesQueryReachesTheCore) {
   EXPECT_EQ(sent.decoder, "velocity");
   EXPECT_EQ(sent.root, "input");
   EXPECT_EQ(sent.path, "");
-  EXPECT_TRUE(core_.take_body_translated);  // the body is read inside the call, for the model it chose
+  // The model first, then the body read in its 3 columns (2 frames), handed
+  // to the take as its reader.
+  EXPECT_EQ(core_.steps, (std::vector<std::string>{"choose_model reconstruct_take m3",
+                                                   "reconstruct_take on chosen m3"}));
+  EXPECT_EQ(core_.take_frames_read, 2);
 }
 
 TEST_F(RestFrontendFakeCore, AnUnknownQueryParameterOfATakeIsRefusedWithoutCallingTheCore) {
