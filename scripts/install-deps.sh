@@ -8,13 +8,16 @@
 #                                              # packages, the README's curl, jq and python3, and
 #                                              # what the Python client installs on
 #   bash scripts/install-deps.sh --build-only  # building only (the container image's build stage)
+#   bash scripts/install-deps.sh --build-tests # building with the tests: the build's packages and the
+#                                              # test libraries, not the programs the tests run
+#                                              # (.ci/run installs those while it builds)
 # A container engine (podman) is not installed here: scripts/build-image.sh
 # installs it when an image is built.
 set -euo pipefail
 mode=${1:-full}
 case "$mode" in
-  full|--serving|--build-only) ;;
-  *) echo "install-deps: unknown option \"$mode\"; expected --serving, --build-only or nothing (everything)" >&2
+  full|--serving|--build-only|--build-tests) ;;
+  *) echo "install-deps: unknown option \"$mode\"; expected --serving, --build-only, --build-tests or nothing (everything)" >&2
      exit 2 ;;
 esac
 packages=(
@@ -29,14 +32,17 @@ packages=(
 # python3 for scripts/motion_json.py; and the Python client's one-line install
 # (client/python/README.md): grpcio, numpy, grpc-tools to generate its stubs,
 # venv and wheel to build it into a virtual environment without downloading.
-if [ "$mode" != "--build-only" ]; then
+if [ "$mode" = full ] || [ "$mode" = --serving ]; then
   packages+=(curl jq python3)
   packages+=(python3-grpcio python3-grpc-tools python3-numpy python3-venv python3-setuptools python3-wheel)
+fi
+if [ "$mode" = full ] || [ "$mode" = --build-tests ]; then
+  # The test libraries the build links (CMake looks for them when it configures).
+  packages+=(libgtest-dev libgmock-dev libbenchmark-dev)
 fi
 if [ "$mode" = full ]; then
   packages+=(
     postgresql python3-yaml
-    libgtest-dev libgmock-dev libbenchmark-dev
   )
   # The fuzz targets (tests/fuzz) build with clang and its libFuzzer and
   # sanitizer runtimes; llvm's symbolizer names the lines of a crash.
