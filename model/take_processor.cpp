@@ -111,15 +111,6 @@ void check_common_options(const MotionManifold& model, DecoderKind decoder, bool
 
 }  // namespace
 
-const char* take_operation_name(TakeOperation operation) {
-  switch (operation) {
-    case TakeOperation::kEncode: return "encode";
-    case TakeOperation::kReconstruct: return "reconstruct";
-    case TakeOperation::kDenoise: return "denoise";
-  }
-  return "?";
-}
-
 struct TakeProcessor::State {
   State(const MotionManifold& m, TakeOptions o, TakeSink s, TorchRunner r)
       : model(m),

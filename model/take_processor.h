@@ -38,6 +38,7 @@
 #include <vector>
 
 #include "format/motion_frames.h"
+#include "format/take_operation.h"
 #include "model/gap_code_fit.h"
 #include "model/gap_interpolation.h"
 #include "model/latent_operations.h"
@@ -46,9 +47,6 @@
 #include "model/take_windows.h"
 
 namespace mm {
-
-enum class TakeOperation { kEncode, kReconstruct, kDenoise };
-const char* take_operation_name(TakeOperation operation);  // "encode" / "reconstruct" / "denoise"
 
 // Where a take's output root path comes from: the input's (the default:
 // a reconstruction of a recorded take keeps where it went), or the model's

@@ -12,6 +12,7 @@
 
 #include "client/cli/connection_options.h"
 #include "format/motion_frames.h"
+#include "format/take_operation.h"
 #include "motionmanifold/v1/manifold.pb.h"
 
 namespace mm::client {
@@ -28,8 +29,6 @@ struct TakeUpload {
   std::string file_bytes;
   bool bvh = false;
 };
-
-enum class TakeOperation { kReconstruct, kDenoise };
 
 // Where a take's reply goes as it arrives: its header once, then its frames
 // chunk by chunk (each with its frames' errors, empty for DecodeTrack).
@@ -89,6 +88,7 @@ class ServerConnection {
   // `sink` as they arrive and its summary (every window's code included) is
   // returned. No deadline: a take may be an hour long.
   virtual v1::CodeTrack encode_take(const TakeUpload& take) = 0;
+  // operation: kReconstruct or kDenoise (encode_take answers a code track).
   virtual v1::TakeSummary transform_take(TakeOperation operation, const TakeUpload& take, TakeReplySink& sink) = 0;
   virtual v1::TakeSummary decode_track(const v1::DecodeTrackRequest& request, TakeReplySink& sink) = 0;
 };

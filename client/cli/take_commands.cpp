@@ -146,7 +146,7 @@ void add_take_transform(CLI::App* take, const ClientSettings& settings, Action& 
   const bool denoise = operation == TakeOperation::kDenoise;
   auto o = std::make_shared<TakeOptions>();
   auto* command = take->add_subcommand(
-      denoise ? "denoise" : "reconstruct",
+      take_operation_name(operation),
       denoise ? "A take projected onto the manifold window by window (Sec. 5.4) and joined again, at its rate and "
                 "length; nan in a .txt take is a missing value, filled"
               : "A take encoded and decoded window by window and joined again, at its rate and length with its root "

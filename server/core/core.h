@@ -85,7 +85,7 @@ class Core {
   // or writes its reply (ChosenModel, above). `operation` is the name the
   // metrics count the call by, one of "encode", "decode", "sample",
   // "interpolate", "analogy", "denoise", "join_clips", "encode_take",
-  // "reconstruct_take", "denoise_take" (take_kind_name) and "decode_track";
+  // "reconstruct_take", "denoise_take" (take_call_name) and "decode_track";
   // the handle must then be given to that operation. Refused as the
   // operation would be, before any body is read, and counted as its call:
   // UNAVAILABLE while the server is not accepting calls (drain), for a take
@@ -134,7 +134,7 @@ class Core {
   // choose_model); a take longer than --max-take-seconds is refused (413) as
   // its frames arrive. The call is in flight (the server's drain waits for
   // it) until it returns.
-  virtual TakeSummaryReply run_take(const CallContext& ctx, TakeKind kind, const TakeRequest& request,
+  virtual TakeSummaryReply run_take(const CallContext& ctx, TakeOperation operation, const TakeRequest& request,
                                     const TakeChunkReader& read, const TakeReplySink& sink,
                                     const ChosenModel& chosen = {}) = 0;
   // A code track decoded into one motion, streamed to `sink` as run_take's.

@@ -10,11 +10,11 @@
 
 namespace mm::service {
 
-const char* take_kind_name(TakeKind kind) {
-  switch (kind) {
-    case TakeKind::kEncode: return "encode_take";
-    case TakeKind::kReconstruct: return "reconstruct_take";
-    case TakeKind::kDenoise: return "denoise_take";
+const char* take_call_name(TakeOperation operation) {
+  switch (operation) {
+    case TakeOperation::kEncode: return "encode_take";
+    case TakeOperation::kReconstruct: return "reconstruct_take";
+    case TakeOperation::kDenoise: return "denoise_take";
   }
   return "take";
 }

@@ -21,12 +21,14 @@
 #include "format/animation_file.h"
 #include "format/motion_frames.h"
 #include "format/skeleton.h"
+#include "format/take_operation.h"
 #include "server/api/api_types.h"
 
 namespace mm::service {
 
-enum class TakeKind { kEncode, kReconstruct, kDenoise };
-const char* take_kind_name(TakeKind kind);  // "encode_take", "reconstruct_take", "denoise_take" (metrics)
+// The name a take operation's calls are counted and logged under:
+// "encode_take", "reconstruct_take", "denoise_take" (metrics).
+const char* take_call_name(TakeOperation operation);
 
 // The server's bounds on takes (server options of the same names).
 struct TakeLimits {

@@ -579,26 +579,26 @@ JoinClipsReply ManifoldCore::join_clips(const CallContext& ctx, const JoinClipsR
   });
 }
 
-TakeSummaryReply ManifoldCore::run_take(const CallContext& ctx, TakeKind kind, const TakeRequest& request,
+TakeSummaryReply ManifoldCore::run_take(const CallContext& ctx, TakeOperation operation, const TakeRequest& request,
                                         const TakeChunkReader& read, const TakeReplySink& sink,
                                         const ChosenModel& chosen) {
   // Not announced to the executor as inference: a take spends most of its
   // time waiting for its frames, and batches must not wait for it.
-  return state_->call(take_kind_name(kind), ctx, false, chosen, [&] {
+  return state_->call(take_call_name(operation), ctx, false, chosen, [&] {
     const auto slot = state_->take_slot_for(chosen);
     const auto model = state_->model_for(chosen, request.model);
     const DecoderKind decoder = state_->decoder_for(*model, request.decoder);
     if (request.path.empty()) {
-      return run_take_on_model(*model, decoder, kind, request, read, sink, state_->take_runner(),
+      return run_take_on_model(*model, decoder, operation, request, read, sink, state_->take_runner(),
                                state_->take_bounds());
     }
     state_->require_clip_reader(ctx);
     auto file = std::make_shared<const TakeFile>(read_take_file(state_->config.data_root, request.path, model->shape,
-                                                                request.frame_rate, kind == TakeKind::kDenoise,
+                                                                request.frame_rate, operation == TakeOperation::kDenoise,
                                                                 state_->config.max_take_bytes));
     TakeRequest from_file = request;
     from_file.frame_rate = file->frame_rate;
-    return run_take_on_model(*model, decoder, kind, from_file, take_file_reader(file), sink, state_->take_runner(),
+    return run_take_on_model(*model, decoder, operation, from_file, take_file_reader(file), sink, state_->take_runner(),
                              state_->take_bounds());
   });
 }

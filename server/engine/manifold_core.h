@@ -58,7 +58,7 @@ class ManifoldCore final : public Core {
   JoinClipsReply join_clips(const CallContext& ctx, const JoinClipsRequest& request,
                             const ChosenModel& chosen = {}) override;
 
-  TakeSummaryReply run_take(const CallContext& ctx, TakeKind kind, const TakeRequest& request,
+  TakeSummaryReply run_take(const CallContext& ctx, TakeOperation operation, const TakeRequest& request,
                             const TakeChunkReader& read, const TakeReplySink& sink,
                             const ChosenModel& chosen = {}) override;
   TakeSummaryReply decode_track(const CallContext& ctx, const DecodeTrackRequest& request,

@@ -40,15 +40,6 @@ void check_rate(double rate, const std::string& field) {
   }
 }
 
-TakeOperation operation_of(TakeKind kind) {
-  switch (kind) {
-    case TakeKind::kEncode: return TakeOperation::kEncode;
-    case TakeKind::kReconstruct: return TakeOperation::kReconstruct;
-    case TakeKind::kDenoise: return TakeOperation::kDenoise;
-  }
-  return TakeOperation::kReconstruct;
-}
-
 TakeBlend blend_of(const std::string& name) {
   if (name.empty()) return TakeBlend::kCrossfade;
   try {
@@ -82,7 +73,7 @@ TakeSink library_sink(const TakeReplySink& sink, double take_rate) {
 
 }  // namespace
 
-TakeSummaryReply run_take_on_model(const LoadedModel& model, DecoderKind decoder, TakeKind kind,
+TakeSummaryReply run_take_on_model(const LoadedModel& model, DecoderKind decoder, TakeOperation operation,
                                    const TakeRequest& request, const TakeChunkReader& read, const TakeReplySink& sink,
                                    const TorchRunner& run, const TakeBounds& bounds) {
   const ModelShape& shape = model.shape;
@@ -96,7 +87,7 @@ TakeSummaryReply run_take_on_model(const LoadedModel& model, DecoderKind decoder
                                 request.layout + "\"");
   }
   TakeOptions options;
-  options.operation = operation_of(kind);
+  options.operation = operation;
   options.frame_rate = request.frame_rate;
   options.hop_seconds = request.hop_seconds == 0 ? kDefaultHopSeconds : request.hop_seconds;
   options.blend = blend_of(request.blend);
@@ -104,7 +95,7 @@ TakeSummaryReply run_take_on_model(const LoadedModel& model, DecoderKind decoder
   options.decoder = decoder;
   options.max_seconds = bounds.limits.max_seconds;
   options.max_seconds_name = "--max-take-seconds";
-  if (kind == TakeKind::kDenoise) {
+  if (operation == TakeOperation::kDenoise) {
     const int iterations = request.iterations == 0 ? 4 : request.iterations;
     if (iterations < 1) throw invalid("iterations", "expected at least 1 (0: four), found " + std::to_string(iterations));
     if (iterations > bounds.max_denoise_iterations) {
@@ -129,7 +120,7 @@ TakeSummaryReply run_take_on_model(const LoadedModel& model, DecoderKind decoder
       }
     }
   }
-  if (!request.gap_fill.empty() && !(kind == TakeKind::kDenoise && request.keep_observed)) {
+  if (!request.gap_fill.empty() && !(operation == TakeOperation::kDenoise && request.keep_observed)) {
     throw invalid("gap_fill", "applies to DenoiseTake with keep_observed only, found \"" + request.gap_fill +
                                   "\"; expected it empty");
   }
@@ -141,7 +132,7 @@ TakeSummaryReply run_take_on_model(const LoadedModel& model, DecoderKind decoder
       throw invalid("root", "\"generated\" needs a model with a trajectory network, which model \"" + model.name +
                                 "\" lacks; expected \"input\"");
     }
-    if (kind != TakeKind::kEncode) options.root = TakeRoot::kGenerated;
+    if (operation != TakeOperation::kEncode) options.root = TakeRoot::kGenerated;
   }
 
   const TakeSink forward = library_sink(sink, request.frame_rate);
@@ -201,10 +192,10 @@ TakeSummaryReply run_take_on_model(const LoadedModel& model, DecoderKind decoder
     throw from_input_error(e, "take");
   }
   TakeSummaryReply reply;
-  reply.frames = kind == TakeKind::kEncode ? 0 : summary.output_frames;
+  reply.frames = operation == TakeOperation::kEncode ? 0 : summary.output_frames;
   reply.input_frames = summary.input_frames;
   reply.input_frame_rate = request.frame_rate;
-  reply.frame_rate = kind == TakeKind::kEncode ? request.frame_rate : summary.output_rate;
+  reply.frame_rate = operation == TakeOperation::kEncode ? request.frame_rate : summary.output_rate;
   reply.mean_error_mm = summary.mean_error_mm;
   reply.max_error_mm = summary.max_error_mm;
   reply.window_seconds = window_seconds(shape);

@@ -20,7 +20,7 @@ struct TakeBounds {
   int max_denoise_iterations = 32;
 };
 
-TakeSummaryReply run_take_on_model(const LoadedModel& model, DecoderKind decoder, TakeKind kind,
+TakeSummaryReply run_take_on_model(const LoadedModel& model, DecoderKind decoder, TakeOperation operation,
                                    const TakeRequest& request, const TakeChunkReader& read, const TakeReplySink& sink,
                                    const TorchRunner& run, const TakeBounds& bounds);
 

@@ -132,13 +132,13 @@ void write_summary(grpc::ServerContext* context, Writer* writer, StreamMessageDe
 }
 
 grpc::Status frames_take(Core& core, StreamMessageDeadlines& deadlines, grpc::ServerContext* context,
-                         TakeKind kind, grpc::ServerReaderWriter<v1::TakeOutput, v1::TakeInput>* stream) {
+                         TakeOperation operation, grpc::ServerReaderWriter<v1::TakeOutput, v1::TakeInput>* stream) {
   return answer_take(context, [&](const CallContext& ctx) {
     const TakeRequest request = read_header(context, stream, deadlines);
     int columns = 0;
     std::vector<TakeWindow> windows;
     const TakeSummaryReply summary =
-        core.run_take(ctx, kind, request, chunk_reader(context, stream, deadlines),
+        core.run_take(ctx, operation, request, chunk_reader(context, stream, deadlines),
                       streaming_sink(context, stream, deadlines, columns, windows));
     write_summary(context, stream, deadlines, summary, windows);
   });
@@ -153,19 +153,19 @@ grpc::Status ManifoldService::EncodeTake(grpc::ServerContext* context, grpc::Ser
     TakeReplySink sink;
     sink.on_start = [reply](const TakeReplyStart& start) { to_wire(start.answered_by, reply->mutable_answered_by()); };
     sink.on_window = [reply](const TakeWindow& window) { to_wire(window, reply->add_windows()); };
-    to_wire(core_.run_take(ctx, TakeKind::kEncode, request, chunk_reader(context, reader, take_deadlines_), sink),
+    to_wire(core_.run_take(ctx, TakeOperation::kEncode, request, chunk_reader(context, reader, take_deadlines_), sink),
             reply);
   });
 }
 
 grpc::Status ManifoldService::ReconstructTake(grpc::ServerContext* context,
                                               grpc::ServerReaderWriter<v1::TakeOutput, v1::TakeInput>* stream) {
-  return frames_take(core_, take_deadlines_, context, TakeKind::kReconstruct, stream);
+  return frames_take(core_, take_deadlines_, context, TakeOperation::kReconstruct, stream);
 }
 
 grpc::Status ManifoldService::DenoiseTake(grpc::ServerContext* context,
                                           grpc::ServerReaderWriter<v1::TakeOutput, v1::TakeInput>* stream) {
-  return frames_take(core_, take_deadlines_, context, TakeKind::kDenoise, stream);
+  return frames_take(core_, take_deadlines_, context, TakeOperation::kDenoise, stream);
 }
 
 grpc::Status ManifoldService::DecodeTrack(grpc::ServerContext* context, const v1::DecodeTrackRequest* request,

@@ -143,11 +143,11 @@ AnimationFormat sniffed_body_format(const std::string& body, AnimationFormat nam
   }
 }
 
-TakeKind kind_of(RouteId route) {
+TakeOperation operation_of(RouteId route) {
   switch (route) {
-    case RouteId::kEncodeTake: return TakeKind::kEncode;
-    case RouteId::kDenoiseTake: return TakeKind::kDenoise;
-    default: return TakeKind::kReconstruct;
+    case RouteId::kEncodeTake: return TakeOperation::kEncode;
+    case RouteId::kDenoiseTake: return TakeOperation::kDenoise;
+    default: return TakeOperation::kReconstruct;
   }
 }
 
@@ -168,10 +168,10 @@ void answer_take(Core& core, RouteId route, const CallContext& context, const ht
     finish(take, core.decode_track(context, track, gathering_sink(take), chosen));
     return send_frames(take, chosen.shape(), response);
   }
-  const TakeKind kind = kind_of(route);
+  const TakeOperation operation = operation_of(route);
   AnimationFormat body_format = AnimationFormat::kBvh;
   const bool bvh_body = names_animation(request.get_header_value("Content-Type"), &body_format);
-  TakeRequest take_request = take_request_from_query(request.params, kind == TakeKind::kDenoise, bvh_body);
+  TakeRequest take_request = take_request_from_query(request.params, operation == TakeOperation::kDenoise, bvh_body);
   if (take_request.path.empty() && body.empty()) {
     throw ApiError(ErrorCode::kInvalidArgument, "body",
                    "the body is empty, expected the take (motion text, or BVH with Content-Type: "
@@ -182,21 +182,21 @@ void answer_take(Core& core, RouteId route, const CallContext& context, const ht
                    "a take named by path= has an empty body, found " + std::to_string(body.size()) + " bytes");
   }
   // The code track is JSON whatever Accept says.
-  if (kind != TakeKind::kEncode) take.form = reply_form(request);
-  const ChosenModel chosen = core.choose_model(context, take_kind_name(kind), take_request.model);
+  if (operation != TakeOperation::kEncode) take.form = reply_form(request);
+  const ChosenModel chosen = core.choose_model(context, take_call_name(operation), take_request.model);
   TakeChunkReader read;  // none for a take named by path=, which the core reads
   if (take_request.path.empty()) {
     auto file = std::make_shared<const TakeFile>(read_body_for_model(core, chosen, [&](const ModelShape& shape) {
       return bvh_body ? take_from_bvh(body, "request body", "body", shape.skeleton,
                                       sniffed_body_format(body, body_format))
                       : take_from_text(body, "request body", "body", shape.columns, take_request.frame_rate,
-                                       kind == TakeKind::kDenoise);
+                                       operation == TakeOperation::kDenoise);
     }));
     take_request.frame_rate = file->frame_rate;
     read = take_file_reader(std::move(file));
   }
-  const TakeSummaryReply summary = core.run_take(context, kind, take_request, read, gathering_sink(take), chosen);
-  if (kind == TakeKind::kEncode) {
+  const TakeSummaryReply summary = core.run_take(context, operation, take_request, read, gathering_sink(take), chosen);
+  if (operation == TakeOperation::kEncode) {
     ::motionmanifold::v1::CodeTrack track;
     *track.mutable_answered_by() = take.reply.header.answered_by();
     track.mutable_windows()->Swap(take.reply.summary.mutable_windows());

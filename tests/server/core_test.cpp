@@ -286,7 +286,7 @@ TEST_F(CoreTest, ATakeWithMoreGapsThanTheFitBoundIsAnsweredAndItsSummaryCountsTh
   auto run = [&] {
     bool sent = false;
     frames = 0;
-    return core_->run_take(kCall, TakeKind::kDenoise, request, [&](TakeChunk& chunk) {
+    return core_->run_take(kCall, TakeOperation::kDenoise, request, [&](TakeChunk& chunk) {
       if (sent) return false;
       chunk.frames = take.frame_count();
       chunk.values = take.values;

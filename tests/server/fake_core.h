@@ -56,7 +56,7 @@ class FakeCore final : public service::Core {
   std::optional<service::SampleRequest> sample_request;
   std::optional<service::EncodeRequest> encode_request;
   std::optional<service::TakeRequest> take_request;
-  std::optional<service::TakeKind> take_kind;
+  std::optional<TakeOperation> take_operation;
   int64_t take_frames_read = -1;  // the frames run_take's reader gave (-1: it was given none)
   service::CallContext context;   // of the last call
   std::atomic<int> calls{0};      // operations called, ready() left out
@@ -97,11 +97,11 @@ class FakeCore final : public service::Core {
     sample_request = request;
     return sample_answer.give("sample");
   }
-  service::TakeSummaryReply run_take(const service::CallContext& ctx, service::TakeKind kind,
+  service::TakeSummaryReply run_take(const service::CallContext& ctx, TakeOperation operation,
                                      const service::TakeRequest& request, const service::TakeChunkReader& read,
                                      const service::TakeReplySink&, const service::ChosenModel& chosen = {}) override {
-    record(ctx, service::take_kind_name(kind), chosen, request.model);
-    take_kind = kind;
+    record(ctx, service::take_call_name(operation), chosen, request.model);
+    take_operation = operation;
     take_request = request;
     take_frames_read = -1;
     if (read) {

@@ -222,7 +222,7 @@ TEST_F(RestFrontendFakeCore, ATakeRoutesQueryReachesTheCore) {
   EXPECT_EQ(reply.status, 404) << reply.body;
   EXPECT_EQ(reply.field(), "model");
   ASSERT_TRUE(core_.take_request.has_value());
-  EXPECT_EQ(core_.take_kind, service::TakeKind::kReconstruct);
+  EXPECT_EQ(core_.take_operation, TakeOperation::kReconstruct);
   const service::TakeRequest& sent = *core_.take_request;
   EXPECT_EQ(sent.model, "m3");
   EXPECT_EQ(sent.frame_rate, 120);
