@@ -21,11 +21,22 @@ namespace {
 
 constexpr double kRate = kTakeModelRate;
 // The methods the tables show, then the fitted fill at fixed detail
-// weights (the JSON's, for choosing the weights on training subjects).
-constexpr int kShown = 8, kMethods = 13;
-const char* const kMethodNames[kMethods] = {"hold",        "slerp",       "cubic",       "manifold",   "matched",
-                                            "fit_raw",     "fit_full",    "fitted",      "detail_0",   "detail_0.25",
-                                            "detail_0.5",  "detail_0.75", "detail_1"};
+// weights, then with its weights and the speed-matched gain in other
+// ranges (the JSON's, for choosing them on training subjects).
+constexpr int kShown = 8, kFixedWeights = 5, kMethods = 20;
+const char* const kMethodNames[kMethods] = {
+    "hold",          "slerp",           "cubic",          "manifold",        "matched",
+    "fit_raw",       "fit_full",        "fitted",         "detail_0",        "detail_0.25",
+    "detail_0.5",    "detail_0.75",     "detail_1",       "speed_0.5_1.5",   "speed_0.5_2",
+    "shared_0.5_1.5", "shared_0.5_2",   "shared_1_2",     "shared_0.75_1.5", "shared_0.5_3"};
+// The speed-matched gain's range, and whether a gap's joints share it.
+struct SpeedGainVariant {
+  std::array<double, 2> range;
+  bool shared;
+};
+constexpr SpeedGainVariant kSpeedGainVariants[kMethods - kShown - kFixedWeights] = {
+    {{0.5, 1.5}, false}, {{0.5, 2.0}, false}, {{0.5, 1.5}, true}, {{0.5, 2.0}, true},
+    {{1.0, 2.0}, true},  {{0.75, 1.5}, true}, {{0.5, 3.0}, true}};
 
 struct Config {
   double seconds = 0;
@@ -208,7 +219,10 @@ GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vec
       // The code fitted to each gap's centred window (gap_code_fit.h).
       const MotionFrames fitted = fit_gap_codes(model, corrupted, decoded.frames, options.decoder, options.code_fit);
       GapFillOptions method_options[kMethods];
-      for (auto& o : method_options) o.max_tangent_seconds = options.fill.max_tangent_seconds;
+      for (auto& o : method_options) {
+        o.max_tangent_seconds = options.fill.max_tangent_seconds;
+        o.speed_gain_range = {1.0, 1.0};  // the detail's weight as it is, but for the fitted fill's own
+      }
       method_options[0].method = GapMethod::kHold;
       method_options[1].method = GapMethod::kSlerp;
       method_options[2].method = GapMethod::kCubic;
@@ -224,7 +238,13 @@ GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vec
       method_options[6].few_joints_detail = method_options[6].most_joints_detail = {1.0, 1.0, 1.0};
       method_options[7] = options.fill;
       method_options[7].method = GapMethod::kMatched;
-      for (int m = kShown; m < kMethods; ++m) {
+      for (int m = kShown + kFixedWeights; m < kMethods; ++m) {
+        method_options[m] = options.fill;
+        method_options[m].method = GapMethod::kMatched;
+        method_options[m].speed_gain_range = kSpeedGainVariants[m - kShown - kFixedWeights].range;
+        method_options[m].speed_gain_shared = kSpeedGainVariants[m - kShown - kFixedWeights].shared;
+      }
+      for (int m = kShown; m < kShown + kFixedWeights; ++m) {
         const double w = 0.25 * (m - kShown);
         method_options[m].method = GapMethod::kMatched;
         method_options[m].interpolate_below_seconds = 0;
@@ -320,6 +340,9 @@ GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vec
        {{"interpolate_below_seconds", options.fill.interpolate_below_seconds},
         {"few_joints_detail_at_1_2_4_seconds", options.fill.few_joints_detail},
         {"most_joints_detail_at_1_2_4_seconds", options.fill.most_joints_detail},
+        {"speed_gain_range", options.fill.speed_gain_range},
+        {"speed_context_seconds", options.fill.speed_context_seconds},
+        {"speed_gain_shared", options.fill.speed_gain_shared},
         {"code_fit_iterations", options.code_fit.iterations},
         {"code_fit_min_seconds", options.code_fit.min_seconds}}},
       {"configurations", config_rows}};

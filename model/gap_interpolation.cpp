@@ -2,8 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <optional>
+#include <utility>
 #include <stdexcept>
+#include <vector>
 
 #include "format/expmap_slerp.h"
 #include "format/input_error.h"
@@ -125,6 +128,102 @@ class BorderPath {
   Vector arc_, w1_, w2_, w3_;
 };
 
+// Angle (radians, 0..pi) between two unit quaternions' rotations.
+double angle_between(const Quaternion& a, const Quaternion& b) {
+  const Quaternion d = multiply(inverse(a), b);
+  return 2 * std::atan2(std::sqrt(d.x * d.x + d.y * d.y + d.z * d.z), std::fabs(d.w));
+}
+
+// The joint's mean angle per frame over the observed frames within
+// `context` frames outside the gap (pairs of consecutive frames both
+// observed), or a negative value when there is no such pair.
+double observed_speed_around(const MotionFrames& motion, int column, const JointGap& gap, int64_t context) {
+  double sum = 0;
+  int64_t pairs = 0;
+  const auto add = [&](int64_t from, int64_t to) {
+    for (int64_t f = std::max<int64_t>(from, 0); f < to && f + 1 < motion.frame_count(); ++f) {
+      if (!observed_at(motion, column, f) || !observed_at(motion, column, f + 1)) continue;
+      sum += angle_between(quaternion_of(motion.frame(f) + column), quaternion_of(motion.frame(f + 1) + column));
+      ++pairs;
+    }
+  };
+  add(gap.first - 1 - context, gap.first - 1);
+  add(gap.last + 1, gap.last + 1 + context);
+  return pairs > 0 ? sum / static_cast<double>(pairs) : -1.0;
+}
+
+// The fill's mean angle per frame across the gap (from its observed border
+// frames, where there are, through the filled frames) with the detail at
+// weight `w`.
+double fill_speed(const MotionFrames& observed, int column, const JointGap& gap, const std::vector<Quaternion>& base,
+                  const std::vector<Vector>& detail, double w) {
+  const bool has_left = gap.first > 0, has_right = gap.last + 1 < observed.frame_count();
+  double sum = 0;
+  int64_t pairs = 0;
+  Quaternion previous;
+  bool have_previous = false;
+  if (has_left) {
+    previous = quaternion_of(observed.frame(gap.first - 1) + column);
+    have_previous = true;
+  }
+  for (size_t i = 0; i < base.size(); ++i) {
+    const Quaternion q = multiply(base[i], exp_of(scaled(detail[i], w)));
+    if (have_previous) {
+      sum += angle_between(previous, q);
+      ++pairs;
+    }
+    previous = q;
+    have_previous = true;
+  }
+  if (has_right) {
+    sum += angle_between(previous, quaternion_of(observed.frame(gap.last + 1) + column));
+    ++pairs;
+  }
+  return pairs > 0 ? sum / static_cast<double>(pairs) : 0.0;
+}
+
+// The detail's weight that makes the joint's fill move as fast as the
+// observed frames around it: `weight` times a gain in
+// options.speed_gain_range, by bisection (the fill's speed grows with the
+// detail's weight where the detail moves).
+double speed_matched_weight(const MotionFrames& observed, int column, const JointGap& gap,
+                            const std::vector<Quaternion>& base, const std::vector<Vector>& detail, double weight,
+                            const GapFillOptions& options, double rate_hz) {
+  const double low = weight * options.speed_gain_range[0], high = weight * options.speed_gain_range[1];
+  if (!(high > low)) return low;
+  const double target =
+      observed_speed_around(observed, column, gap, std::lround(options.speed_context_seconds * rate_hz));
+  if (target < 0) return weight;
+  const auto speed = [&](double w) { return fill_speed(observed, column, gap, base, detail, w); };
+  if (speed(high) <= target) return high;
+  if (speed(low) >= target) return low;
+  double a = low, b = high;
+  for (int step = 0; step < 20; ++step) {
+    const double middle = (a + b) / 2;
+    (speed(middle) < target ? a : b) = middle;
+  }
+  return (a + b) / 2;
+}
+
+// The gains a gap's joints share (GapFillOptions::speed_gain_shared) are
+// chosen among these steps across speed_gain_range.
+constexpr int kSharedGainSteps = 64;
+double shared_gain_step(const GapFillOptions& options, int step) {
+  return options.speed_gain_range[0] +
+         (options.speed_gain_range[1] - options.speed_gain_range[0]) * step / (kSharedGainSteps - 1);
+}
+
+// What one joint's gap adds to its group's choice of a shared gain: its
+// observed speed around the gap, and its fill's speed at each step.
+struct SharedGainProbe {
+  double target = 0;
+  std::vector<double> speeds;  // kSharedGainSteps, empty when the joint takes no part
+};
+
+void fill_gap_with(const MotionFrames& observed, const MotionFrames* manifold, const JointGap& gap,
+                   const GapFillOptions& options, double rate_hz, MotionFrames* out, const double* shared_gain,
+                   SharedGainProbe* probe);
+
 }  // namespace
 
 const char* gap_method_name(GapMethod method) {
@@ -203,6 +302,19 @@ double detail_weight(const GapFillOptions& options, double seconds, bool most_jo
 
 void fill_gap(const MotionFrames& observed, const MotionFrames* manifold, const JointGap& gap,
               const GapFillOptions& options, double rate_hz, MotionFrames& out) {
+  fill_gap_with(observed, manifold, gap, options, rate_hz, &out, nullptr, nullptr);
+}
+
+namespace {
+
+// fill_gap, with the detail's gain given (`shared_gain`) rather than
+// matched per joint, or (`probe`) only measuring what a shared gain needs.
+void fill_gap_with(const MotionFrames& observed, const MotionFrames* manifold, const JointGap& gap,
+                   const GapFillOptions& options, double rate_hz, MotionFrames* out_frames, const double* shared_gain,
+                   SharedGainProbe* probe) {
+  if (probe && !lays_manifold_detail(options.method)) return;
+  MotionFrames scratch;
+  MotionFrames& out = out_frames ? *out_frames : scratch;
   const int column = kRootTranslationValues + 3 * gap.joint;
   const int64_t frames = observed.frame_count();
   const int64_t left = gap.first - 1, right = gap.last + 1;
@@ -211,6 +323,7 @@ void fill_gap(const MotionFrames& observed, const MotionFrames* manifold, const 
   if (uses_manifold && (!manifold || manifold->columns != observed.columns || manifold->frame_count() != frames)) {
     throw std::invalid_argument("fill_gap: the manifold's frames are needed, of the observed motion's shape");
   }
+  if (probe && !has_left && !has_right) return;
   if (options.method == GapMethod::kManifold || (!has_left && !has_right && uses_manifold)) {
     for (int64_t f = gap.first; f <= gap.last; ++f) std::copy_n(manifold->frame(f) + column, 3, out.frame(f) + column);
     return;
@@ -249,32 +362,87 @@ void fill_gap(const MotionFrames& observed, const MotionFrames* manifold, const 
     manifold_path.emplace(quaternion_of(m_left), quaternion_of(m_right), velocity(*manifold, column, left - 1, left),
                           velocity(*manifold, column, right, right + 1), tangent_frames, cubic);
   }
+  // Each gap frame's rotation without the detail, and the detail (the
+  // manifold's rotation relative to its own path across the gap, identity
+  // at both borders) as a rotation vector.
+  const int64_t count = gap.last - gap.first + 1;
+  std::vector<Quaternion> base(static_cast<size_t>(count));
+  std::vector<Vector> detail(static_cast<size_t>(manifold_path && weight > 0 ? count : 0));
   for (int64_t f = gap.first; f <= gap.last; ++f) {
     const double u = one_border ? (has_left ? 0.0 : 1.0) : static_cast<double>(f - left) / span;
-    Quaternion q;
+    const auto i = static_cast<size_t>(f - gap.first);
     if (options.method == GapMethod::kHold) {
-      q = has_left ? observed_left : observed_right;
+      base[i] = has_left ? observed_left : observed_right;
     } else {
-      q = hold ? (has_left ? observed_left : observed_right) : observed_path.at(u);
+      base[i] = hold ? (has_left ? observed_left : observed_right) : observed_path.at(u);
     }
-    if (manifold_path && weight > 0) {
-      // The manifold's detail: its rotation relative to its own path
-      // across the gap, identity at both borders, scaled by the weight.
-      const Quaternion detail =
-          multiply(inverse(manifold_path->at(u)), quaternion_of(manifold->frame(f) + column));
-      q = multiply(q, exp_of(scaled(log_of(detail), weight)));
+    if (!detail.empty()) {
+      detail[i] = log_of(multiply(inverse(manifold_path->at(u)), quaternion_of(manifold->frame(f) + column)));
     }
+  }
+  if (probe) {
+    if (detail.empty()) return;
+    probe->target =
+        observed_speed_around(observed, column, gap, std::lround(options.speed_context_seconds * rate_hz));
+    if (probe->target < 0) return;
+    for (int step = 0; step < kSharedGainSteps; ++step) {
+      probe->speeds.push_back(fill_speed(observed, column, gap, base, detail, weight * shared_gain_step(options, step)));
+    }
+    return;
+  }
+  if (!detail.empty()) {
+    weight = shared_gain ? weight * *shared_gain
+                         : speed_matched_weight(observed, column, gap, base, detail, weight, options, rate_hz);
+  }
+  for (int64_t f = gap.first; f <= gap.last; ++f) {
+    const double u = one_border ? (has_left ? 0.0 : 1.0) : static_cast<double>(f - left) / span;
+    const auto i = static_cast<size_t>(f - gap.first);
+    Quaternion q = base[i];
+    if (!detail.empty()) q = multiply(q, exp_of(scaled(detail[i], weight)));
     double reference[3];
     const double t = one_border ? 0.0 : u;
-    for (int i = 0; i < 3; ++i) reference[i] = (1 - t) * left_value[i] + t * right_value[i];
+    for (int i3 = 0; i3 < 3; ++i3) reference[i3] = (1 - t) * left_value[i3] + t * right_value[i3];
     write_expmap(q, reference, out.frame(f) + column);
   }
 }
 
+}  // namespace
+
 MotionFrames fill_gaps(const MotionFrames& observed, const MotionFrames* manifold, const GapFillOptions& options,
                        double rate_hz) {
   MotionFrames out = observed;
-  for (const JointGap& gap : find_joint_gaps(observed)) fill_gap(observed, manifold, gap, options, rate_hz, out);
+  const auto gaps = find_joint_gaps(observed);
+  const bool shared = options.speed_gain_shared && lays_manifold_detail(options.method) &&
+                      options.speed_gain_range[1] > options.speed_gain_range[0];
+  if (!shared) {
+    for (const JointGap& gap : gaps) fill_gap(observed, manifold, gap, options, rate_hz, out);
+    return out;
+  }
+  // One gain for the joints missing over the same frames: the step whose
+  // fill moves them together (the sum of their mean angles per frame) as
+  // fast as the observed frames around them, the first at or above it.
+  std::map<std::pair<int64_t, int64_t>, std::vector<const JointGap*>> groups;
+  for (const JointGap& gap : gaps) groups[{gap.first, gap.last}].push_back(&gap);
+  for (const auto& [extent, members] : groups) {
+    double target = 0;
+    std::vector<double> speeds(kSharedGainSteps, 0.0);
+    bool measured = false;
+    for (const JointGap* gap : members) {
+      SharedGainProbe probe;
+      fill_gap_with(observed, manifold, *gap, options, rate_hz, nullptr, nullptr, &probe);
+      if (probe.speeds.empty()) continue;
+      measured = true;
+      target += probe.target;
+      for (int step = 0; step < kSharedGainSteps; ++step) speeds[static_cast<size_t>(step)] += probe.speeds[static_cast<size_t>(step)];
+    }
+    double gain = 1.0;
+    if (measured) {
+      int step = 0;
+      while (step + 1 < kSharedGainSteps && speeds[static_cast<size_t>(step)] < target) ++step;
+      gain = shared_gain_step(options, step);
+    }
+    for (const JointGap* gap : members) fill_gap_with(observed, manifold, *gap, options, rate_hz, &out, &gain, nullptr);
+  }
   return out;
 }
 

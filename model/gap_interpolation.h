@@ -76,6 +76,27 @@ struct GapFillOptions {
   double interpolate_below_seconds = 0.6;
   std::array<double, 3> few_joints_detail = {1.0, 1.0, 1.0};  // at 1, 2, 4 s: gaps of under half the joints
   std::array<double, 3> most_joints_detail = {1.0, 1.0, 0.5}; // at 1, 2, 4 s: half the joints or more missing together
+  // The detail's gain by the recording's speed around the gap, off by
+  // default: the fitted code's decoder output moves less than the
+  // recording (the prior pulls it toward the mean), so where the weight
+  // above is not 0, each joint's detail may be scaled by the gain that
+  // makes the fill's mean angular speed across the gap that of the joint's
+  // observed frames within `speed_context_seconds` before and after the gap
+  // (what the fill is given, never the gap's own frames), the gain clamped
+  // to `speed_gain_range` (1 and 1: the weight as it is). Off, as measured
+  // on the training subjects (evaluate-gaps --speed-gain, the JSON's speed_
+  // and shared_ columns; the 15 `_1` takes of S1 and of S6, seed 1, 12 to 16
+  // gaps a configuration): it brings every-joint gaps of 2 s to the
+  // recording's speed but further from it (gain 0.5 to 1.5: 65.4 mm at
+  // 0.96x per joint, 64.9 at 1.01x shared, against 51.5 at 0.81x without),
+  // and costs MPJPE in every configuration of 1 and 2 s; S5 agrees (every
+  // joint at 2 s, gain 0.5 to 2 per joint: 78.6 mm at 0.89x against 62.3 at
+  // 0.69x).
+  std::array<double, 2> speed_gain_range = {1.0, 1.0};
+  double speed_context_seconds = 1.0;
+  // fill_gaps(): one gain for the joints missing over the same frames,
+  // matching the sum of their speeds, instead of one a joint.
+  bool speed_gain_shared = false;
   // The cubic's tangents: each border's velocity carried for a third of
   // the gap, but at most this long (s), since a velocity carried across a
   // long gap overshoots far past where the motion went.

@@ -1,12 +1,19 @@
 #include "model/take_gap_filler.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 
 namespace mm {
 
 TakeGapFiller::TakeGapFiller(int columns, GapFillOptions options, double rate_hz)
-    : options_(options), rate_hz_(rate_hz) {
+    : options_(options),
+      rate_hz_(rate_hz),
+      // The speed-matched gain reads the observed frames within its context
+      // of a gap; without it a gap reads one frame beyond each border.
+      context_(options.speed_gain_range[0] == 1.0 && options.speed_gain_range[1] == 1.0
+                   ? 1
+                   : std::max<int64_t>(1, std::lround(options.speed_context_seconds * rate_hz))) {
   given_.columns = decoded_.columns = columns;
 }
 
@@ -15,27 +22,30 @@ void TakeGapFiller::push(const MotionFrames& given, const MotionFrames& decoded,
   decoded_.values.insert(decoded_.values.end(), decoded.values.begin(), decoded.values.end());
   const int64_t held = given_.frame_count();
   // Hand out the frames before the first gap that is not final: one whose
-  // right border or the frame after it has not arrived (the cubic needs
-  // it), keeping the frame before its left border for the same reason.
-  // A final gap is handed out whole or not at all.
+  // right border or the `context_` frames after it have not arrived (the
+  // cubic needs the first, the speed-matched gain all), keeping the frame
+  // before its left border for the same reason (and the context_ frames
+  // before it, kept after they are handed out). A final gap is handed out
+  // whole or not at all.
   const auto gaps = find_joint_gaps(given_);
   int64_t end = held;
   for (const JointGap& gap : gaps) {
-    if (gap.last + 2 >= held) end = std::min(end, gap.first - 2);
+    if (gap.last + 1 + context_ >= held) end = std::max(handed_, std::min(end, gap.first - 2));
   }
   for (bool moved = true; moved;) {
     moved = false;
     for (const JointGap& gap : gaps) {
-      if (end > gap.first - 2 && end <= gap.last) {
-        end = gap.first - 2;
+      const int64_t before = std::max(handed_, gap.first - 2);
+      if (end > before && end <= gap.last) {
+        end = before;
         moved = true;
       }
     }
   }
-  hand_out(std::max<int64_t>(end, 0), out);
+  hand_out(end - handed_, out);
 }
 
-void TakeGapFiller::finish(MotionFrames& out) { hand_out(given_.frame_count(), out); }
+void TakeGapFiller::finish(MotionFrames& out) { hand_out(given_.frame_count() - handed_, out); }
 
 void TakeGapFiller::hand_out(int64_t count, MotionFrames& out) {
   if (count <= 0) return;
@@ -44,12 +54,17 @@ void TakeGapFiller::hand_out(int64_t count, MotionFrames& out) {
   // it is handed out.
   MotionFrames filled = fill_gaps(given_, &decoded_, options_, rate_hz_);
   const int columns = given_.columns;
-  for (int64_t f = 0; f < count; ++f) {
+  for (int64_t f = handed_; f < handed_ + count; ++f) {
     std::memcpy(filled.frame(f), decoded_.frame(f), kRootTranslationValues * sizeof(float));
   }
-  out.values.insert(out.values.end(), filled.values.begin(), filled.values.begin() + count * columns);
-  given_.values.erase(given_.values.begin(), given_.values.begin() + count * columns);
-  decoded_.values.erase(decoded_.values.begin(), decoded_.values.begin() + count * columns);
+  out.values.insert(out.values.end(), filled.values.begin() + handed_ * columns,
+                    filled.values.begin() + (handed_ + count) * columns);
+  handed_ += count;
+  // Keep the last context_ frames handed out: a later gap's context.
+  const int64_t drop = std::max<int64_t>(0, handed_ - context_);
+  given_.values.erase(given_.values.begin(), given_.values.begin() + drop * columns);
+  decoded_.values.erase(decoded_.values.begin(), decoded_.values.begin() + drop * columns);
+  handed_ -= drop;
 }
 
 }  // namespace mm

@@ -6,9 +6,11 @@
 // A gap is filled only once both its borders, and the frame beyond each
 // (the border velocities of the cubic), have arrived, so frames are held
 // from two frames before the earliest gap still open: what is held depends
-// on the gaps' lengths and the batch, never on the take's. Filling each
-// held gap once all of it is held gives exactly what fill_gaps() gives on
-// the whole take.
+// on the gaps' lengths and the batch, never on the take's. Where the
+// detail's gain matches the recording's speed around a gap
+// (GapFillOptions::speed_gain_range), its context (speed_context_seconds)
+// on both sides is waited for and kept as well. Filling each held gap once
+// all of it is held gives exactly what fill_gaps() gives on the whole take.
 //
 // Used by one thread at a time; torch-free.
 #pragma once
@@ -39,7 +41,11 @@ class TakeGapFiller {
 
   GapFillOptions options_;
   double rate_hz_;
-  MotionFrames given_, decoded_;  // held frames from the first not yet handed out
+  int64_t context_;  // frames read beyond a gap's borders
+  // Held frames: the last handed_ (at most context_) handed out already,
+  // then those not yet handed out.
+  MotionFrames given_, decoded_;
+  int64_t handed_ = 0;
 };
 
 }  // namespace mm

@@ -29,6 +29,7 @@ struct GapsOptions {
   std::string decoder;
   GapBenchmarkOptions benchmark;
   std::vector<double> few_joints_detail, most_joints_detail;  // 3 each, when given
+  std::vector<double> speed_gain_range;                       // 2, when given
   std::string out_json;
   std::string out_md;
 };
@@ -69,6 +70,7 @@ int run_evaluate_gaps(GapsOptions o) {
   o.benchmark.decoder = o.decoder.empty() ? model.default_decoder() : parse_decoder_kind(o.decoder);
   if (o.few_joints_detail.size() == 3) std::copy_n(o.few_joints_detail.begin(), 3, o.benchmark.fill.few_joints_detail.begin());
   if (o.most_joints_detail.size() == 3) std::copy_n(o.most_joints_detail.begin(), 3, o.benchmark.fill.most_joints_detail.begin());
+  if (o.speed_gain_range.size() == 2) std::copy_n(o.speed_gain_range.begin(), 2, o.benchmark.fill.speed_gain_range.begin());
   const GapBenchmarkResult result = run_gap_benchmark(model, takes, o.benchmark);
   return report(result, o.out_json, o.out_md);
 }
@@ -176,6 +178,16 @@ void add_gap_commands(CLI::App& app, Action& action) {
   command->add_option("--most-joints-detail", options->most_joints_detail,
                       "fitted fill: the same for gaps of half the joints or more")
       ->expected(3);
+  command->add_option("--speed-gain", options->speed_gain_range,
+                      "fitted fill: the least and most gain on the manifold's movement that matches each joint's speed "
+                      "to the recording's around the gap (1 1: none)")
+      ->expected(2);
+  command->add_flag("--speed-gain-shared", options->benchmark.fill.speed_gain_shared,
+                    "fitted fill: one gain for the joints missing over the same frames (matching the sum of their "
+                    "speeds) instead of one a joint");
+  command->add_option("--speed-context", options->benchmark.fill.speed_context_seconds,
+                      "fitted fill: seconds of recording either side of a gap whose speed the gain matches")
+      ->capture_default_str();
   command->add_option("--fit-min-seconds", options->benchmark.code_fit.min_seconds,
                       "fitted fill: gaps shorter than this (s) are not fitted")
       ->capture_default_str();

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -44,8 +45,10 @@ class GapFilling : public test::ShippedModelSuite {
     }
   }
   static TakeResult denoise(const MotionFrames& take, GapMethod method, bool keep_observed = true, int batch = 32,
-                            const GapCodeFitOptions& fit = {}) {
+                            const GapCodeFitOptions& fit = {},
+                            std::array<double, 2> speed_gain = GapFillOptions{}.speed_gain_range) {
     TakeOptions o;
+    o.gap_fill.speed_gain_range = speed_gain;
     o.gap_fit = fit;
     o.operation = TakeOperation::kDenoise;
     o.frame_rate = 25;
@@ -155,9 +158,11 @@ TEST_F(GapFilling, FiveJointsMissingForHalfASecondAreFilledNoWorseThanSlerp) {
 }
 
 // The take path hands its frames out a batch of one window at a time, and
-// holds a gap until the frame after it has arrived: the result is the
-// whole-take fill of the same model output, a long gap over a window's
-// hand-out included, and the observed values are returned as given.
+// holds a gap until the frame after it has arrived (and, with the
+// speed-matched gain, the second of recording after it, keeping the second
+// before it): the result is the whole-take fill of the same model output,
+// with and without the gain, a long gap over a window's hand-out included,
+// and the observed values are returned as given.
 TEST_F(GapFilling, TheTakePathFillsAsTheWholeTakeFillDoes) {
   MM_REQUIRE_H36M();
   MotionFrames gapped = s5_at_25("walking_1.txt", 16);
@@ -168,15 +173,20 @@ TEST_F(GapFilling, TheTakePathFillsAsTheWholeTakeFillDoes) {
   make_missing(gapped, {26}, 0, 5);      // at the take's start: one border
   make_missing(gapped, {2}, 395, 399);   // at its end
   const MotionFrames decoded = denoise(gapped, GapMethod::kMatched, false, 1).frames;
-  const MotionFrames streamed = denoise(gapped, GapMethod::kMatched, true, 1).frames;
-  MotionFrames whole = fill_gaps(gapped, &decoded, GapFillOptions{}, 25);
-  ASSERT_EQ(streamed.values.size(), whole.values.size());
-  for (size_t i = 0; i < whole.values.size(); ++i) {
-    ASSERT_TRUE(std::isfinite(streamed.values[i])) << i;
-    if (!std::isnan(gapped.values[i])) {
-      ASSERT_EQ(streamed.values[i], gapped.values[i]) << i;
-    } else {
-      ASSERT_NEAR(streamed.values[i], whole.values[i], 1e-5) << i;
+  for (const std::array<double, 2> gain : {std::array<double, 2>{1.0, 1.0}, std::array<double, 2>{0.5, 2.0}}) {
+    SCOPED_TRACE(gain[1]);
+    const MotionFrames streamed = denoise(gapped, GapMethod::kMatched, true, 1, {}, gain).frames;
+    GapFillOptions options;
+    options.speed_gain_range = gain;
+    MotionFrames whole = fill_gaps(gapped, &decoded, options, 25);
+    ASSERT_EQ(streamed.values.size(), whole.values.size());
+    for (size_t i = 0; i < whole.values.size(); ++i) {
+      ASSERT_TRUE(std::isfinite(streamed.values[i])) << i;
+      if (!std::isnan(gapped.values[i])) {
+        ASSERT_EQ(streamed.values[i], gapped.values[i]) << i;
+      } else {
+        ASSERT_NEAR(streamed.values[i], whole.values[i], 1e-5) << i;
+      }
     }
   }
 }
