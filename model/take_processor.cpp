@@ -475,6 +475,7 @@ TakeSummary TakeProcessor::finish() {
   summary.output_frames = s.output_frames;
   summary.output_rate = s.options.at_model_rate ? kTakeModelRate : rate;
   summary.windows = s.windows;
+  summary.window_seconds = s.windowing.window_frames / kTakeModelRate;
   summary.hop_seconds = s.windowing.hop_frames / kTakeModelRate;
   summary.mean_error_mm = s.output_frames > 0 ? s.error_sum / static_cast<double>(s.output_frames) : 0.0;
   summary.max_error_mm = s.error_max;
@@ -618,6 +619,7 @@ TakeSummary decode_code_track(const MotionManifold& model, const std::vector<Tak
   summary.output_frames = emitted;
   summary.output_rate = options.frame_rate;
   summary.windows = static_cast<int>(track.size());
+  summary.window_seconds = window / kTakeModelRate;
   return summary;
 }
 

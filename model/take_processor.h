@@ -39,6 +39,7 @@
 
 #include "format/motion_frames.h"
 #include "format/take_operation.h"
+#include "format/take_summary.h"
 #include "model/gap_code_fit.h"
 #include "model/gap_interpolation.h"
 #include "model/latent_operations.h"
@@ -118,25 +119,6 @@ struct TakeSink {
 // and returns when it is done; empty: on the calling thread.
 using TorchRunner = std::function<void(const std::function<void()>& work)>;
 
-struct TakeSummary {
-  int64_t input_frames = 0;
-  double input_rate = 0;
-  int64_t model_frames = 0;  // frames at 25 Hz the take was windowed at
-  int64_t output_frames = 0;
-  double output_rate = 0;
-  int windows = 0;
-  double hop_seconds = 0;       // as rounded to 25 Hz frames
-  double mean_error_mm = 0;     // over all output frames (reconstruct, denoise)
-  double max_error_mm = 0;
-  // Denoise with keep_observed and the fitted fill: the windows fitted, the
-  // gaps (runs of frames where any joint is missing, at 25 Hz) they held,
-  // and the gaps left to the matched fill because the take had more windows
-  // to fit than gap_fit.max_windows.
-  int gap_windows_fitted = 0;
-  int gaps_fitted = 0;
-  int gaps_over_fit_limit = 0;
-};
-
 class TakeProcessor {
  public:
   // `model` outlives the processor. InputError naming the option for a bad
@@ -156,8 +138,9 @@ class TakeProcessor {
   // passes max_seconds, naming it.
   void push(const float* values, int64_t frames);
   // Ends the take: runs the windows left, hands out the rest, and returns the
-  // summary. InputError naming the minimum when the take is shorter than one
-  // window (take_window_starts).
+  // summary (format/take_summary.h), which the server passes on as it is.
+  // InputError naming the minimum when the take is shorter than one window
+  // (take_window_starts).
   TakeSummary finish();
 
   // The most frames the processor held at once so far: input frames not yet

@@ -134,12 +134,12 @@ class Core {
   // choose_model); a take longer than --max-take-seconds is refused (413) as
   // its frames arrive. The call is in flight (the server's drain waits for
   // it) until it returns.
-  virtual TakeSummaryReply run_take(const CallContext& ctx, TakeOperation operation, const TakeRequest& request,
-                                    const TakeChunkReader& read, const TakeReplySink& sink,
-                                    const ChosenModel& chosen = {}) = 0;
+  virtual TakeSummary run_take(const CallContext& ctx, TakeOperation operation, const TakeRequest& request,
+                               const TakeChunkReader& read, const TakeReplySink& sink,
+                               const ChosenModel& chosen = {}) = 0;
   // A code track decoded into one motion, streamed to `sink` as run_take's.
-  virtual TakeSummaryReply decode_track(const CallContext& ctx, const DecodeTrackRequest& request,
-                                        const TakeReplySink& sink, const ChosenModel& chosen = {}) = 0;
+  virtual TakeSummary decode_track(const CallContext& ctx, const DecodeTrackRequest& request,
+                                   const TakeReplySink& sink, const ChosenModel& chosen = {}) = 0;
 
   virtual std::vector<ModelInfo> list_models(const CallContext& ctx) = 0;
   virtual ModelInfo describe_model(const CallContext& ctx, const std::string& name) = 0;

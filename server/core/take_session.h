@@ -7,7 +7,8 @@
 // messages of the client's stream as they arrive; REST: the parsed body) and
 // a TakeReplySink that takes the reply as it becomes final (gRPC writes it
 // on, REST gathers it). The core holds at most a batch of windows, never the
-// take (ManifoldCore::run_take).
+// take (ManifoldCore::run_take). The operation ends with the model's
+// TakeSummary (format/take_summary.h), passed on as the model gave it.
 //
 // Torch-free and wire-free: the frontends include it.
 #pragma once
@@ -22,6 +23,7 @@
 #include "format/motion_frames.h"
 #include "format/skeleton.h"
 #include "format/take_operation.h"
+#include "format/take_summary.h"
 #include "server/api/api_types.h"
 
 namespace mm::service {
@@ -92,24 +94,6 @@ struct TakeReplyStart {
   int columns = 0;
   std::string layout;
   int64_t input_frames = 0;  // 0 for DecodeTrack and while a stream's frames still arrive
-};
-
-struct TakeSummaryReply {
-  int64_t frames = 0;        // reply frames (0 for encode)
-  int64_t input_frames = 0;  // 0 for DecodeTrack
-  double input_frame_rate = 0;
-  double frame_rate = 0;     // of the reply
-  double mean_error_mm = 0;
-  double max_error_mm = 0;
-  double window_seconds = 0;
-  double hop_seconds = 0;
-  int windows = 0;
-  // DenoiseTake with keep_observed and the fitted fill: the windows fitted,
-  // the gaps they held, and the gaps left to the matched fill beyond the
-  // bound on fitted windows a take (model/take_processor.h's TakeSummary).
-  int gap_windows_fitted = 0;
-  int gaps_fitted = 0;
-  int gaps_over_fit_limit = 0;
 };
 
 // Where the reply goes, in order: start once (before anything else), then

@@ -579,9 +579,9 @@ JoinClipsReply ManifoldCore::join_clips(const CallContext& ctx, const JoinClipsR
   });
 }
 
-TakeSummaryReply ManifoldCore::run_take(const CallContext& ctx, TakeOperation operation, const TakeRequest& request,
-                                        const TakeChunkReader& read, const TakeReplySink& sink,
-                                        const ChosenModel& chosen) {
+TakeSummary ManifoldCore::run_take(const CallContext& ctx, TakeOperation operation, const TakeRequest& request,
+                                   const TakeChunkReader& read, const TakeReplySink& sink,
+                                   const ChosenModel& chosen) {
   // Not announced to the executor as inference: a take spends most of its
   // time waiting for its frames, and batches must not wait for it.
   return state_->call(take_call_name(operation), ctx, false, chosen, [&] {
@@ -603,8 +603,8 @@ TakeSummaryReply ManifoldCore::run_take(const CallContext& ctx, TakeOperation op
   });
 }
 
-TakeSummaryReply ManifoldCore::decode_track(const CallContext& ctx, const DecodeTrackRequest& request,
-                                            const TakeReplySink& sink, const ChosenModel& chosen) {
+TakeSummary ManifoldCore::decode_track(const CallContext& ctx, const DecodeTrackRequest& request,
+                                       const TakeReplySink& sink, const ChosenModel& chosen) {
   return state_->call("decode_track", ctx, false, chosen, [&] {
     const auto slot = state_->take_slot_for(chosen);
     const auto model = state_->model_for(chosen, request.model);

@@ -58,11 +58,11 @@ class ManifoldCore final : public Core {
   JoinClipsReply join_clips(const CallContext& ctx, const JoinClipsRequest& request,
                             const ChosenModel& chosen = {}) override;
 
-  TakeSummaryReply run_take(const CallContext& ctx, TakeOperation operation, const TakeRequest& request,
-                            const TakeChunkReader& read, const TakeReplySink& sink,
-                            const ChosenModel& chosen = {}) override;
-  TakeSummaryReply decode_track(const CallContext& ctx, const DecodeTrackRequest& request,
-                                const TakeReplySink& sink, const ChosenModel& chosen = {}) override;
+  TakeSummary run_take(const CallContext& ctx, TakeOperation operation, const TakeRequest& request,
+                       const TakeChunkReader& read, const TakeReplySink& sink,
+                       const ChosenModel& chosen = {}) override;
+  TakeSummary decode_track(const CallContext& ctx, const DecodeTrackRequest& request,
+                           const TakeReplySink& sink, const ChosenModel& chosen = {}) override;
 
   std::vector<ModelInfo> list_models(const CallContext& ctx) override;
   ModelInfo describe_model(const CallContext& ctx, const std::string& name) override;

@@ -73,9 +73,9 @@ TakeSink library_sink(const TakeReplySink& sink, double take_rate) {
 
 }  // namespace
 
-TakeSummaryReply run_take_on_model(const LoadedModel& model, DecoderKind decoder, TakeOperation operation,
-                                   const TakeRequest& request, const TakeChunkReader& read, const TakeReplySink& sink,
-                                   const TorchRunner& run, const TakeBounds& bounds) {
+TakeSummary run_take_on_model(const LoadedModel& model, DecoderKind decoder, TakeOperation operation,
+                              const TakeRequest& request, const TakeChunkReader& read, const TakeReplySink& sink,
+                              const TorchRunner& run, const TakeBounds& bounds) {
   const ModelShape& shape = model.shape;
   check_rate(request.frame_rate, "frame_rate");
   if (request.columns != 0 && request.columns != shape.columns) {
@@ -185,31 +185,16 @@ TakeSummaryReply run_take_on_model(const LoadedModel& model, DecoderKind decoder
     throw invalid("take", "the take ended before its first frame; expected a take of at least " +
                               number(window_seconds(shape)) + " s");
   }
-  mm::TakeSummary summary;
   try {
-    summary = processor->finish();
+    return processor->finish();
   } catch (const InputError& e) {
     throw from_input_error(e, "take");
   }
-  TakeSummaryReply reply;
-  reply.frames = operation == TakeOperation::kEncode ? 0 : summary.output_frames;
-  reply.input_frames = summary.input_frames;
-  reply.input_frame_rate = request.frame_rate;
-  reply.frame_rate = operation == TakeOperation::kEncode ? request.frame_rate : summary.output_rate;
-  reply.mean_error_mm = summary.mean_error_mm;
-  reply.max_error_mm = summary.max_error_mm;
-  reply.window_seconds = window_seconds(shape);
-  reply.hop_seconds = summary.hop_seconds;
-  reply.windows = summary.windows;
-  reply.gap_windows_fitted = summary.gap_windows_fitted;
-  reply.gaps_fitted = summary.gaps_fitted;
-  reply.gaps_over_fit_limit = summary.gaps_over_fit_limit;
-  return reply;
 }
 
-TakeSummaryReply decode_track_on_model(const LoadedModel& model, DecoderKind decoder,
-                                       const DecodeTrackRequest& request, const TakeReplySink& sink,
-                                       const TorchRunner& run, const TakeBounds& bounds) {
+TakeSummary decode_track_on_model(const LoadedModel& model, DecoderKind decoder,
+                                  const DecodeTrackRequest& request, const TakeReplySink& sink,
+                                  const TorchRunner& run, const TakeBounds& bounds) {
   const ModelShape& shape = model.shape;
   const double rate = request.frame_rate == 0 ? kTakeModelRate : request.frame_rate;
   check_rate(rate, "frame_rate");
@@ -259,19 +244,11 @@ TakeSummaryReply decode_track_on_model(const LoadedModel& model, DecoderKind dec
     start.layout = shape.layout;
     sink.on_start(start);
   }
-  mm::TakeSummary summary;
   try {
-    summary = decode_code_track(model.model, track, options, library_sink(sink, rate), run);
+    return decode_code_track(model.model, track, options, library_sink(sink, rate), run);
   } catch (const InputError& e) {
     throw from_input_error(e, "windows");
   }
-  TakeSummaryReply reply;
-  reply.frames = summary.output_frames;
-  reply.frame_rate = rate;
-  reply.window_seconds = window_seconds(shape);
-  reply.hop_seconds = summary.hop_seconds;
-  reply.windows = summary.windows;
-  return reply;
 }
 
 TakeFile read_take_file(const std::string& data_root, const std::string& path, const ModelShape& shape,

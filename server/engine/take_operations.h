@@ -20,13 +20,13 @@ struct TakeBounds {
   int max_denoise_iterations = 32;
 };
 
-TakeSummaryReply run_take_on_model(const LoadedModel& model, DecoderKind decoder, TakeOperation operation,
-                                   const TakeRequest& request, const TakeChunkReader& read, const TakeReplySink& sink,
-                                   const TorchRunner& run, const TakeBounds& bounds);
+TakeSummary run_take_on_model(const LoadedModel& model, DecoderKind decoder, TakeOperation operation,
+                              const TakeRequest& request, const TakeChunkReader& read, const TakeReplySink& sink,
+                              const TorchRunner& run, const TakeBounds& bounds);
 
-TakeSummaryReply decode_track_on_model(const LoadedModel& model, DecoderKind decoder,
-                                       const DecodeTrackRequest& request, const TakeReplySink& sink,
-                                       const TorchRunner& run, const TakeBounds& bounds);
+TakeSummary decode_track_on_model(const LoadedModel& model, DecoderKind decoder,
+                                  const DecodeTrackRequest& request, const TakeReplySink& sink,
+                                  const TorchRunner& run, const TakeBounds& bounds);
 
 // The take in data-root file `path` (relative to the root, or absolute under
 // it): motion text (.txt) at `text_rate` (0: 50 Hz) or BVH (.bvh) at its own

@@ -124,7 +124,7 @@ TakeReplySink streaming_sink(grpc::ServerContext* context, Writer* writer, Strea
 
 template <typename Writer>
 void write_summary(grpc::ServerContext* context, Writer* writer, StreamMessageDeadlines& deadlines,
-                   const TakeSummaryReply& summary, const std::vector<TakeWindow>& windows) {
+                   const TakeSummary& summary, const std::vector<TakeWindow>& windows) {
   v1::TakeOutput message;
   to_wire(summary, message.mutable_summary());
   for (const TakeWindow& window : windows) to_wire(window, message.mutable_summary()->add_windows());
@@ -137,7 +137,7 @@ grpc::Status frames_take(Core& core, StreamMessageDeadlines& deadlines, grpc::Se
     const TakeRequest request = read_header(context, stream, deadlines);
     int columns = 0;
     std::vector<TakeWindow> windows;
-    const TakeSummaryReply summary =
+    const TakeSummary summary =
         core.run_take(ctx, operation, request, chunk_reader(context, stream, deadlines),
                       streaming_sink(context, stream, deadlines, columns, windows));
     write_summary(context, stream, deadlines, summary, windows);
@@ -173,7 +173,7 @@ grpc::Status ManifoldService::DecodeTrack(grpc::ServerContext* context, const v1
   return answer_take(context, [&](const CallContext& ctx) {
     int columns = 0;
     std::vector<TakeWindow> windows;
-    const TakeSummaryReply summary =
+    const TakeSummary summary =
         core_.decode_track(ctx, to_api(*request), streaming_sink(context, writer, take_deadlines_, columns, windows));
     write_summary(context, writer, take_deadlines_, summary, windows);
   });

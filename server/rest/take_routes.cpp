@@ -60,7 +60,7 @@ struct GatheredTake {
   ReplyForm form;
   ::mm::wire::TakeReply reply;  // the header and the windows always; the frames for JSON
   MotionFrames frames;          // the frames for text and animation files
-  TakeSummaryReply summary;
+  TakeSummary summary;
 };
 
 // The core's reply gathered into `take`.
@@ -85,7 +85,7 @@ TakeReplySink gathering_sink(GatheredTake& take) {
 
 // The summary once the core has answered: the reply's frame count and the
 // summary's fields beside the windows gathered.
-void finish(GatheredTake& take, const TakeSummaryReply& summary) {
+void finish(GatheredTake& take, const TakeSummary& summary) {
   take.summary = summary;
   wire::to_wire(summary, &take.reply.summary);
   const int columns = take.frames.columns;
@@ -195,7 +195,7 @@ void answer_take(Core& core, RouteId route, const CallContext& context, const ht
     take_request.frame_rate = file->frame_rate;
     read = take_file_reader(std::move(file));
   }
-  const TakeSummaryReply summary = core.run_take(context, operation, take_request, read, gathering_sink(take), chosen);
+  const TakeSummary summary = core.run_take(context, operation, take_request, read, gathering_sink(take), chosen);
   if (operation == TakeOperation::kEncode) {
     ::motionmanifold::v1::CodeTrack track;
     *track.mutable_answered_by() = take.reply.header.answered_by();

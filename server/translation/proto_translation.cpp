@@ -323,15 +323,15 @@ void to_wire(const TakeReplyStart& start, v1::TakeOutputHeader* out) {
   out->set_layout(start.layout);
 }
 
-void to_wire(const TakeSummaryReply& summary, v1::CodeTrack* out) {
+void to_wire(const TakeSummary& summary, v1::CodeTrack* out) {
   out->set_frames(summary.input_frames);
-  out->set_frame_rate(summary.input_frame_rate);
+  out->set_frame_rate(summary.input_rate);
   out->set_window_seconds(summary.window_seconds);
   out->set_hop_seconds(summary.hop_seconds);
 }
 
-void to_wire(const TakeSummaryReply& summary, v1::TakeSummary* out) {
-  out->set_frames(summary.frames);
+void to_wire(const TakeSummary& summary, v1::TakeSummary* out) {
+  out->set_frames(summary.output_frames);
   out->set_input_frames(summary.input_frames);
   out->set_mean_error_mm(summary.mean_error_mm);
   out->set_max_error_mm(summary.max_error_mm);

@@ -59,7 +59,10 @@ void to_wire(const TakeWindow& window, v1::TakeWindow* out);
 void to_wire(const TakeReplyStart& start, v1::TakeOutputHeader* out);
 // A code track's take: its frames and rate, window length and hop (its
 // answered_by and windows apart, as they come).
-void to_wire(const TakeSummaryReply& summary, v1::CodeTrack* out);
-void to_wire(const TakeSummaryReply& summary, v1::TakeSummary* out);  // windows apart  // state as job_state_name(): "queued", ...
+void to_wire(const TakeSummary& summary, v1::CodeTrack* out);
+// A take's reply summary: the frames answered (output_frames), the input's
+// frames, the errors, window and hop, and the gap fill's counts (the windows
+// apart, as they come).
+void to_wire(const TakeSummary& summary, v1::TakeSummary* out);
 
 }  // namespace mm::service::wire

@@ -293,13 +293,13 @@ TEST_F(CoreTest, ATakeWithMoreGapsThanTheFitBoundIsAnsweredAndItsSummaryCountsTh
       return sent = true;
     }, sink);
   };
-  const TakeSummaryReply bounded = run();
+  const TakeSummary bounded = run();
   EXPECT_EQ(frames, 800);
   EXPECT_EQ(bounded.gap_windows_fitted, 1);
   EXPECT_EQ(bounded.gaps_fitted, 1);
   EXPECT_EQ(bounded.gaps_over_fit_limit, 2);
   request.gap_fill = "matched";
-  const TakeSummaryReply matched = run();
+  const TakeSummary matched = run();
   EXPECT_EQ(matched.gap_windows_fitted, 0);
   EXPECT_EQ(matched.gaps_over_fit_limit, 0);
 }

@@ -45,7 +45,7 @@ class FakeCore final : public service::Core {
   // What each operation answers; unset: refused as INTERNAL.
   FakeAnswer<service::MotionsReply> decode_answer, sample_answer;
   FakeAnswer<service::EncodeReply> encode_answer;
-  FakeAnswer<service::TakeSummaryReply> take_answer;
+  FakeAnswer<TakeSummary> take_answer;
   // The shape of the model choose_model chooses (named as asked, version
   // kChosenVersion), or its refusal.
   FakeAnswer<service::ModelShape> choose_answer;
@@ -97,9 +97,9 @@ class FakeCore final : public service::Core {
     sample_request = request;
     return sample_answer.give("sample");
   }
-  service::TakeSummaryReply run_take(const service::CallContext& ctx, TakeOperation operation,
-                                     const service::TakeRequest& request, const service::TakeChunkReader& read,
-                                     const service::TakeReplySink&, const service::ChosenModel& chosen = {}) override {
+  TakeSummary run_take(const service::CallContext& ctx, TakeOperation operation,
+                       const service::TakeRequest& request, const service::TakeChunkReader& read,
+                       const service::TakeReplySink&, const service::ChosenModel& chosen = {}) override {
     record(ctx, service::take_call_name(operation), chosen, request.model);
     take_operation = operation;
     take_request = request;
@@ -129,8 +129,8 @@ class FakeCore final : public service::Core {
                                      const service::ChosenModel& = {}) override {
     unset(ctx, "join_clips");
   }
-  service::TakeSummaryReply decode_track(const service::CallContext& ctx, const service::DecodeTrackRequest&,
-                                         const service::TakeReplySink&, const service::ChosenModel& = {}) override {
+  TakeSummary decode_track(const service::CallContext& ctx, const service::DecodeTrackRequest&,
+                           const service::TakeReplySink&, const service::ChosenModel& = {}) override {
     unset(ctx, "decode_track");
   }
   std::vector<service::ModelInfo> list_models(const service::CallContext& ctx) override {
