@@ -116,7 +116,7 @@ MotionFrames clip_to_model_frames(const Motion& motion, const ModelShape& shape,
   return checked_frames(motion, shape, field, step);
 }
 
-Motion to_wire_motion(const MotionFrames& frames, const ModelShape& shape, const std::string& root) {
+Motion to_api_motion(const MotionFrames& frames, const ModelShape& shape, const std::string& root) {
   Motion motion;
   motion.frames = static_cast<int>(frames.frame_count());
   motion.columns = frames.columns;

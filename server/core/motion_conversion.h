@@ -49,10 +49,11 @@ MotionFrames clip_to_model_frames(const Motion& motion, const ModelShape& shape,
                                   int64_t min_frames, const std::string& min_why, int64_t max_frames,
                                   const std::string& max_option);
 
-// A motion of the model's output (25 Hz, its layout) for the wire, with
+// A motion of the model's output (25 Hz, its layout) as the core's API
+// answers it (api_types.h's Motion, which the frontends translate), with
 // `root` saying where its root path comes from ("generated", "input",
 // "none") and the planted feet of every frame (format/foot_contacts.h).
-Motion to_wire_motion(const MotionFrames& frames, const ModelShape& shape, const std::string& root);
+Motion to_api_motion(const MotionFrames& frames, const ModelShape& shape, const std::string& root);
 
 // Checks a code for field `field`: shape.latent finite values within +-1e3
 // (a code from the prior has |values| below 6).

@@ -203,7 +203,7 @@ struct ManifoldCore::State {
     const std::string root = model->model.has_trajectory() ? "generated" : "none";
     auto motions = executor.decode(model, codes, kind);
     if (plant_feet_too) plant_feet_of_each(model->shape.skeleton, motions, 25);
-    for (const auto& motion : motions) reply.motions.push_back(to_wire_motion(motion, model->shape, root));
+    for (const auto& motion : motions) reply.motions.push_back(to_api_motion(motion, model->shape, root));
     if (with_codes) reply.codes = to_codes(codes);
     return reply;
   }
@@ -520,7 +520,7 @@ MotionsReply ManifoldCore::denoise(const CallContext& ctx, const DenoiseRequest&
     state_->executor.run([&] { denoised = denoise_motions(model->model, frames, kind, options); });
     MotionsReply reply;
     reply.answered_by = {model->name, model->version};
-    for (const auto& motion : denoised) reply.motions.push_back(to_wire_motion(motion, model->shape, "input"));
+    for (const auto& motion : denoised) reply.motions.push_back(to_api_motion(motion, model->shape, "input"));
     return reply;
   });
 }
@@ -572,7 +572,7 @@ JoinClipsReply ManifoldCore::join_clips(const CallContext& ctx, const JoinClipsR
     state_->executor.run([&] { joined = ::mm::join_clips(model->model, a, b, options); }, /*threads=*/1);
     JoinClipsReply reply;
     reply.answered_by = {model->name, model->version};
-    reply.motion = to_wire_motion(joined.frames, model->shape, "input");
+    reply.motion = to_api_motion(joined.frames, model->shape, "input");
     reply.transition_first_frame = static_cast<int>(joined.transition_first);
     reply.transition_last_frame = static_cast<int>(joined.transition_last);
     return reply;

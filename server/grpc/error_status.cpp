@@ -1,6 +1,6 @@
 #include "server/grpc/error_status.h"
 
-namespace mm::service::wire {
+namespace mm::service::grpc_frontend {
 
 grpc::StatusCode status_code(ErrorCode code) {
   switch (code) {
@@ -25,4 +25,4 @@ grpc::Status error_status(const ApiError& error, grpc::ServerContext* context) {
   return grpc::Status(status_code(error.code()), message);
 }
 
-}  // namespace mm::service::wire
+}  // namespace mm::service::grpc_frontend

@@ -9,7 +9,7 @@
 
 #include "server/api/api_types.h"
 
-namespace mm::service::wire {
+namespace mm::service::grpc_frontend {
 
 // Trailing metadata key naming the request field at fault, in the wire's own
 // spelling ("motions[0].frames"); absent when no one field is.
@@ -22,4 +22,4 @@ grpc::StatusCode status_code(ErrorCode code);
 // in the trailing metadata of `context`.
 grpc::Status error_status(const ApiError& error, grpc::ServerContext* context);
 
-}  // namespace mm::service::wire
+}  // namespace mm::service::grpc_frontend

@@ -113,7 +113,7 @@ void GrpcFrontend::start() {
   if (server_) throw std::runtime_error("gRPC frontend already started");
   const std::string address = listen_address(options_);
   stopping_ = false;
-  service_ = std::make_unique<wire::ManifoldService>(core_, stopping_,
+  service_ = std::make_unique<grpc_frontend::ManifoldService>(core_, stopping_,
                                                      std::chrono::seconds(options_.take_message_timeout_seconds));
 
   // Process-wide switches; they take effect for servers built after them.

@@ -22,7 +22,9 @@ class Server;
 
 namespace mm::service {
 
-namespace wire {
+// The frontend's own parts (manifold_service.h, take_rpcs.cpp, error_status.h,
+// stream_message_deadlines.h).
+namespace grpc_frontend {
 class ManifoldService;
 }
 
@@ -121,7 +123,7 @@ class GrpcFrontend {
   std::atomic<bool> stopping_{false};
   bool serving_ = true;
   int port_ = 0;
-  std::unique_ptr<wire::ManifoldService> service_;
+  std::unique_ptr<grpc_frontend::ManifoldService> service_;
   std::unique_ptr<grpc::Server> server_;
 };
 

@@ -11,7 +11,10 @@
 #include "server/grpc/error_status.h"
 #include "server/translation/proto_translation.h"
 
-namespace mm::service::wire {
+namespace mm::service::grpc_frontend {
+
+using proto_translation::to_api;
+using proto_translation::to_wire;
 
 namespace {
 
@@ -211,4 +214,4 @@ grpc::Status ManifoldService::WatchJob(grpc::ServerContext* context, const v1::W
   return grpc::Status::OK;
 }
 
-}  // namespace mm::service::wire
+}  // namespace mm::service::grpc_frontend

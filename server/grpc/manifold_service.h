@@ -16,7 +16,7 @@
 #include "server/core/core.h"
 #include "server/grpc/stream_message_deadlines.h"
 
-namespace mm::service::wire {
+namespace mm::service::grpc_frontend {
 
 namespace v1 = ::motionmanifold::v1;
 
@@ -96,4 +96,4 @@ class ManifoldService final : public v1::MotionManifold::Service {
   StreamMessageDeadlines take_deadlines_;
 };
 
-}  // namespace mm::service::wire
+}  // namespace mm::service::grpc_frontend

@@ -3,7 +3,7 @@
 #include <grpc/grpc.h>
 #include <grpcpp/server_context.h>
 
-namespace mm::service::wire {
+namespace mm::service::grpc_frontend {
 
 StreamMessageDeadlines::StreamMessageDeadlines(std::chrono::milliseconds timeout, std::string option)
     : timeout_(timeout), option_(std::move(option)) {
@@ -70,4 +70,4 @@ void StreamMessageDeadlines::watch() {
   }
 }
 
-}  // namespace mm::service::wire
+}  // namespace mm::service::grpc_frontend

@@ -29,7 +29,7 @@ namespace grpc {
 class ServerContext;
 }
 
-namespace mm::service::wire {
+namespace mm::service::grpc_frontend {
 
 class StreamMessageDeadlines {
  public:
@@ -78,4 +78,4 @@ class StreamMessageDeadlines {
   std::thread watchdog_;
 };
 
-}  // namespace mm::service::wire
+}  // namespace mm::service::grpc_frontend

@@ -10,7 +10,10 @@
 #include "server/grpc/manifold_service.h"
 #include "server/translation/proto_translation.h"
 
-namespace mm::service::wire {
+namespace mm::service::grpc_frontend {
+
+using proto_translation::to_api;
+using proto_translation::to_wire;
 namespace {
 
 // 2048 frames of 99 floats are 0.8 MB with their errors: well under gRPC's
@@ -179,4 +182,4 @@ grpc::Status ManifoldService::DecodeTrack(grpc::ServerContext* context, const v1
   });
 }
 
-}  // namespace mm::service::wire
+}  // namespace mm::service::grpc_frontend

@@ -68,24 +68,24 @@ void keep_sent_zero(const json& document, const char* key, const Sent& sent, T& 
 template <typename Message, typename Api>
 std::string reply_text(const Api& reply) {
   Message message;
-  wire::to_wire(reply, &message);
+  proto_translation::to_wire(reply, &message);
   return ::mm::wire::body_text(::mm::wire::to_json(message));
 }
 
 }  // namespace
 
 EncodeRequest encode_request_from_json(const std::string& body) {
-  return wire::to_api(read_message<v1::EncodeRequest>(parse_body(body)));
+  return proto_translation::to_api(read_message<v1::EncodeRequest>(parse_body(body)));
 }
 
 DecodeRequest decode_request_from_json(const std::string& body) {
-  return wire::to_api(read_message<v1::DecodeRequest>(parse_body(body)));
+  return proto_translation::to_api(read_message<v1::DecodeRequest>(parse_body(body)));
 }
 
 SampleRequest sample_request_from_json(const std::string& body) {
   const json document = parse_body(body);
   const auto message = read_message<v1::SampleRequest>(document);
-  SampleRequest request = wire::to_api(message);
+  SampleRequest request = proto_translation::to_api(message);
   keep_sent_zero(document, "count", message.count(), request.count);
   return request;
 }
@@ -93,20 +93,20 @@ SampleRequest sample_request_from_json(const std::string& body) {
 InterpolateRequest interpolate_request_from_json(const std::string& body) {
   const json document = parse_body(body);
   const auto message = read_message<v1::InterpolateRequest>(document);
-  InterpolateRequest request = wire::to_api(message);
+  InterpolateRequest request = proto_translation::to_api(message);
   keep_sent_zero(document, "steps", message.steps(), request.steps);
   keep_sent_zero(document, "method", message.method(), request.method);
   return request;
 }
 
 AnalogyRequest analogy_request_from_json(const std::string& body) {
-  return wire::to_api(read_message<v1::AnalogyRequest>(parse_body(body)));
+  return proto_translation::to_api(read_message<v1::AnalogyRequest>(parse_body(body)));
 }
 
 DenoiseRequest denoise_request_from_json(const std::string& body) {
   const json document = parse_body(body);
   const auto message = read_message<v1::DenoiseRequest>(document);
-  DenoiseRequest request = wire::to_api(message);
+  DenoiseRequest request = proto_translation::to_api(message);
   keep_sent_zero(document, "iterations", message.iterations(), request.iterations);
   return request;
 }
@@ -114,7 +114,7 @@ DenoiseRequest denoise_request_from_json(const std::string& body) {
 JoinClipsRequest join_clips_request_from_json(const std::string& body) {
   const json document = parse_body(body);
   const auto message = read_message<v1::JoinClipsRequest>(document);
-  JoinClipsRequest request = wire::to_api(message);
+  JoinClipsRequest request = proto_translation::to_api(message);
   keep_sent_zero(document, "transition_seconds", message.transition_seconds(), request.transition_seconds);
   keep_sent_zero(document, "method", message.method(), request.method);
   return request;
@@ -123,13 +123,13 @@ JoinClipsRequest join_clips_request_from_json(const std::string& body) {
 JobSpec job_spec_from_json(const std::string& body) {
   const json document = parse_body(body);
   const auto message = read_message<v1::JobSpec>(document);
-  JobSpec spec = wire::to_api(message);
+  JobSpec spec = proto_translation::to_api(message);
   keep_sent_zero(document, "variant", message.variant(), spec.variant);
   return spec;
 }
 
 DecodeTrackRequest decode_track_request_from_json(const std::string& body) {
-  return wire::to_api(read_message<v1::DecodeTrackRequest>(parse_body(body)));
+  return proto_translation::to_api(read_message<v1::DecodeTrackRequest>(parse_body(body)));
 }
 
 void empty_request_from_json(const std::string& body) {
@@ -153,13 +153,13 @@ std::string job_info_to_json(const JobInfo& job) { return reply_text<v1::Job>(jo
 
 std::string model_list_to_json(const std::vector<ModelInfo>& models) {
   v1::ListModelsReply reply;
-  for (const ModelInfo& model : models) wire::to_wire(model, reply.add_models());
+  for (const ModelInfo& model : models) proto_translation::to_wire(model, reply.add_models());
   return ::mm::wire::body_text(::mm::wire::to_json(reply));
 }
 
 std::string job_list_to_json(const std::vector<JobInfo>& jobs) {
   v1::ListJobsReply reply;
-  for (const JobInfo& job : jobs) wire::to_wire(job, reply.add_jobs());
+  for (const JobInfo& job : jobs) proto_translation::to_wire(job, reply.add_jobs());
   return ::mm::wire::body_text(::mm::wire::to_json(reply));
 }
 

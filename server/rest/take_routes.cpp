@@ -67,10 +67,12 @@ struct GatheredTake {
 TakeReplySink gathering_sink(GatheredTake& take) {
   TakeReplySink sink;
   sink.on_start = [&take](const TakeReplyStart& start) {
-    wire::to_wire(start, &take.reply.header);
+    proto_translation::to_wire(start, &take.reply.header);
     take.frames.columns = start.columns;
   };
-  sink.on_window = [&take](const TakeWindow& window) { wire::to_wire(window, take.reply.summary.add_windows()); };
+  sink.on_window = [&take](const TakeWindow& window) {
+    proto_translation::to_wire(window, take.reply.summary.add_windows());
+  };
   sink.on_frames = [&take](const float* values, const float* error_mm, int64_t count) {
     const int64_t size = count * take.frames.columns;
     if (take.form.json) {
@@ -87,7 +89,7 @@ TakeReplySink gathering_sink(GatheredTake& take) {
 // summary's fields beside the windows gathered.
 void finish(GatheredTake& take, const TakeSummary& summary) {
   take.summary = summary;
-  wire::to_wire(summary, &take.reply.summary);
+  proto_translation::to_wire(summary, &take.reply.summary);
   const int columns = take.frames.columns;
   take.reply.frames.set_frames(take.form.json ? (columns > 0 ? take.reply.frames.values_size() / columns : 0)
                                               : take.frames.frame_count());
@@ -200,7 +202,7 @@ void answer_take(Core& core, RouteId route, const CallContext& context, const ht
     ::motionmanifold::v1::CodeTrack track;
     *track.mutable_answered_by() = take.reply.header.answered_by();
     track.mutable_windows()->Swap(take.reply.summary.mutable_windows());
-    wire::to_wire(summary, &track);
+    proto_translation::to_wire(summary, &track);
     response.status = 200;
     return response.set_content(::mm::wire::body_text(::mm::wire::to_json(track)), kJsonType);
   }

@@ -1,6 +1,6 @@
 #include "server/translation/proto_translation.h"
 
-namespace mm::service::wire {
+namespace mm::service::proto_translation {
 
 namespace {
 
@@ -342,4 +342,4 @@ void to_wire(const TakeSummary& summary, v1::TakeSummary* out) {
   out->set_gaps_over_fit_limit(summary.gaps_over_fit_limit);
 }
 
-}  // namespace mm::service::wire
+}  // namespace mm::service::proto_translation

@@ -19,7 +19,7 @@
 #include "server/api/api_types.h"
 #include "server/core/take_session.h"
 
-namespace mm::service::wire {
+namespace mm::service::proto_translation {
 
 namespace v1 = ::motionmanifold::v1;
 
@@ -65,4 +65,4 @@ void to_wire(const TakeSummary& summary, v1::CodeTrack* out);
 // apart, as they come).
 void to_wire(const TakeSummary& summary, v1::TakeSummary* out);
 
-}  // namespace mm::service::wire
+}  // namespace mm::service::proto_translation

@@ -146,7 +146,7 @@ TEST_F(GrpcFrontendFakeCore, TheCoresRefusalsMapToTheirStatusWithTheirField) {
     EXPECT_EQ(status.error_message(), field.empty() ? std::string(refusal.error.what())
                                                     : field + ": " + refusal.error.what());
     const auto& trailing = context.GetServerTrailingMetadata();
-    const auto found = trailing.find(service::wire::kErrorFieldKey);
+    const auto found = trailing.find(service::grpc_frontend::kErrorFieldKey);
     if (field.empty()) {
       EXPECT_EQ(found, trailing.end());
     } else {
