@@ -214,6 +214,9 @@ struct ReadClipRequest {
   std::string model;  // whose clip length and skeleton; empty: the active model
   std::string path;   // relative to the data root (as ListClips gives it), or absolute under it
   int64_t start = 0;  // the window's first frame, in the file's own frames
+  // The whole file at its own rate instead of one window (start must be 0),
+  // bounded by the longest take (core/data_root_clips.h).
+  bool whole = false;
 };
 struct ReadClipReply {
   std::string path;  // relative to the data root

@@ -58,8 +58,19 @@ ListClipsReply list_data_root_clips(const std::string& data_root, int max_clips)
 // when it is negative or past the last full window (naming the largest
 // valid start); RESOURCE_EXHAUSTED "path" for a file over 256 MiB. Only the
 // window's frames are resampled, or its rows parsed.
+//
+// With request.whole, every frame of the file at its own rate instead, as a
+// take names the file (TakeRequest.path): H3.6M text's rows at 50 Hz in
+// their 99 columns; a BVH, glTF or FBX of the model's skeleton at its rate
+// in the model's layout (another skeleton is refused naming "path", as
+// skeleton_motion_from_bvh_at_file_rate refuses a take's). INVALID_ARGUMENT
+// "start" unless start is 0; INVALID_ARGUMENT "path" for a file whose last
+// frame lies past `max_take_seconds` (--max-take-seconds; 0: no limit, as
+// for takes), naming its length and the limit, checked on the rows counted
+// (text) or the frames declared (animation files) before any value is read
+// or resampled.
 ReadClipReply read_data_root_clip(const std::string& data_root, const ReadClipRequest& request,
-                                  const ModelShape& shape);
+                                  const ModelShape& shape, double max_take_seconds);
 
 // What the data root may hold, checked before an upload writes anything
 // (--max-upload-bytes, --max-data-root-bytes, --max-data-root-files).

@@ -114,6 +114,16 @@ ReadClipRequest read_clip_request_from_query(const QueryParameters& parameters) 
   return request;
 }
 
+ReadClipRequest read_clip_motion_request_from_query(const QueryParameters& parameters) {
+  // No start: the whole file begins at its first frame.
+  check_known_and_single(parameters, {"model", "path"});
+  ReadClipRequest request;
+  request.model = text(parameters, "model");
+  request.path = text(parameters, "path");
+  request.whole = true;
+  return request;
+}
+
 UploadClipRequest upload_clip_request_from_query(const QueryParameters& parameters, std::string content) {
   check_known_and_single(parameters, {"path"});
   UploadClipRequest request;

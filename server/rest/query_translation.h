@@ -1,5 +1,5 @@
 // The query string of a route -> the core's plain types, for the routes
-// that take their request there (GET /v1/clips/window: a read names a file
+// that take their request there (GET /v1/clips/window and /v1/clips/motion: a read names a file
 // and a frame, and a GET can be bookmarked, cached and linked from the page;
 // POST /v1/clips:upload, whose body is the file itself; DELETE /v1/clips). Strict as the JSON bodies are: an unknown parameter, one given
 // twice, or a value that is not of its type is INVALID_ARGUMENT naming the
@@ -21,6 +21,10 @@ using QueryParameters = std::multimap<std::string, std::string>;
 
 // ?path=<relative path>&start=<integer, default 0>&model=<name, default the active model>
 ReadClipRequest read_clip_request_from_query(const QueryParameters& parameters);
+
+// GET /v1/clips/motion: ?path=<relative path>&model=<name, default the
+// active model>, the whole file (ReadClipRequest.whole); no start.
+ReadClipRequest read_clip_motion_request_from_query(const QueryParameters& parameters);
 
 // ?path=<relative path of the new file>, and the body as its content.
 UploadClipRequest upload_clip_request_from_query(const QueryParameters& parameters, std::string content);

@@ -396,6 +396,9 @@ void RestFrontend::State::handle(RouteId route, const httplib::Request& request,
       case RouteId::kReadClip:
         return send_json(response, 200, rest::read_clip_reply_to_json(
                                             core.read_clip(context, rest::read_clip_request_from_query(request.params))));
+      case RouteId::kReadClipMotion:
+        return send_json(response, 200, rest::read_clip_reply_to_json(core.read_clip(
+                                            context, rest::read_clip_motion_request_from_query(request.params))));
       case RouteId::kUploadClip:
         // The body is the file itself, whatever its Content-Type says.
         return send_json(response, 200, rest::clip_file_to_json(core.upload_clip(

@@ -24,6 +24,7 @@ const std::vector<RestRoute>& rest_routes() {
       {RouteId::kDeleteModel, "DELETE", "/v1/models/{name}"},
       {RouteId::kListClips, "GET", "/v1/clips"},
       {RouteId::kReadClip, "GET", "/v1/clips/window"},
+      {RouteId::kReadClipMotion, "GET", "/v1/clips/motion"},
       {RouteId::kUploadClip, "POST", "/v1/clips:upload"},
       {RouteId::kDeleteClip, "DELETE", "/v1/clips"},
       {RouteId::kSubmitJob, "POST", "/v1/jobs"},

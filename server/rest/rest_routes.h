@@ -14,7 +14,7 @@ enum class RouteId {
   kEncode, kDecode, kSample, kInterpolate, kAnalogy, kDenoise, kJoinClips,
   kEncodeTake, kReconstructTake, kDenoiseTake, kDecodeTrack,
   kListModels, kDescribeModel, kActivateModel, kDeleteModel,
-  kListClips, kReadClip, kUploadClip, kDeleteClip,
+  kListClips, kReadClip, kReadClipMotion, kUploadClip, kDeleteClip,
   kSubmitJob, kListJobs, kGetJob, kCancelJob, kDeleteJob, kJobEvents,
   kHealth, kReady, kMetrics, kOpenApi,
 };

@@ -135,6 +135,7 @@ ReadClipRequest to_api(const v1::ReadClipRequest& request) {
   out.model = request.model();
   out.path = request.path();
   out.start = request.start();
+  out.whole = request.whole();
   return out;
 }
 

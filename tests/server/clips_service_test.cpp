@@ -7,7 +7,10 @@
 // malformed query naming the field; a server without --data-root answers
 // FAILED_PRECONDITION (409) naming the flag. Uploads over both protocols
 // write new files that are then listed and read, need the token, and are
-// refused naming the field.
+// refused naming the field. A whole read (ReadClipRequest.whole, REST's
+// GET /v1/clips/motion) is every row of the text file at 50 Hz, refused
+// naming "start" for a nonzero start and naming "path" for a file longer
+// than --max-take-seconds.
 #include <gtest/gtest.h>
 #include <grpcpp/grpcpp.h>
 #include <httplib.h>
@@ -90,11 +93,12 @@ class ClipsService : public ::testing::Test {
   }
 
   static grpc::Status read_clip(const std::string& path, int64_t start, v1::ReadClipReply* reply,
-                                grpc::ClientContext* context) {
+                                grpc::ClientContext* context, bool whole = false) {
     context->set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(120));
     v1::ReadClipRequest request;
     request.set_path(path);
     request.set_start(start);
+    request.set_whole(whole);
     return stub_->ReadClip(context, request, reply);
   }
   static std::vector<float> encode(const v1::Motion& motion) {
@@ -202,6 +206,62 @@ TEST_F(ClipsService, ABvhOfTheModelsSkeletonIsReadInTheModelsLayoutAndEncodes) {
   EXPECT_EQ(std::vector<float>(window.motion().values().begin(), window.motion().values().end()),
             rest.document["motion"]["values"].get<std::vector<float>>());
   EXPECT_EQ(encode(window.motion()).size(), 64u);
+}
+
+TEST_F(ClipsService, AWholeReadIsEveryRowOfTheTextFileAt50HzOverBothProtocols) {
+  const auto rows = read_motion_text((data_root() / kText).string());
+  ASSERT_EQ(rows.frame_count(), 3000);  // S5 walking_1: 60 s at 50 Hz, well past one window
+  grpc::ClientContext context;
+  v1::ReadClipReply whole;
+  const auto status = read_clip(kText, 0, &whole, &context, /*whole=*/true);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_EQ(whole.path(), kText);
+  EXPECT_EQ(whole.format(), "h36m-text");
+  EXPECT_EQ(whole.start(), 0);
+  EXPECT_EQ(whole.last_start(), 0);
+  EXPECT_EQ(whole.file_frames(), rows.frame_count());
+  EXPECT_EQ(whole.file_frame_rate(), 50);
+  const v1::Motion& motion = whole.motion();
+  EXPECT_EQ(motion.frames(), rows.frame_count());
+  EXPECT_EQ(motion.columns(), 99);
+  EXPECT_EQ(motion.frame_rate(), 50);
+  EXPECT_EQ(motion.layout(), "h36m-expmap-99");
+  // The file's values as the library reads them, every row in order.
+  EXPECT_EQ(std::vector<float>(motion.values().begin(), motion.values().end()), rows.values);
+
+  const test::Reply rest = test::get(port(), "/v1/clips/motion?path=h36m%2FS5%2Fwalking_1.txt");
+  ASSERT_EQ(rest.status, 200) << rest.body.substr(0, 400);
+  EXPECT_EQ(rest.document["path"], kText);
+  EXPECT_EQ(rest.document["file_frames"], rows.frame_count());
+  EXPECT_EQ(rest.document["file_frame_rate"], 50);
+  EXPECT_EQ(rest.document["motion"]["frames"], rows.frame_count());
+  EXPECT_EQ(rest.document["motion"]["frame_rate"], 50);
+  EXPECT_EQ(rest.document["motion"]["layout"], "h36m-expmap-99");
+  EXPECT_EQ(rest.document["motion"]["values"].get<std::vector<float>>(), rows.values);
+
+  // A BVH of the model's skeleton: every frame at its own 50 Hz, in the
+  // model's layout, as a take of it reads it.
+  const test::Reply bvh = test::get(port(), "/v1/clips/motion?path=bvh/walking.bvh");
+  ASSERT_EQ(bvh.status, 200) << bvh.body.substr(0, 400);
+  EXPECT_EQ(bvh.document["format"], "bvh");
+  EXPECT_EQ(bvh.document["file_frames"], 400);
+  EXPECT_EQ(bvh.document["motion"]["frames"], 400);
+  EXPECT_EQ(bvh.document["motion"]["frame_rate"], 50);
+  EXPECT_EQ(bvh.document["motion"]["layout"], "h36m-expmap-99");
+  EXPECT_EQ(bvh.document["motion"]["values"].size(), 400u * 99u);
+}
+
+TEST_F(ClipsService, AWholeReadWithAStartIsRefusedNamingStart) {
+  grpc::ClientContext context;
+  v1::ReadClipReply reply;
+  const auto status = read_clip(kText, 5, &reply, &context, /*whole=*/true);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
+  EXPECT_EQ(error_field(context), "start");
+  EXPECT_NE(status.error_message().find("expected 0"), std::string::npos) << status.error_message();
+  // REST's whole read takes no start at all.
+  const test::Reply rest = test::get(port(), "/v1/clips/motion?path=h36m%2FS5%2Fwalking_1.txt&start=5");
+  EXPECT_EQ(rest.status, 400) << rest.body;
+  EXPECT_EQ(rest.error()["field"], "start") << rest.body;
 }
 
 TEST_F(ClipsService, RefusalsNameTheFieldOverBothProtocols) {
@@ -378,6 +438,33 @@ TEST(ClipsUpload, BothProtocolsWriteNewFilesThatAreListedAndReadAndNeedTheToken)
   const test::Reply unknown = upload_rest("mine/y.txt&start=3", text, "upload-token");
   EXPECT_EQ(unknown.status, 400) << unknown.body;
   EXPECT_EQ(unknown.error()["field"], "start") << unknown.body;
+}
+
+// The whole read is bounded as a take is: S5 walking_1 (60 s) on a server
+// whose longest take is 6 s.
+TEST(ClipsWholeRead, AFileLongerThanTheLongestTakeIsRefusedNamingPathItsLengthAndTheLimit) {
+  MM_REQUIRE_H36M();
+  test::ScratchDir scratch;
+  const fs::path root = make_data_root(scratch.path() / "data");
+  test::ServerProcess server({"--data-root", root.string(), "--max-take-seconds", "6"});
+  auto stub = v1::MotionManifold::NewStub(grpc::CreateChannel(server.grpc_target(), grpc::InsecureChannelCredentials()));
+  grpc::ClientContext context;
+  v1::ReadClipRequest request;
+  request.set_path(kText);
+  request.set_whole(true);
+  v1::ReadClipReply reply;
+  const auto status = stub->ReadClip(&context, request, &reply);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
+  EXPECT_EQ(error_field(context), "path");
+  for (const char* said : {"h36m/S5/walking_1.txt", "3000 frames at 50 Hz", "59.98 s", "--max-take-seconds 6"}) {
+    EXPECT_NE(status.error_message().find(said), std::string::npos) << said << ": " << status.error_message();
+  }
+  const test::Reply rest = test::get(server.rest_port(), "/v1/clips/motion?path=bvh%2Fwalking.bvh");
+  EXPECT_EQ(rest.status, 400) << rest.body;
+  EXPECT_EQ(rest.error()["field"], "path") << rest.body;
+  EXPECT_NE(rest.error()["message"].get<std::string>().find("400 frames at 50 Hz"), std::string::npos) << rest.body;
+  // A window of the same file is no take and is still read.
+  EXPECT_EQ(test::get(server.rest_port(), "/v1/clips/window?path=h36m%2FS5%2Fwalking_1.txt").status, 200);
 }
 
 TEST(ClipsWithoutDataRoot, BothProtocolsAnswerFailedPreconditionNamingTheFlag) {

@@ -147,6 +147,19 @@ std::vector<GuardedCall> guarded_calls(const std::string& upload_content) {
          v1::ReadClipReply reply;
          return c.stub->ReadClip(&context, request, &reply);
        }},
+      // The whole file (ReadClipRequest.whole) is a clip read as well.
+      {"read whole clip",
+       [](Caller& c, const httplib::Headers& h) {
+         return c.get("/v1/clips/motion?path=h36m%2FS5%2Fwalking_1.txt&model=h36m-dkgm-cpu", h);
+       },
+       [](Caller& c, grpc::ClientContext& context) {
+         v1::ReadClipRequest request;
+         request.set_path(kClip);
+         request.set_model("h36m-dkgm-cpu");
+         request.set_whole(true);
+         v1::ReadClipReply reply;
+         return c.stub->ReadClip(&context, request, &reply);
+       }},
   };
 }
 
@@ -223,6 +236,7 @@ TEST_F(ExposedServer, WithoutATokenTheNetworkCannotChangeStateOrReadClips) {
   EXPECT_EQ(local.post("/v1/jobs/0123456789ab:cancel", "{}").status, 404);
   EXPECT_EQ(local.get("/v1/clips").status, 200);
   EXPECT_EQ(local.get("/v1/clips/window?path=h36m%2FS5%2Fwalking_1.txt").status, 200);
+  EXPECT_EQ(local.get("/v1/clips/motion?path=h36m%2FS5%2Fwalking_1.txt").status, 200);
 }
 
 TEST_F(ExposedServer, WithATokenTheNetworkGetsInWithItAndPublicClipsOpenOnlyTheClips) {
@@ -241,6 +255,7 @@ TEST_F(ExposedServer, WithATokenTheNetworkGetsInWithItAndPublicClipsOpenOnlyTheC
   // The clips are public: no token needed.
   EXPECT_EQ(remote.get("/v1/clips").status, 200);
   EXPECT_EQ(remote.get("/v1/clips/window?path=h36m%2FS5%2Fwalking_1.txt").status, 200);
+  EXPECT_EQ(remote.get("/v1/clips/motion?path=h36m%2FS5%2Fwalking_1.txt").status, 200);
   // With the token, the network changes state.
   EXPECT_EQ(remote.post("/v1/models/h36m-dkgm-cpu:activate", "{}", test::bearer(kToken)).status, 200);
   grpc::ClientContext context;
