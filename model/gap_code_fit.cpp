@@ -17,25 +17,6 @@
 namespace mm {
 namespace {
 
-// Runs of frames where any joint value is missing (NaN), first..last inclusive.
-std::vector<FrameSpan> missing_spans(const MotionFrames& motion) {
-  std::vector<FrameSpan> spans;
-  int64_t start = -1;
-  for (int64_t f = 0; f <= motion.frame_count(); ++f) {
-    bool missing = false;
-    if (f < motion.frame_count()) {
-      const float* v = motion.frame(f);
-      for (int c = kRootTranslationValues; c < motion.columns && !missing; ++c) missing = std::isnan(v[c]);
-    }
-    if (missing && start < 0) start = f;
-    if (!missing && start >= 0) {
-      spans.push_back({start, f - 1});
-      start = -1;
-    }
-  }
-  return spans;
-}
-
 // The decoder as a differentiable function of the code (Eq. 2-3 / 5-6 by
 // gru_autoregressive, as DecoderImpl::forward), over copies of its weights
 // that require no gradient: a model loaded in inference mode holds
@@ -105,7 +86,8 @@ int64_t centred_window_start(const GapFitWindow& fit, int64_t frames, int64_t wi
 }
 
 std::vector<std::vector<float>> fit_window_clips(const MotionManifold& model, const std::vector<const float*>& windows,
-                                                 DecoderKind kind, const GapCodeFitOptions& options) {
+                                                 DecoderKind kind, const GapCodeFitOptions& options,
+                                                 std::vector<double>* observed_errors) {
   if (windows.empty()) return {};
   const int64_t window = model.config().frames, columns = model.normalization().input_columns();
   const auto batch = static_cast<int64_t>(windows.size());
@@ -153,7 +135,15 @@ std::vector<std::vector<float>> fit_window_clips(const MotionManifold& model, co
   at::Tensor clips;
   {
     c10::InferenceMode inference;
-    clips = model.to_raw(model.decode(fitted.to(code.scalar_type()), kind)).to(at::kFloat).cpu().contiguous();
+    const auto poses = model.decode(fitted.to(code.scalar_type()), kind);
+    if (observed_errors) {
+      const auto seen = missing.logical_not().to(at::kFloat);
+      const auto error = ((poses.to(at::kFloat) - normalized.to(at::kFloat).masked_fill(missing, 0.0)) * seen)
+                             .pow(2).sum({1, 2}) / seen.sum({1, 2}).clamp_min(1.0);
+      const auto values = error.cpu().contiguous();
+      observed_errors->assign(values.data_ptr<float>(), values.data_ptr<float>() + batch);
+    }
+    clips = model.to_raw(poses).to(at::kFloat).cpu().contiguous();
   }
   std::vector<std::vector<float>> out(static_cast<size_t>(batch));
   for (int64_t b = 0; b < batch; ++b) {
@@ -181,7 +171,8 @@ void write_fitted_window(const GapFitWindow& fit, const float* clip, int64_t win
 }
 
 MotionFrames fit_gap_codes(const MotionManifold& model, const MotionFrames& observed, const MotionFrames& decoded,
-                           DecoderKind kind, const GapCodeFitOptions& options, GapFitCounts* counts) {
+                           DecoderKind kind, const GapCodeFitOptions& options, GapFitCounts* counts,
+                           std::vector<GapFitWindow>* fitted_windows) {
   if (decoded.columns != observed.columns || decoded.frame_count() != observed.frame_count()) {
     throw InputError("decoded", "expected the observed motion's shape");
   }
@@ -193,7 +184,7 @@ MotionFrames fit_gap_codes(const MotionManifold& model, const MotionFrames& obse
     return result;
   }
   std::vector<GapFitWindow> fits;
-  for (const FrameSpan& span : missing_spans(observed)) {
+  for (const FrameSpan& span : find_missing_spans(observed)) {
     if (!gap_gets_fitted(observed, 0, span, window, options)) continue;
     if (fits.empty() || !gap_joins_window(fits.back(), span, window)) fits.emplace_back();
     fits.back().spans.push_back(span);
@@ -212,8 +203,12 @@ MotionFrames fit_gap_codes(const MotionManifold& model, const MotionFrames& obse
     counted.gaps_fitted += static_cast<int>(fit.spans.size());
   }
   if (counts) *counts = counted;
+  if (fitted_windows) fitted_windows->clear();
   if (fits.empty()) return result;
-  const auto clips = fit_window_clips(model, windows, kind, options);
+  std::vector<double> errors;
+  const auto clips = fit_window_clips(model, windows, kind, options, &errors);
+  for (size_t b = 0; b < fits.size(); ++b) fits[b].observed_error = errors[b];
+  if (fitted_windows) *fitted_windows = fits;
   std::vector<bool> written(static_cast<size_t>(frames), false);
   for (const bool gap_frames : {false, true}) {
     for (size_t b = 0; b < fits.size(); ++b) {

@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "format/motion_frames.h"
+#include "model/gap_interpolation.h"
 #include "model/motion_manifold.h"
 
 namespace mm {
@@ -51,17 +52,14 @@ struct GapCodeFitOptions {
   int max_windows = 20;
 };
 
-// A run of frames where any joint value is missing, first..last inclusive.
-struct FrameSpan {
-  int64_t first = 0, last = 0;
-  int64_t length() const { return last - first + 1; }
-};
-
 // One window of the model's clip fitted to the observed values around the
 // gaps it holds: the gaps (in order) and the window's first frame.
 struct GapFitWindow {
   std::vector<FrameSpan> spans;
   int64_t start = 0;
+  // After the fit: the mean squared error of the fitted code's decoded
+  // values against the window's observed ones (normalised, as the fit's loss).
+  double observed_error = 0;
 };
 
 // The rules by which gaps get windows, shared by the whole-motion fit below
@@ -89,8 +87,10 @@ int64_t centred_window_start(const GapFitWindow& fit, int64_t frames, int64_t wi
 // Fits one code to each of `windows` (each the model's clip of observed
 // values, raw, window x columns, NaN where missing) and returns each
 // code's decoded clip (raw, window x columns). All windows in one batch.
+// `observed_errors`, when given, gets each window's GapFitWindow::observed_error.
 std::vector<std::vector<float>> fit_window_clips(const MotionManifold& model, const std::vector<const float*>& windows,
-                                                 DecoderKind kind, const GapCodeFitOptions& options);
+                                                 DecoderKind kind, const GapCodeFitOptions& options,
+                                                 std::vector<double>* observed_errors = nullptr);
 
 // Writes a fitted window's clip into `out` (frame f of the motion is
 // out.frame(f - out_first)): the frames two either side of each gap (the
@@ -117,7 +117,9 @@ struct GapFitCounts {
   int gaps_fitted = 0;
   int gaps_over_limit = 0;
 };
+// `windows`, when given, gets the windows fitted, with their observed_error.
 MotionFrames fit_gap_codes(const MotionManifold& model, const MotionFrames& observed, const MotionFrames& decoded,
-                           DecoderKind kind, const GapCodeFitOptions& options = {}, GapFitCounts* counts = nullptr);
+                           DecoderKind kind, const GapCodeFitOptions& options = {}, GapFitCounts* counts = nullptr,
+                           std::vector<GapFitWindow>* windows = nullptr);
 
 }  // namespace mm

@@ -172,6 +172,7 @@ GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vec
   std::vector<std::array<Sums, kMethods>> overall(configs.size());
   std::map<std::string, std::vector<std::array<Sums, kMethods>>> per_action;
   int64_t total_gaps = 0;
+  nlohmann::json gap_records = nlohmann::json::array();
   const auto spacing = static_cast<int64_t>(std::lround(options.spacing_seconds * kRate));
   const int64_t margin = static_cast<int64_t>(kRate);  // 1 s of recording before the first gap and after the last
 
@@ -217,7 +218,9 @@ GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vec
       take_options.decoder = options.decoder;
       const TakeResult decoded = process_take(model, corrupted, take_options);
       // The code fitted to each gap's centred window (gap_code_fit.h).
-      const MotionFrames fitted = fit_gap_codes(model, corrupted, decoded.frames, options.decoder, options.code_fit);
+      std::vector<GapFitWindow> fit_windows;
+      const MotionFrames fitted =
+          fit_gap_codes(model, corrupted, decoded.frames, options.decoder, options.code_fit, nullptr, &fit_windows);
       GapFillOptions method_options[kMethods];
       for (auto& o : method_options) {
         o.max_tangent_seconds = options.fill.max_tangent_seconds;
@@ -277,6 +280,20 @@ GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vec
         const SkatingCount recorded_skating = skating_ratio(skeleton, slice(take.frames, context_first, context_last), kRate);
         double recorded_moved = 0;
         for (int64_t f = left; f < right; ++f) recorded_moved += mean_move(recorded_positions, joint_count, f, f + 1, moved_joints);
+        // One row a gap (the JSON's gap_records): where it is, how well its
+        // window's fitted code met the observed values, and the MPJPE and
+        // speed ratio of each method and fixed detail weight, for choosing
+        // weights on some takes and measuring them on others.
+        nlohmann::json record = {{"take", take.name},
+                                 {"action", take.action},
+                                 {"first", gap.first},
+                                 {"seconds", configs[gap.config].seconds},
+                                 {"joints", configs[gap.config].joints}};
+        for (const GapFitWindow& window : fit_windows) {
+          for (const FrameSpan& span : window.spans) {
+            if (span.first <= gap.first && gap.last <= span.last) record["fit_observed_error"] = window.observed_error;
+          }
+        }
         for (int m = 0; m < kMethods; ++m) {
           const auto p = positions_of(skeleton, filled[m], left, right);  // frame 0 is `left`
           Sums s;
@@ -307,7 +324,12 @@ GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vec
           s.skating_recorded = recorded_skating;
           overall[gap.config][static_cast<size_t>(m)].add(s);
           per_action[take.action][gap.config][static_cast<size_t>(m)].add(s);
+          if (m < kShown + kFixedWeights) {
+            record[kMethodNames[m]] = {{"mpjpe_mm", s.mpjpe},
+                                       {"speed_ratio", s.moved_recorded > 0 ? s.moved / s.moved_recorded : 0.0}};
+          }
         }
+        gap_records.push_back(std::move(record));
       }
     }
   }
@@ -345,7 +367,8 @@ GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vec
         {"speed_gain_shared", options.fill.speed_gain_shared},
         {"code_fit_iterations", options.code_fit.iterations},
         {"code_fit_min_seconds", options.code_fit.min_seconds}}},
-      {"configurations", config_rows}};
+      {"configurations", config_rows},
+      {"gap_records", gap_records}};
 
   // Markdown: one table per measure, configurations by method, then the
   // every-joint gaps per action.

@@ -272,6 +272,24 @@ std::vector<JointGap> find_joint_gaps(const MotionFrames& motion) {
   return gaps;
 }
 
+std::vector<FrameSpan> find_missing_spans(const MotionFrames& motion) {
+  std::vector<FrameSpan> spans;
+  int64_t start = -1;
+  for (int64_t f = 0; f <= motion.frame_count(); ++f) {
+    bool missing = false;
+    if (f < motion.frame_count()) {
+      const float* v = motion.frame(f);
+      for (int c = kRootTranslationValues; c < motion.columns && !missing; ++c) missing = std::isnan(v[c]);
+    }
+    if (missing && start < 0) start = f;
+    if (!missing && start >= 0) {
+      spans.push_back({start, f - 1});
+      start = -1;
+    }
+  }
+  return spans;
+}
+
 bool gap_borders_lone_keyframe(const MotionFrames& observed, const JointGap& gap) {
   const int column = kRootTranslationValues + 3 * gap.joint;
   const int64_t frames = observed.frame_count();

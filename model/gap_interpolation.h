@@ -38,6 +38,15 @@ struct JointGap {
 // Every joint's gaps, by joint then frame.
 std::vector<JointGap> find_joint_gaps(const MotionFrames& motion);
 
+// A run of frames where any joint value is missing, first..last inclusive.
+struct FrameSpan {
+  int64_t first = 0, last = 0;
+  int64_t length() const { return last - first + 1; }
+};
+
+// The runs of frames where some joint is missing, in order.
+std::vector<FrameSpan> find_missing_spans(const MotionFrames& motion);
+
 enum class GapMethod {
   kHold,      // the last observed rotation (the next one for a gap at the start)
   kSlerp,     // per joint, slerp from the rotation before the gap to the one after

@@ -295,6 +295,31 @@ TEST(Tool, HelpShowsNoPathOfTheBuildMachine) {
   }
 }
 
+// The gap benchmark's JSON holds one record a gap, which the tables'
+// means are made of, with how well the gap's fitted code met the frames
+// observed around it (docs/RESULTS.md relates the two).
+TEST(Tool, TheGapBenchmarkRecordsEveryGapWithItsFit) {
+  MM_REQUIRE_H36M();
+  test::ScratchDir dir;
+  const auto r = run_tool_split("evaluate-gaps " + kModel + " --input " + s5("walking_1.txt") +
+                                " --joints 0 --seconds 1 --fit-iterations 2 --out " + dir.file("gaps.json"));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto document = nlohmann::json::parse(read_text(dir.file("gaps.json")));
+  const auto& records = document.at("gap_records");
+  ASSERT_EQ(records.size(), document.at("gaps").get<size_t>());
+  ASSERT_GE(records.size(), 3u);
+  double cubic = 0;
+  for (const auto& record : records) {
+    EXPECT_EQ(record.at("action"), "walking");
+    EXPECT_EQ(record.at("seconds"), 1.0);
+    // Every joint missing for 1 s: each gap gets a fitted window.
+    EXPECT_GT(record.at("fit_observed_error").get<double>(), 0.0) << record.dump();
+    cubic += record.at("cubic").at("mpjpe_mm").get<double>();
+  }
+  const double table = document.at("configurations").at(0).at("methods").at("cubic").at("mpjpe_mm").get<double>();
+  EXPECT_NEAR(cubic / static_cast<double>(records.size()), table, 1e-9);
+}
+
 // decode writes 25 Hz; encode reads it back with --rate 25, and the code it
 // finds is near the one decoded: much nearer than another walk's code.
 TEST(Tool, DecodedMotionEncodesBackToANearbyCode) {
