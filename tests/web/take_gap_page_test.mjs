@@ -11,7 +11,11 @@
 // 0.1 mm), another inside it, where the filled figure's joints and bones
 // take the gap's colour (read from the scene's materials) and keep their
 // own outside it; the gap is shaded on the strip, over its frames. A gap of
-// chosen joints leaves the others as observed.
+// chosen joints leaves the others as observed. A take of the server's data
+// root (the whole S5 file, 60 s, reconstructed with path=) is read whole by
+// the page (GET v1/clips/motion), drawn under its reconstruction, and a gap
+// marked on it is filled alike: every observed value of the file comes back,
+// the gap's values are filled.
 //
 //   node take_gap_page_test.mjs NODE_MODULES   (ctest: web_take_view_fills_a_gap_in_chromium)
 import assert from 'node:assert/strict';
@@ -98,18 +102,18 @@ try {
   const inGap = (f) => f >= GAP.first && f <= GAP.last;
   // The reply keeps every observed value and the gap's root translation,
   // and fills the gap's joint values with finite numbers.
-  const checkKeepsObserved = (reply, method) => {
-    assert.equal(reply.frames, TAKE_FRAMES, `${method}: frames`);
+  const checkKeepsObserved = (reply, method, sent = input) => {
+    assert.equal(reply.frames, sent.length, `${method}: frames`);
     assert.equal(reply.columns, columns, `${method}: columns`);
     let changed = 0;
-    for (let f = 0; f < TAKE_FRAMES; ++f) {
+    for (let f = 0; f < sent.length; ++f) {
       for (let c = 0; c < columns; ++c) {
         const value = reply.values[f * columns + c];
         if (inGap(f) && c >= 3) {
           assert.ok(Number.isFinite(value), `${method}: frame ${f} column ${c} is ${value}`);
-          if (!sameAsSent(input[f][c], value)) ++changed;
+          if (!sameAsSent(sent[f][c], value)) ++changed;
         } else {
-          assert.ok(sameAsSent(input[f][c], value), `${method}: observed frame ${f} column ${c} sent ${input[f][c]}, came back ${value}`);
+          assert.ok(sameAsSent(sent[f][c], value), `${method}: observed frame ${f} column ${c} sent ${sent[f][c]}, came back ${value}`);
         }
       }
     }
@@ -202,6 +206,33 @@ try {
   const take = await page.evaluate(() => window.motionManifoldPage.take.describe());
   assert.equal(take.gap.joints, (await page.$$eval('#gap-joints option', (o) => o.slice(6, 9).map((e) => e.textContent))).join(', '));
   console.log(`   ${take.gap.joints}: ${filledValues} values filled, every other value as observed`);
+
+  const clip = 'small/S5/walking_1.txt';
+  step(`a take of the server's data root (${clip}, read there with path=): read whole, a gap of every joint filled`);
+  const fileRows = fs.readFileSync(path.join(h36mDatasetDir(), 'S5', 'walking_1.txt'), 'utf8').trim().split('\n')
+    .map((row) => row.split(',').map(Number));
+  await page.$eval('#gap-every-joint', (e) => {
+    e.checked = true;
+    e.dispatchEvent(new Event('input'));
+  });
+  await page.select('#clip-path', clip);
+  await page.click('#take-clip-button');
+  await page.waitForFunction((n) => !document.getElementById('error').hidden ||
+                                    document.getElementById('take-info').textContent.startsWith(`${n}:`),
+                             { timeout: 300000 }, clip);
+  assert.equal(await banner(), '', 'reconstructing the data-root take, the page shows an error');
+  // The take is loaded for the gap form once its whole motion has come.
+  await page.waitForFunction((n) => document.getElementById('gap-frames').textContent.includes(` of ${n} `),
+                             { timeout: 20000 }, fileRows.length).catch(() => {});
+  assert.match(await page.$eval('#gap-frames', (e) => e.textContent), new RegExp(`^frames ${GAP.first} to ${GAP.last} of ${fileRows.length} `));
+  const drawn = await describe();
+  assert.deepEqual(drawn.figures.map((f) => [f.label, f.frames]).slice(0, 1), [[clip, fileRows.length]],
+                   'the data-root file drawn under its reconstruction');
+  assert.equal(drawn.figures.length, 2);
+  const fromRoot = await fill('slerp');
+  checkKeepsObserved(fromRoot, `slerp on ${clip}`, fileRows);
+  assert.equal((await page.evaluate(() => window.motionManifoldPage.take.describe())).gap.first, GAP.first);
+  assert.equal((await describe()).figures[0].label, clip, 'the fill beside the data-root recording');
   assert.deepEqual(consoleErrors, [], 'console errors');
 } catch (error) {
   console.error(server.log().slice(-4000));

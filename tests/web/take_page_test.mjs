@@ -7,7 +7,8 @@
 // moving the slider put both skeletons at that frame, drawn as the model
 // library's FK of the file's row and of the server's reconstruction within
 // 0.1 mm; the same file read by the server from its data root (path=)
-// plays its reconstruction. "Download BVH" gets the take shown as a BVH
+// plays its reconstruction over the file, which the page reads whole from
+// there (GET v1/clips/motion). "Download BVH" gets the take shown as a BVH
 // file (Accept: application/x-bvh) with the take's frame count and a Frame
 // Time of 1/50 s for the S5 file, uploaded or read by the server; a 120 Hz BVH take (the server's decoded
 // track) downloads at 120 Hz with its frame count. The screenshot (web-take.png) is of a take the
@@ -166,8 +167,10 @@ try {
   await page.click('#take-clip-button');
   await waitForTake('small/S5/walking_1.txt');
   view = await describe();
-  assert.equal(view.figures.length, 1);
-  assert.equal(view.figures[0].frames, rows.length);
+  // The file, read whole from the data root (GET v1/clips/motion), under its reconstruction.
+  assert.deepEqual(view.figures.map((f) => [f.label, f.frames]).slice(0, 1), [['small/S5/walking_1.txt', rows.length]]);
+  assert.equal(view.figures.length, 2);
+  assert.equal(view.figures[1].frames, rows.length);
   assert.equal((await describeTake()).cells, reply.windows.length);
   download = await downloadBvh();
   assert.equal(download.fileName, 'walking_1-reconstructed.bvh', 'a data-root file is named without its folders');

@@ -5,8 +5,8 @@
 // principal components) and each frame's error plotted below; clicking the
 // strip or the plot, or moving the view's slider, seeks both skeletons.
 // "Download BVH" asks for the take shown once more, as a BVH file
-// (Accept: application/x-bvh), and saves it. On a take loaded from a file,
-// a gap marked by time and joints (take_gap.js) is filled by the server
+// (Accept: application/x-bvh), and saves it. On a take loaded from a file
+// or read whole from the server's data root, a gap marked by time and joints (take_gap.js) is filled by the server
 // (POST v1/takes:denoise?keep_observed=true) and played beside the
 // recording, its filled frames drawn in GAP_COLOUR and shaded on the strip
 // and on the plot, which then shows each frame's distance from the recording.
@@ -301,7 +301,7 @@ function loadTake(take) {
 // to be filled by the method chosen (the default without gap_fill), and
 // shown beside the recording; the download buttons then give the filled take.
 async function fillTakeGap(view) {
-  if (!takeLoaded) throw new Error('reconstruct a take from a file first: the gap is marked on the page\'s copy of it');
+  if (!takeLoaded) throw new Error('reconstruct a take first: the gap is marked on the page\'s copy of it');
   const { name, motion, skeleton } = takeLoaded;
   const gap = markedGap(motion.frames, motion.frame_rate, skeleton);
   const query = { frame_rate: motion.frame_rate, keep_observed: 'true' };
@@ -317,8 +317,10 @@ async function fillTakeGap(view) {
 }
 
 // A file of the server's data root (the menu of the first panel), read by
-// the server itself (path=; the clip-read access): only the reconstruction
-// is drawn, since the page holds no copy of the file.
+// the server itself (path=; the clip-read access), then read whole as a
+// motion (GET v1/clips/motion, every frame at the file's rate in the model's
+// layout) to draw it under its reconstruction and to mark a gap on, as a
+// file's take is.
 async function reconstructTakeClip(view) {
   const path = $('clip-path').value;
   if (!path) throw new Error("choose a file of the server's data root first (Refresh lists them)");
@@ -326,9 +328,14 @@ async function reconstructTakeClip(view) {
   const route = `v1/takes:reconstruct?${takeQuery({ path, ...text })}`;
   const reconstruct = (options) => callWithToken('POST', route, { summary: path, ...options });
   const reply = await reconstruct();
-  await showTake(view, path, reply, null);
+  const { model, version } = reply.answered_by;
+  const whole = await callWithToken('GET', `v1/clips/motion?${new URLSearchParams({ path, model })}`,
+                                    { summary: `${path}, whole` });
+  // At the take's rate: a text file's rows at the rate it was sent at.
+  const original = { ...whole.motion, frame_rate: reply.frame_rate };
+  await showTake(view, path, reply, original);
   rememberTake(path, reconstruct);
-  loadTake(null);
+  loadTake({ name: path, motion: original, skeleton: await skeletonOf(model, version) });
 }
 
 // Writes the frames the gap's times stand for on the loaded take.
