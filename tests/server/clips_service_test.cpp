@@ -9,13 +9,15 @@
 // write new files that are then listed and read, need the token, and are
 // refused naming the field. A whole read (ReadClipRequest.whole, REST's
 // GET /v1/clips/motion) is every row of the text file at 50 Hz, refused
-// naming "start" for a nonzero start and naming "path" for a file longer
-// than --max-take-seconds.
+// naming "start" for a nonzero start, naming "path" for a file longer
+// than --max-take-seconds, and for a BVH of another skeleton in the words a
+// take of it is refused in.
 #include <gtest/gtest.h>
 #include <grpcpp/grpcpp.h>
 #include <httplib.h>
 
 #include <filesystem>
+#include <fstream>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -262,6 +264,31 @@ TEST_F(ClipsService, AWholeReadWithAStartIsRefusedNamingStart) {
   const test::Reply rest = test::get(port(), "/v1/clips/motion?path=h36m%2FS5%2Fwalking_1.txt&start=5");
   EXPECT_EQ(rest.status, 400) << rest.body;
   EXPECT_EQ(rest.error()["field"], "start") << rest.body;
+}
+
+// A BVH of another hierarchy (one joint renamed): its window is read in its
+// own layout, but its whole read is refused as a take of it is, in the same
+// words, since a take of it could not be filled either.
+TEST_F(ClipsService, AWholeReadOfAnotherSkeletonIsRefusedNamingPathAsATakeOfItIs) {
+  std::string text = test::read_text((data_root() / kBvh).string());
+  const size_t joint = text.find("JOINT ");
+  ASSERT_NE(joint, std::string::npos);
+  const size_t name = joint + 6, end = text.find_first_of("\r\n", name);
+  text.replace(name, end - name, "Renamed");
+  std::ofstream((data_root() / "bvh" / "renamed.bvh").string(), std::ios::binary) << text;
+
+  EXPECT_EQ(test::get(port(), "/v1/clips/window?path=bvh/renamed.bvh").document["motion"]["layout"], "expmap-99");
+  grpc::ClientContext context;
+  v1::ReadClipReply reply;
+  const auto status = read_clip("bvh/renamed.bvh", 0, &reply, &context, /*whole=*/true);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
+  EXPECT_EQ(error_field(context), "path");
+  const test::Reply take = test::post(port(), "/v1/takes:reconstruct?path=bvh%2Frenamed.bvh", std::string(), {}, "text/plain");
+  EXPECT_EQ(take.status, 400) << take.body;
+  EXPECT_EQ(take.error()["field"], "path") << take.body;
+  // gRPC's message leads with the field it names.
+  EXPECT_EQ("path: " + take.error()["message"].get<std::string>(), status.error_message());
+  EXPECT_NE(status.error_message().find("not the H3.6M skeleton"), std::string::npos) << status.error_message();
 }
 
 TEST_F(ClipsService, RefusalsNameTheFieldOverBothProtocols) {
