@@ -241,9 +241,10 @@ class Client:
         format, size_bytes and uploaded; .truncated)."""
         return self._call(self.stub.ListClips, pb.ListClipsRequest())
 
-    def read_clip(self, path, start=0, model=""):
-        """A window of a data-root file, from `start` in the file's own frames: ClipWindow."""
-        reply = self._call(self.stub.ReadClip, pb.ReadClipRequest(model=model, path=path, start=start))
+    def read_clip(self, path, start=0, model="", whole=False):
+        """A window of a data-root file, from `start` in the file's own frames: ClipWindow.
+        With `whole`, the whole file at its own rate instead (start 0), as a take of it reads it."""
+        reply = self._call(self.stub.ReadClip, pb.ReadClipRequest(model=model, path=path, start=start, whole=whole))
         return ClipWindow(reply.path, reply.format, reply.start, reply.file_frames, reply.file_frame_rate,
                           reply.last_start, Motion.from_message(reply.motion))
 

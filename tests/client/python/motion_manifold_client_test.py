@@ -355,6 +355,9 @@ class PythonClientTest(unittest.TestCase):
         self.assert_refused(lambda: self.client.read_clip("h36m/S5/walking_1.txt", start=window.last_start + 1),
                             grpc.StatusCode.INVALID_ARGUMENT, "start")
         self.assert_refused(lambda: self.client.read_clip("../outside.txt"), grpc.StatusCode.INVALID_ARGUMENT, "path")
+        whole = self.client.read_clip("h36m/S5/walking_1.txt", whole=True)
+        self.assertEqual((whole.file_frames, whole.motion.frame_rate), (3000, 50.0))
+        np.testing.assert_allclose(whole.motion.values, self.mm.read_text(self.walk).values, atol=1e-6)
 
         # A BVH this package writes, uploaded: the server reads it as this package does.
         bvh = os.path.join(self.scratch, "walk.bvh")
