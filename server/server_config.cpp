@@ -288,6 +288,7 @@ int parse_server_config(int argc, char** argv, ServerConfig& config) {
   }
   config.grpc.address = config.rest.address = address;
   config.grpc.max_message_bytes = max_message_bytes;
+  config.core.max_reply_bytes = static_cast<size_t>(max_message_bytes);
   config.rest.max_body_bytes = static_cast<size_t>(max_message_bytes);
   config.rest.max_take_bytes = config.core.max_take_bytes;
   config.rest.tls_cert_file = config.grpc.tls_cert_file;

@@ -63,6 +63,9 @@ struct CoreConfig {
   WatchStreamLimits watch_streams;  // open job watch streams, both protocols together
   TakeLimits takes;  // take operations (core/take_session.h)
   size_t max_take_bytes = size_t{512} << 20;  // a take read whole: a REST body, a data-root file
+  // A motion answered whole in one reply (ReadClip's whole read): at most
+  // what one gRPC message may carry (--max-message-bytes sets both).
+  size_t max_reply_bytes = size_t{64} << 20;
 };
 
 }  // namespace mm::service

@@ -203,23 +203,31 @@ void read_bvh_window(const std::string& data, const std::string& relative, const
 // A whole read is as long as a take may be: refused, naming the file's
 // length and the limit, when its last frame lies past it (as TakeProcessor
 // counts a take's length, so that what is read here a take of the same file
-// accepts).
-void check_whole_length(int64_t frames, double frame_rate, double max_take_seconds, const std::string& relative) {
+// accepts), or when its values would not fit one gRPC message.
+void check_whole_length(int64_t frames, double frame_rate, int columns, const WholeReadLimits& limits,
+                        const std::string& relative) {
   const double last_seconds = static_cast<double>(frames - 1) / frame_rate;
-  if (max_take_seconds > 0 && last_seconds > max_take_seconds) {
+  if (limits.max_seconds > 0 && last_seconds > limits.max_seconds) {
     throw invalid("path", relative + " is " + std::to_string(frames) + " frames at " + decimal(frame_rate) +
                               " Hz, its last at " + decimal(last_seconds, "%.2f") +
-                              " s, longer than the longest take (--max-take-seconds " + decimal(max_take_seconds) +
+                              " s, longer than the longest take (--max-take-seconds " + decimal(limits.max_seconds) +
                               " s)");
+  }
+  const double bytes = static_cast<double>(frames) * columns * sizeof(float);
+  if (limits.max_bytes > 0 && bytes > static_cast<double>(limits.max_bytes)) {
+    throw invalid("path", relative + " is " + std::to_string(frames) + " frames of " + std::to_string(columns) +
+                              " values, " + decimal(bytes / (1 << 20), "%.1f") +
+                              " MiB read whole, more than one reply may carry (--max-message-bytes " +
+                              std::to_string(limits.max_bytes) + "): read it by windows or as a take");
   }
 }
 
 // Every row at 50 Hz; counted and bounded before any is parsed.
-void read_text_whole(const std::string& data, const std::string& relative, double max_take_seconds,
+void read_text_whole(const std::string& data, const std::string& relative, const WholeReadLimits& limits,
                      ReadClipReply& reply) {
   reply.file_frames = count_motion_text_rows(data.data(), data.size(), relative, kH36mColumns);
   reply.file_frame_rate = kH36mFrameRate;
-  check_whole_length(reply.file_frames, kH36mFrameRate, max_take_seconds, relative);
+  check_whole_length(reply.file_frames, kH36mFrameRate, kH36mColumns, limits, relative);
   MotionFrames rows = parse_motion_text_rows(data.data(), data.size(), relative, kH36mColumns, 0, reply.file_frames);
   reply.motion.frames = reply.file_frames;
   reply.motion.columns = rows.columns;
@@ -231,14 +239,14 @@ void read_text_whole(const std::string& data, const std::string& relative, doubl
 // Every frame at the file's rate in the model's skeleton, as a take reads
 // the file; the declared length is bounded before the frames are converted.
 void read_bvh_whole(const std::string& data, const std::string& relative, const ModelShape& shape,
-                    double max_take_seconds, ReadClipReply& reply) {
+                    const WholeReadLimits& limits, ReadClipReply& reply) {
   AnimationFormat animation = AnimationFormat::kBvh;
   animation_format_of_path(relative, &animation);
   const BvhFile file = parse_animation_file(data.data(), data.size(), animation, relative,
                                             bvh_layout_of(shape.skeleton).millimetres_per_unit);
   reply.file_frames = file.frame_count();
   reply.file_frame_rate = bvh_frame_rate(file);
-  check_whole_length(reply.file_frames, reply.file_frame_rate, max_take_seconds, relative);
+  check_whole_length(reply.file_frames, reply.file_frame_rate, shape.columns, limits, relative);
   MotionFrames frames = skeleton_motion_from_bvh_at_file_rate(shape.skeleton, file, relative);
   reply.motion.frames = frames.frame_count();
   reply.motion.columns = frames.columns;
@@ -293,7 +301,7 @@ ListClipsReply list_data_root_clips(const std::string& data_root, int max_clips)
 }
 
 ReadClipReply read_data_root_clip(const std::string& data_root, const ReadClipRequest& request,
-                                  const ModelShape& shape, double max_take_seconds) {
+                                  const ModelShape& shape, const WholeReadLimits& whole_limits) {
   const fs::path root = data_root_folder(data_root);
   if (request.whole && request.start != 0) {
     throw invalid("start", "start " + std::to_string(request.start) +
@@ -337,9 +345,9 @@ ReadClipReply read_data_root_clip(const std::string& data_root, const ReadClipRe
   const std::string data = read_whole_file(*resolved, size, reply.path);
   try {
     if (request.whole && format == kH36mTextFormat) {
-      read_text_whole(data, reply.path, max_take_seconds, reply);
+      read_text_whole(data, reply.path, whole_limits, reply);
     } else if (request.whole) {
-      read_bvh_whole(data, reply.path, shape, max_take_seconds, reply);
+      read_bvh_whole(data, reply.path, shape, whole_limits, reply);
     } else if (format == kH36mTextFormat) {
       read_text_window(data, reply.path, shape, request.start, reply);
     } else {

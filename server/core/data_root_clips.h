@@ -65,12 +65,19 @@ ListClipsReply list_data_root_clips(const std::string& data_root, int max_clips)
 // in the model's layout (another skeleton is refused naming "path", as
 // skeleton_motion_from_bvh_at_file_rate refuses a take's). INVALID_ARGUMENT
 // "start" unless start is 0; INVALID_ARGUMENT "path" for a file whose last
-// frame lies past `max_take_seconds` (--max-take-seconds; 0: no limit, as
-// for takes), naming its length and the limit, checked on the rows counted
-// (text) or the frames declared (animation files) before any value is read
-// or resampled.
+// frame lies past limits.max_seconds (--max-take-seconds; 0: no limit, as
+// for takes), or whose values (4 bytes each) exceed limits.max_bytes (what
+// one gRPC message may carry, --max-message-bytes: a reply it could not
+// send is refused before it is made, and REST's JSON stays within about
+// three times that), naming its length and the limit, checked on the rows
+// counted (text) or the frames declared (animation files) before any value
+// is read or resampled.
+struct WholeReadLimits {
+  double max_seconds = 0;  // 0: no limit
+  size_t max_bytes = 0;    // 0: no limit
+};
 ReadClipReply read_data_root_clip(const std::string& data_root, const ReadClipRequest& request,
-                                  const ModelShape& shape, double max_take_seconds);
+                                  const ModelShape& shape, const WholeReadLimits& whole_limits);
 
 // What the data root may hold, checked before an upload writes anything
 // (--max-upload-bytes, --max-data-root-bytes, --max-data-root-files).

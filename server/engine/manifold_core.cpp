@@ -663,7 +663,8 @@ ReadClipReply ManifoldCore::read_clip(const CallContext& ctx, const ReadClipRequ
   return state_->call("read_clip", ctx, [&] {
     state_->require_clip_reader(ctx);
     const auto model = state_->store.get(request.model);
-    return read_data_root_clip(state_->config.data_root, request, model->shape, state_->config.takes.max_seconds);
+    return read_data_root_clip(state_->config.data_root, request, model->shape,
+                               {state_->config.takes.max_seconds, state_->config.max_reply_bytes});
   });
 }
 

@@ -494,6 +494,32 @@ TEST(ClipsWholeRead, AFileLongerThanTheLongestTakeIsRefusedNamingPathItsLengthAn
   EXPECT_EQ(test::get(server.rest_port(), "/v1/clips/window?path=h36m%2FS5%2Fwalking_1.txt").status, 200);
 }
 
+// A whole read is one reply: S5 walking_1 read whole is 3000 x 99 floats
+// (1.13 MiB), refused before it is made on a server whose messages are 1 MB,
+// while a window of it still goes.
+TEST(ClipsWholeRead, AFileLargerThanOneMessageIsRefusedNamingPathItsSizeAndTheLimit) {
+  MM_REQUIRE_H36M();
+  test::ScratchDir scratch;
+  const fs::path root = make_data_root(scratch.path() / "data");
+  test::ServerProcess server({"--data-root", root.string(), "--max-message-bytes", "1000000"});
+  auto stub = v1::MotionManifold::NewStub(grpc::CreateChannel(server.grpc_target(), grpc::InsecureChannelCredentials()));
+  grpc::ClientContext context;
+  v1::ReadClipRequest request;
+  request.set_path(kText);
+  request.set_whole(true);
+  v1::ReadClipReply reply;
+  const auto status = stub->ReadClip(&context, request, &reply);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
+  EXPECT_EQ(error_field(context), "path");
+  for (const char* said : {"h36m/S5/walking_1.txt", "3000 frames of 99 values", "1.1 MiB", "--max-message-bytes 1000000"}) {
+    EXPECT_NE(status.error_message().find(said), std::string::npos) << said << ": " << status.error_message();
+  }
+  const test::Reply rest = test::get(server.rest_port(), "/v1/clips/motion?path=h36m%2FS5%2Fwalking_1.txt");
+  EXPECT_EQ(rest.status, 400) << rest.body;
+  EXPECT_EQ(rest.error()["field"], "path") << rest.body;
+  EXPECT_EQ(test::get(server.rest_port(), "/v1/clips/window?path=h36m%2FS5%2Fwalking_1.txt").status, 200);
+}
+
 TEST(ClipsWithoutDataRoot, BothProtocolsAnswerFailedPreconditionNamingTheFlag) {
   MM_REQUIRE_H36M();
   test::ServerProcess server;
