@@ -329,13 +329,20 @@ async function reconstructTakeClip(view) {
   const reconstruct = (options) => callWithToken('POST', route, { summary: path, ...options });
   const reply = await reconstruct();
   const { model, version } = reply.answered_by;
-  const whole = await callWithToken('GET', `v1/clips/motion?${new URLSearchParams({ path, model })}`,
-                                    { summary: `${path}, whole` });
-  // At the take's rate: a text file's rows at the rate it was sent at.
-  const original = { ...whole.motion, frame_rate: reply.frame_rate };
+  // A file too large to answer whole in one reply (--max-message-bytes) is
+  // still shown reconstructed, with no gap to mark on it.
+  let original = null;
+  try {
+    const whole = await callWithToken('GET', `v1/clips/motion?${new URLSearchParams({ path, model })}`,
+                                      { summary: `${path}, whole` });
+    // At the take's rate: a text file's rows at the rate it was sent at.
+    original = { ...whole.motion, frame_rate: reply.frame_rate };
+  } catch (error) {
+    console.warn(`${path} not read whole, so no gap can be marked on it: ${error.message}`);
+  }
   await showTake(view, path, reply, original);
   rememberTake(path, reconstruct);
-  loadTake({ name: path, motion: original, skeleton: await skeletonOf(model, version) });
+  loadTake(original && { name: path, motion: original, skeleton: await skeletonOf(model, version) });
 }
 
 // Writes the frames the gap's times stand for on the loaded take.
