@@ -467,57 +467,52 @@ TEST(ClipsUpload, BothProtocolsWriteNewFilesThatAreListedAndReadAndNeedTheToken)
   EXPECT_EQ(unknown.error()["field"], "start") << unknown.body;
 }
 
+// Reads S5 walking_1 whole from `server` over gRPC, expecting a refusal
+// naming path and saying each of `said`, and over REST `rest_path` (a file
+// of the data root, URL-encoded) refused naming path; a window of walking_1
+// is no whole read and is still answered. Returns REST's refusal.
+test::Reply expect_whole_reads_refused(const test::ServerProcess& server, const std::vector<std::string>& said,
+                                       const std::string& rest_path) {
+  auto stub = v1::MotionManifold::NewStub(grpc::CreateChannel(server.grpc_target(), grpc::InsecureChannelCredentials()));
+  grpc::ClientContext context;
+  v1::ReadClipRequest request;
+  request.set_path(kText);
+  request.set_whole(true);
+  v1::ReadClipReply reply;
+  const auto status = stub->ReadClip(&context, request, &reply);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
+  EXPECT_EQ(error_field(context), "path");
+  for (const std::string& phrase : said) {
+    EXPECT_NE(status.error_message().find(phrase), std::string::npos) << phrase << ": " << status.error_message();
+  }
+  const test::Reply rest = test::get(server.rest_port(), "/v1/clips/motion?path=" + rest_path);
+  EXPECT_EQ(rest.status, 400) << rest.body;
+  EXPECT_EQ(rest.error()["field"], "path") << rest.body;
+  EXPECT_EQ(test::get(server.rest_port(), "/v1/clips/window?path=h36m%2FS5%2Fwalking_1.txt").status, 200);
+  return rest;
+}
+
 // The whole read is bounded as a take is: S5 walking_1 (60 s) on a server
 // whose longest take is 6 s.
 TEST(ClipsWholeRead, AFileLongerThanTheLongestTakeIsRefusedNamingPathItsLengthAndTheLimit) {
   MM_REQUIRE_H36M();
   test::ScratchDir scratch;
-  const fs::path root = make_data_root(scratch.path() / "data");
-  test::ServerProcess server({"--data-root", root.string(), "--max-take-seconds", "6"});
-  auto stub = v1::MotionManifold::NewStub(grpc::CreateChannel(server.grpc_target(), grpc::InsecureChannelCredentials()));
-  grpc::ClientContext context;
-  v1::ReadClipRequest request;
-  request.set_path(kText);
-  request.set_whole(true);
-  v1::ReadClipReply reply;
-  const auto status = stub->ReadClip(&context, request, &reply);
-  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
-  EXPECT_EQ(error_field(context), "path");
-  for (const char* said : {"h36m/S5/walking_1.txt", "3000 frames at 50 Hz", "59.98 s", "--max-take-seconds 6"}) {
-    EXPECT_NE(status.error_message().find(said), std::string::npos) << said << ": " << status.error_message();
-  }
-  const test::Reply rest = test::get(server.rest_port(), "/v1/clips/motion?path=bvh%2Fwalking.bvh");
-  EXPECT_EQ(rest.status, 400) << rest.body;
-  EXPECT_EQ(rest.error()["field"], "path") << rest.body;
+  test::ServerProcess server({"--data-root", make_data_root(scratch.path() / "data").string(), "--max-take-seconds", "6"});
+  const test::Reply rest = expect_whole_reads_refused(
+      server, {"h36m/S5/walking_1.txt", "3000 frames at 50 Hz", "59.98 s", "--max-take-seconds 6"}, "bvh%2Fwalking.bvh");
   EXPECT_NE(rest.error()["message"].get<std::string>().find("400 frames at 50 Hz"), std::string::npos) << rest.body;
-  // A window of the same file is no take and is still read.
-  EXPECT_EQ(test::get(server.rest_port(), "/v1/clips/window?path=h36m%2FS5%2Fwalking_1.txt").status, 200);
 }
 
 // A whole read is one reply: S5 walking_1 read whole is 3000 x 99 floats
-// (1.13 MiB), refused before it is made on a server whose messages are 1 MB,
-// while a window of it still goes.
+// (1.13 MiB), refused before it is made on a server whose messages are 1 MB.
 TEST(ClipsWholeRead, AFileLargerThanOneMessageIsRefusedNamingPathItsSizeAndTheLimit) {
   MM_REQUIRE_H36M();
   test::ScratchDir scratch;
-  const fs::path root = make_data_root(scratch.path() / "data");
-  test::ServerProcess server({"--data-root", root.string(), "--max-message-bytes", "1000000"});
-  auto stub = v1::MotionManifold::NewStub(grpc::CreateChannel(server.grpc_target(), grpc::InsecureChannelCredentials()));
-  grpc::ClientContext context;
-  v1::ReadClipRequest request;
-  request.set_path(kText);
-  request.set_whole(true);
-  v1::ReadClipReply reply;
-  const auto status = stub->ReadClip(&context, request, &reply);
-  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
-  EXPECT_EQ(error_field(context), "path");
-  for (const char* said : {"h36m/S5/walking_1.txt", "3000 frames of 99 values", "1.1 MiB", "--max-message-bytes 1000000"}) {
-    EXPECT_NE(status.error_message().find(said), std::string::npos) << said << ": " << status.error_message();
-  }
-  const test::Reply rest = test::get(server.rest_port(), "/v1/clips/motion?path=h36m%2FS5%2Fwalking_1.txt");
-  EXPECT_EQ(rest.status, 400) << rest.body;
-  EXPECT_EQ(rest.error()["field"], "path") << rest.body;
-  EXPECT_EQ(test::get(server.rest_port(), "/v1/clips/window?path=h36m%2FS5%2Fwalking_1.txt").status, 200);
+  test::ServerProcess server(
+      {"--data-root", make_data_root(scratch.path() / "data").string(), "--max-message-bytes", "1000000"});
+  expect_whole_reads_refused(
+      server, {"h36m/S5/walking_1.txt", "3000 frames of 99 values", "1.1 MiB", "--max-message-bytes 1000000"},
+      "h36m%2FS5%2Fwalking_1.txt");
 }
 
 TEST(ClipsWithoutDataRoot, BothProtocolsAnswerFailedPreconditionNamingTheFlag) {
