@@ -93,7 +93,11 @@ export function setUpGapForm(describeTake) {
   const showFrames = () => {
     $('gap-joints').disabled = $('gap-every-joint').checked;
     const take = describeTake();
-    if (!take) return;
+    if (!take) {
+      // No take to mark (none yet, or one whose frames the page does not hold).
+      $('gap-frames').textContent = 'reconstruct a take first: the gap is marked on its frames';
+      return;
+    }
     try {
       const { first, last } = gapFrames(Number($('gap-from').value), Number($('gap-to').value), take.frames, take.rate);
       $('gap-frames').textContent = `frames ${first} to ${last} of ${take.frames} (${last - first + 1} frames at ${take.rate} Hz)`;
