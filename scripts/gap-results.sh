@@ -6,6 +6,9 @@
 #   slerp, cubic, the manifold as it is, the matched fill as it was and the
 #   fitted fill, measured against the recording (one run of each take,
 #   about 6 gaps a take);
+# - evaluate-gaps again on the long every-joint gaps alone (2 and 4 s),
+#   about 65 a length, where a share of 7 to 12 gaps in the first run is
+#   too few to tell the fitted fill from interpolation;
 # - evaluate-keyframes: one pose every 0.5, 1 and 2 s of the first 12 s of
 #   one take of each action, the rest filled;
 # - evaluate-transitions: a 5 s clip of each take joined to one of another
@@ -35,6 +38,8 @@ out=docs/results/gaps
 mkdir -p "$out"
 "$tool" evaluate-gaps --model "$model" "${inputs[@]}" --rounds 1 --seed 0 \
   --out "$out/gaps.json" --markdown "$out/gaps.md"
+"$tool" evaluate-gaps --model "$model" "${inputs[@]}" --joints 0 --seconds 2 4 --rounds 1 --seed 0 \
+  --out "$out/long-gaps.json" --markdown "$out/long-gaps.md"
 "$tool" evaluate-keyframes --model "$model" "${firsts[@]}" --interval 0.5 1 2 --take-seconds 12 \
   --out "$out/keyframes.json" --markdown "$out/keyframes.md"
 "$tool" evaluate-transitions --model "$model" "${firsts[@]}" --seconds 0.5 1 2 4 --seed 0 \
