@@ -177,6 +177,7 @@ void add_clip_commands(CLI::App& app, const ClientSettings& settings, Action& ac
   struct ReadOptions {
     std::string path, model, out;
     int64_t start = 0;
+    bool whole = false;
   };
   auto o = std::make_shared<ReadOptions>();
   auto* read = clips->add_subcommand(
@@ -186,6 +187,9 @@ void add_clip_commands(CLI::App& app, const ClientSettings& settings, Action& ac
                    "the window's first frame, in the file's own frames (a row of H3.6M text, 50 Hz; a BVH's "
                    "frame), as encode's --start")
       ->capture_default_str();
+  read->add_flag("--whole", o->whole,
+                 "the whole file at its own rate instead of one window, as a take of it reads it (H3.6M text every "
+                 "row at 50 Hz); refused past the server's --max-take-seconds or --max-message-bytes");
   read->add_option("--model", o->model, "model whose clip length and skeleton the window takes (default: the active one)");
   read->add_option("--out", o->out, "motion file to write the window to (.txt, .bvh, - for stdout)");
   read->callback([o, &settings, &action] {
@@ -195,6 +199,7 @@ void add_clip_commands(CLI::App& app, const ClientSettings& settings, Action& ac
       v1::ReadClipRequest request;
       request.set_path(o->path);
       request.set_start(o->start);
+      request.set_whole(o->whole);
       request.set_model(o->model);
       const auto server = connect(settings.connection);
       const auto reply = server->read_clip(request);
@@ -202,6 +207,9 @@ void add_clip_commands(CLI::App& app, const ClientSettings& settings, Action& ac
       if (!o->out.empty()) write_motion(reply.motion(), o->out, rigs, o->model);
       if (settings.json) {
         print_json(to_json(reply));
+      } else if (o->out != "-" && o->whole) {
+        std::printf("%s: %d frames at %g Hz, the whole of %s\n", o->out.c_str(), reply.motion().frames(),
+                    reply.motion().frame_rate(), reply.path().c_str());
       } else if (o->out != "-") {
         std::printf("%s: %d frames at 25 Hz of %s from frame %" PRId64 " of %" PRId64 " at %g Hz (last start %" PRId64
                     ")\n",

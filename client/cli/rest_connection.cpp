@@ -193,9 +193,11 @@ class RestConnection : public ServerConnection {
 
   v1::ListClipsReply list_clips() override { return reply_message<v1::ListClipsReply>(get("/v1/clips")); }
   v1::ReadClipReply read_clip(const v1::ReadClipRequest& request) override {
-    std::string query = "?path=" + segment(request.path()) + "&start=" + std::to_string(request.start());
+    std::string query = "?path=" + segment(request.path());
+    // A whole read has no start: one given is sent, for the server to refuse as gRPC's is.
+    if (!request.whole() || request.start() != 0) query += "&start=" + std::to_string(request.start());
     if (!request.model().empty()) query += "&model=" + segment(request.model());
-    return reply_message<v1::ReadClipReply>(get("/v1/clips/window" + query));
+    return reply_message<v1::ReadClipReply>(get((request.whole() ? "/v1/clips/motion" : "/v1/clips/window") + query));
   }
   v1::ClipFile upload_clip(const v1::UploadClipRequest& request) override {
     return reply_message<v1::ClipFile>(reply_of(client_.Post(

@@ -486,6 +486,29 @@ TEST_F(ClientTest, ClipsReadWritesEverySecondRowFromStartAsTheServerAnswers) {
   EXPECT_EQ(printed, answered);
 }
 
+// --whole writes every row of the file at its own rate, over both
+// protocols; a start with it is refused naming start, as the server does.
+TEST_F(ClientTest, ClipsReadWholeWritesEveryRowOfTheFile) {
+  const auto rows = motion_rows(s5("walking_1.txt"));
+  for (const auto& protocol : {grpc(), rest()}) {
+    const std::string out = dir_.file("whole.txt");
+    const auto run = run_client(protocol + " " + token() + " clips read small/S5/walking_1.txt --whole --out " + out);
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    EXPECT_NE(run.out.find(std::to_string(rows.size()) + " frames at 50 Hz, the whole of small/S5/walking_1.txt"),
+              std::string::npos)
+        << run.out;
+    const auto whole = motion_rows(out);
+    ASSERT_EQ(whole.size(), rows.size());
+    for (size_t k = 0; k < whole.size(); ++k) {
+      ASSERT_EQ(whole[k].size(), 99u);
+      for (size_t c = 0; c < 99; ++c) ASSERT_NEAR(whole[k][c], rows[k][c], 1e-6) << k << " " << c;
+    }
+    const auto refused = run_client(protocol + " " + token() + " clips read small/S5/walking_1.txt --whole --start 2 --out " + out);
+    EXPECT_NE(refused.exit_code, 0);
+    EXPECT_NE(refused.err.find("start"), std::string::npos) << refused.err;
+  }
+}
+
 // One unit for every start: encode --start counts the file's rows as
 // clips read --start and REST's start= do, so the same start of the same
 // file is the same window and gives the same code (an odd row included).
