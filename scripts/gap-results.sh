@@ -14,11 +14,13 @@
 # - evaluate-transitions: a 5 s clip of each take joined to one of another
 #   action by transitions of 0.5 to 4 s, generated and crossfaded.
 # The fitted fill is measured with its defaults (GapFillOptions and
-# GapCodeFitOptions, the detail weights chosen on S1 and S6), as the take
-# path and the service's DenoiseTake fill with keep_observed.
-# Writes docs/results/gaps/. On two CPU cores shared with builds the three
-# took 56 minutes (40 of CPU), most of it the fitted codes (15 Adam steps through the
-# decoder for each gap of 0.6 s or more). Needs the built tool (or
+# GapCodeFitOptions, the detail weights chosen on S1 and S6, every joint
+# at 4 s lowered by S5's trial-1 takes), as the take path and the service's
+# DenoiseTake fill with keep_observed.
+# Writes docs/results/gaps/. On the two CPU cores, beside a few minutes of
+# page tests, the four runs took 13.4 minutes (22 of CPU; gaps 6, long
+# gaps 3, keyframes 1, transitions 3), most of it the fitted codes (15 Adam
+# steps through the decoder for each gap of 0.6 s or more). Needs the built tool (or
 # MM_TOOL naming a copy of it) and the extracted H3.6M.
 #   scripts/gap-results.sh [MODEL_DIR]
 set -euo pipefail
