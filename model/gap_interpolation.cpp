@@ -369,11 +369,8 @@ void fill_gap_with(const MotionFrames& observed, const MotionFrames* manifold, c
   std::optional<BorderPath> manifold_path;
   if (lays_manifold_detail(options.method)) {
     // Whether most joints are missing with this one, at the gap's middle.
-    const int joints = (observed.columns - kRootTranslationValues) / 3;
-    const float* middle = observed.frame((gap.first + gap.last) / 2);
-    int missing = 0;
-    for (int j = 0; j < joints; ++j) missing += std::isnan(middle[kRootTranslationValues + 3 * j]) ? 1 : 0;
-    weight = detail_weight(options, static_cast<double>(gap.last - gap.first + 1) / rate_hz, 2 * missing >= joints);
+    weight = detail_weight(options, static_cast<double>(gap.last - gap.first + 1) / rate_hz,
+                           most_joints_missing(observed, (gap.first + gap.last) / 2));
     if (gap_borders_lone_keyframe(observed, gap)) weight = 0;
     const float* m_left = manifold->frame(has_left ? left : right) + column;
     const float* m_right = manifold->frame(has_right ? right : left) + column;
@@ -426,10 +423,85 @@ void fill_gap_with(const MotionFrames& observed, const MotionFrames* manifold, c
 
 }  // namespace
 
+bool most_joints_missing(const MotionFrames& observed, int64_t frame) {
+  const int joints = (observed.columns - kRootTranslationValues) / 3;
+  const float* values = observed.frame(frame);
+  int missing = 0;
+  for (int j = 0; j < joints; ++j) missing += std::isnan(values[kRootTranslationValues + 3 * j]) ? 1 : 0;
+  return 2 * missing >= joints;
+}
+
+int64_t max_bridged_frames(const GapFillOptions& options, double rate_hz) {
+  return std::max<int64_t>(1, std::lround(options.max_bridged_seconds * rate_hz));
+}
+
+namespace {
+
+void require_manifold(const MotionFrames* manifold, const MotionFrames& observed) {
+  if (!manifold || manifold->columns != observed.columns || manifold->frame_count() != observed.frame_count()) {
+    throw std::invalid_argument("fill_gap: the manifold's frames are needed, of the observed motion's shape");
+  }
+}
+
+}  // namespace
+
+LongGapHead long_gap_head(const MotionFrames& observed, const MotionFrames* manifold, const JointGap& gap,
+                          const GapFillOptions& options, bool most_joints) {
+  const int column = kRootTranslationValues + 3 * gap.joint;
+  LongGapHead head;
+  head.joint = gap.joint;
+  head.has_left = gap.first > 0;
+  const bool uses_manifold = options.method == GapMethod::kManifold || lays_manifold_detail(options.method);
+  if (uses_manifold) require_manifold(manifold, observed);
+  if (!head.has_left) return head;
+  std::copy_n(observed.frame(gap.first - 1) + column, 3, head.left);
+  if (lays_manifold_detail(options.method)) {
+    std::copy_n(manifold->frame(gap.first - 1) + column, 3, head.manifold_left);
+    head.weight = detail_weight(options, options.max_bridged_seconds, most_joints);
+  }
+  return head;
+}
+
+void fill_long_gap_head_frame(const LongGapHead& head, const MotionFrames* manifold, int64_t frame,
+                              const GapFillOptions& options, MotionFrames& out) {
+  const int column = kRootTranslationValues + 3 * head.joint;
+  float* value = out.frame(frame) + column;
+  const bool uses_manifold = options.method == GapMethod::kManifold || lays_manifold_detail(options.method);
+  if (options.method == GapMethod::kManifold || (!head.has_left && uses_manifold)) {
+    std::copy_n(manifold->frame(frame) + column, 3, value);
+    return;
+  }
+  if (!head.has_left) {
+    std::fill_n(value, 3, 0.0f);  // nothing observed before: at rest, as a gap with no border
+    return;
+  }
+  // As a gap that runs to the motion's end: held at the left border, with
+  // the manifold's rotation since its own left border frame laid over it.
+  Quaternion q = quaternion_of(head.left);
+  if (head.weight > 0) {
+    const Vector detail = log_of(multiply(inverse(quaternion_of(head.manifold_left)), quaternion_of(manifold->frame(frame) + column)));
+    q = multiply(q, exp_of(scaled(detail, head.weight)));
+  }
+  const double reference[3] = {head.left[0], head.left[1], head.left[2]};
+  write_expmap(q, reference, value);
+}
+
 MotionFrames fill_gaps(const MotionFrames& observed, const MotionFrames* manifold, const GapFillOptions& options,
                        double rate_hz) {
-  MotionFrames out = observed;
+  // A gap longer than the bridge has its head filled first, from its left
+  // border alone; what is left of it is bridged from there as any gap.
   const auto gaps = find_joint_gaps(observed);
+  const int64_t bridge = max_bridged_frames(options, rate_hz);
+  MotionFrames out = observed;
+  bool headed = false;
+  for (const JointGap& gap : gaps) {
+    if (gap.last - gap.first + 1 <= bridge) continue;
+    const LongGapHead head = long_gap_head(observed, manifold, gap, options, most_joints_missing(observed, gap.first));
+    const int64_t head_last = gap.last + 1 < observed.frame_count() ? gap.last - bridge : gap.last;
+    for (int64_t f = gap.first; f <= head_last; ++f) fill_long_gap_head_frame(head, manifold, f, options, out);
+    headed = true;
+  }
+  if (headed) return fill_gaps(MotionFrames(out), manifold, options, rate_hz);
   const bool shared = options.speed_gain_shared && lays_manifold_detail(options.method) &&
                       options.speed_gain_range[1] > options.speed_gain_range[0];
   if (!shared) {

@@ -115,6 +115,19 @@ struct GapFillOptions {
   // the gap, but at most this long (s), since a velocity carried across a
   // long gap overshoots far past where the motion went.
   double max_tangent_seconds = 0.2;
+  // A gap is interpolated between its borders over at most its last
+  // `max_bridged_seconds` (at least 4 s, where the detail's weight stops
+  // changing). Before those, a longer gap is filled as a gap that runs to
+  // the motion's end is: the joint's last observed rotation with the
+  // manifold's movement since then laid over it at the 4 s weight (the
+  // manifold's own rotation where nothing was observed before the gap, as
+  // at a motion's start); the bridge then starts from there. Why: the take
+  // path can hand a frame out only once it is final, and without this
+  // bound a joint lost for good held every later frame of a streamed take
+  // until the take ended; with it, a frame is final at most this long after
+  // it arrived. Longer than any gap the benchmark measures (4 s), so those
+  // fills are unchanged.
+  double max_bridged_seconds = 10.0;
 };
 
 // Whether one of `gap`'s borders (a joint's gap in `observed`, as
@@ -142,6 +155,29 @@ MotionFrames fill_gaps(const MotionFrames& observed, const MotionFrames* manifol
 // the gap's frames of its joint are written).
 void fill_gap(const MotionFrames& observed, const MotionFrames* manifold, const JointGap& gap,
               const GapFillOptions& options, double rate_hz, MotionFrames& out);
+
+// The frames a gap is bridged over at most (GapFillOptions::max_bridged_seconds).
+int64_t max_bridged_frames(const GapFillOptions& options, double rate_hz);
+
+// What fills the head of a long gap (its frames before the bridge, or all
+// of it when it runs to the motion's end): taken at the gap's first frame,
+// from the observed frame before it and the manifold's frame there.
+struct LongGapHead {
+  int joint = 0;
+  bool has_left = false;  // an observed frame before the gap
+  float left[3] = {0, 0, 0}, manifold_left[3] = {0, 0, 0};
+  double weight = 0;  // of the manifold's movement since the left border
+};
+// The head of `gap` (find_joint_gaps() of `observed`): `most_joints`
+// whether half the joints or more are missing in the gap's first frame.
+LongGapHead long_gap_head(const MotionFrames& observed, const MotionFrames* manifold, const JointGap& gap,
+                          const GapFillOptions& options, bool most_joints);
+// Writes the head's fill of frame `frame` (the joint's 3 values) into `out`,
+// reading the manifold's frame `frame` (null for the methods that lay none).
+void fill_long_gap_head_frame(const LongGapHead& head, const MotionFrames* manifold, int64_t frame,
+                              const GapFillOptions& options, MotionFrames& out);
+// Whether half the joints or more are missing in `frame` of `observed`.
+bool most_joints_missing(const MotionFrames& observed, int64_t frame);
 
 // Geodesic angle (radians, 0..pi) between two rotations given as exponential maps.
 double expmap_angle_between(const float* a, const float* b);

@@ -13,13 +13,16 @@ TakeGapFiller::TakeGapFiller(int columns, GapFillOptions options, double rate_hz
       // of a gap; without it a gap reads one frame beyond each border.
       context_(options.speed_gain_range[0] == 1.0 && options.speed_gain_range[1] == 1.0
                    ? 1
-                   : std::max<int64_t>(1, std::lround(options.speed_context_seconds * rate_hz))) {
+                   : std::max<int64_t>(1, std::lround(options.speed_context_seconds * rate_hz))),
+      bridge_(max_bridged_frames(options, rate_hz)) {
   given_.columns = decoded_.columns = columns;
 }
 
 void TakeGapFiller::push(const MotionFrames& given, const MotionFrames& decoded, MotionFrames& out) {
   given_.values.insert(given_.values.end(), given.values.begin(), given.values.end());
   decoded_.values.insert(decoded_.values.end(), decoded.values.begin(), decoded.values.end());
+  for (int64_t f = 0; f < given.frame_count(); ++f) most_missing_.push_back(most_joints_missing(given, f));
+  fill_long_gap_heads(false);
   const int64_t held = given_.frame_count();
   // Hand out the frames before the first gap that is not final: one whose
   // right border or the `context_` frames after it have not arrived (the
@@ -45,7 +48,35 @@ void TakeGapFiller::push(const MotionFrames& given, const MotionFrames& decoded,
   hand_out(end - handed_, out);
 }
 
-void TakeGapFiller::finish(MotionFrames& out) { hand_out(given_.frame_count() - handed_, out); }
+void TakeGapFiller::finish(MotionFrames& out) {
+  fill_long_gap_heads(true);
+  hand_out(given_.frame_count() - handed_, out);
+}
+
+void TakeGapFiller::fill_long_gap_heads(bool ended) {
+  const int64_t held = given_.frame_count();
+  for (const JointGap& gap : find_joint_gaps(given_)) {
+    // Open: its right border has not arrived, or the take ended in it.
+    const bool open = gap.last == held - 1;
+    auto it = heads_.find(gap.joint);
+    if (it == heads_.end() || it->second.next != first_ + gap.first) {
+      if (gap.last - gap.first + 1 <= bridge_) continue;
+      // A gap that has just become long. Its left border is held (frames
+      // are held from two before any gap not yet final) unless it is the
+      // take's first frame.
+      it = heads_.insert_or_assign(gap.joint, OpenHead{long_gap_head(given_, &decoded_, gap, options_,
+                                                                    most_missing_[static_cast<size_t>(gap.first)]),
+                                                       0})
+               .first;
+    }
+    // As fill_gaps(): the frames before the last bridge_, or all of a gap
+    // that runs to the take's end.
+    const int64_t head_last = open ? (ended ? gap.last : held - 1 - bridge_) : gap.last - bridge_;
+    for (int64_t f = gap.first; f <= head_last; ++f) fill_long_gap_head_frame(it->second.head, &decoded_, f, options_, given_);
+    it->second.next = first_ + std::max(gap.first, head_last + 1);
+    if (!open || ended) heads_.erase(it);
+  }
+}
 
 void TakeGapFiller::hand_out(int64_t count, MotionFrames& out) {
   if (count <= 0) return;
@@ -64,7 +95,9 @@ void TakeGapFiller::hand_out(int64_t count, MotionFrames& out) {
   const int64_t drop = std::max<int64_t>(0, handed_ - context_);
   given_.values.erase(given_.values.begin(), given_.values.begin() + drop * columns);
   decoded_.values.erase(decoded_.values.begin(), decoded_.values.begin() + drop * columns);
+  most_missing_.erase(most_missing_.begin(), most_missing_.begin() + drop);
   handed_ -= drop;
+  first_ += drop;
 }
 
 }  // namespace mm

@@ -6,7 +6,12 @@
 // A gap is filled only once both its borders, and the frame beyond each
 // (the border velocities of the cubic), have arrived, so frames are held
 // from two frames before the earliest gap still open: what is held depends
-// on the gaps' lengths and the batch, never on the take's. Where the
+// on the gaps' lengths and the batch, never on the take's. A gap is bridged
+// over at most its last GapFillOptions::max_bridged_seconds: its frames
+// before those are filled from its left border alone as they become known
+// to be before them (written into the held frames as if observed), so
+// nothing is held longer than that and a few frames after it arrived,
+// however long a joint stays missing. Where the
 // detail's gain matches the recording's speed around a gap
 // (GapFillOptions::speed_gain_range), its context (speed_context_seconds)
 // on both sides is waited for and kept as well. Filling each held gap once
@@ -16,6 +21,8 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
+#include <vector>
 
 #include "format/motion_frames.h"
 #include "model/gap_interpolation.h"
@@ -37,15 +44,29 @@ class TakeGapFiller {
   int64_t held_frames() const { return given_.frame_count(); }
 
  private:
+  // Fills the heads of the long gaps held (the frames known to lie before
+  // their bridge; all of a gap still open when the take has `ended`).
+  void fill_long_gap_heads(bool ended);
   void hand_out(int64_t count, MotionFrames& out);
+
+  // A long gap whose head is being filled: `next` the take's frame after
+  // the last one filled.
+  struct OpenHead {
+    LongGapHead head;
+    int64_t next = 0;
+  };
 
   GapFillOptions options_;
   double rate_hz_;
   int64_t context_;  // frames read beyond a gap's borders
+  int64_t bridge_;   // max_bridged_frames
   // Held frames: the last handed_ (at most context_) handed out already,
-  // then those not yet handed out.
+  // then those not yet handed out; the first is the take's frame first_.
+  // A long gap's head frames are filled in given_.
   MotionFrames given_, decoded_;
-  int64_t handed_ = 0;
+  int64_t handed_ = 0, first_ = 0;
+  std::vector<bool> most_missing_;  // held frames with most joints missing, as given
+  std::map<int, OpenHead> heads_;   // by joint
 };
 
 }  // namespace mm
