@@ -262,6 +262,36 @@ TEST_F(GapFilling, TheTakePathFitsGapsAsTheWholeTakeFitDoesUpToItsBound) {
 // 1 s: 60.6 mm against 77.1 with the detail). A gap of the same length
 // between observed runs still gets the detail. The "manifold" here is the
 // take itself a second later: any other motion would do.
+// A joint lost for good in a streamed take, with the default fill: the take
+// path answers the frames as they come, a window's latency and the 10 s
+// bridge behind (tests/model/long_gaps_test.cpp has the filler alone).
+// Before the bridge it answered the 98 frames before the gap and then
+// nothing until the take ended.
+TEST_F(GapFilling, AStreamedTakeWithAJointLostForGoodIsAnsweredAsItComes) {
+  MM_REQUIRE_H36M();
+  MotionFrames gapped = s5_at_25("walking_1.txt", 60);
+  make_missing(gapped, {5}, 100, gapped.frame_count() - 1);
+  TakeOptions o;
+  o.operation = TakeOperation::kDenoise;
+  o.frame_rate = 25;
+  o.at_model_rate = true;
+  o.denoise.keep_observed = true;
+  o.batch_windows = 1;  // a window run as soon as its frames are in
+  int64_t answered = 0;
+  TakeSink sink;
+  sink.on_frames = [&](const MotionFrames& frames, const std::vector<float>&) { answered += frames.frame_count(); };
+  TakeProcessor processor(*model_, o, sink);
+  for (int64_t f = 0; f < gapped.frame_count(); f += 25) {
+    processor.push(gapped.frame(f), std::min<int64_t>(25, gapped.frame_count() - f));
+  }
+  const int64_t before_the_end = answered;
+  processor.finish();
+  std::printf("answered %lld of %lld frames before the take ended\n", static_cast<long long>(before_the_end),
+              static_cast<long long>(answered));
+  EXPECT_EQ(answered, gapped.frame_count());
+  EXPECT_GE(before_the_end, gapped.frame_count() - 250 - 2 * 150);
+}
+
 TEST_F(GapFilling, BetweenLoneKeyframesTheFillIsTheCubicAndElsewhereItLaysTheDetail) {
   MM_REQUIRE_H36M();
   const MotionFrames take = s5_at_25("walking_1.txt", 12);
