@@ -26,7 +26,10 @@ ClipSampler::Clip ClipSampler::draw() {
   std::uniform_int_distribution<int64_t> pick(0, total_starts_ - 1);
   const int64_t global = pick(engine_);
   const auto it = std::upper_bound(first_start_.begin(), first_start_.end(), global) - 1;
-  return Clip{sequences_[static_cast<size_t>(it - first_start_.begin())], global - *it};
+  Clip clip{sequences_[static_cast<size_t>(it - first_start_.begin())], global - *it};
+  // Drawn only with a mirror, so that runs without one draw as they did.
+  if (mirror_) clip.mirrored = std::bernoulli_distribution(0.5)(engine_);
+  return clip;
 }
 
 at::Tensor ClipSampler::sample(int batch) {
@@ -40,7 +43,17 @@ at::Tensor ClipSampler::gather(const std::vector<Clip>& clips) const {
   auto out = at::empty({static_cast<int64_t>(clips.size()), frames_, dims});
   float* dst = out.data_ptr<float>();
   for (const auto& clip : clips) {
-    std::memcpy(dst, clip.sequence->normalized.frame(clip.start), sizeof(float) * frames_ * dims);
+    const float* src = clip.sequence->normalized.frame(clip.start);
+    if (clip.mirrored && mirror_) {
+      for (int f = 0; f < frames_; ++f, src += dims, dst += dims) {
+        for (int d = 0; d < dims; ++d) {
+          dst[d] = mirror_->scale[static_cast<size_t>(d)] * src[mirror_->source_dim[static_cast<size_t>(d)]] +
+                   mirror_->shift[static_cast<size_t>(d)];
+        }
+      }
+      continue;
+    }
+    std::memcpy(dst, src, sizeof(float) * frames_ * dims);
     dst += static_cast<int64_t>(frames_) * dims;
   }
   return out;

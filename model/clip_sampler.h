@@ -7,10 +7,12 @@
 #include <ATen/ATen.h>
 
 #include <cstdint>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
 
+#include "format/motion_mirror.h"
 #include "format/prepared_dataset.h"
 
 namespace mm {
@@ -24,9 +26,15 @@ class ClipSampler {
   struct Clip {
     const PreparedSequence* sequence;
     int64_t start;  // first frame
+    bool mirrored = false;  // gathered as its mirror image
   };
-  // One clip, uniformly over all (sequence, start) pairs.
+  // One clip, uniformly over all (sequence, start) pairs; with a mirror
+  // set, mirrored with probability 1/2.
   Clip draw();
+
+  // From now on, half the clips drawn are mirrored by `mirror` (the
+  // sequences' normalised frames' map, format/motion_mirror.h).
+  void set_mirror(NormalizedMirror mirror) { mirror_ = std::move(mirror); }
 
   // (batch, frames, dims) normalised poses on the CPU.
   at::Tensor sample(int batch);
@@ -45,6 +53,7 @@ class ClipSampler {
   int64_t total_starts_ = 0;
   int frames_;
   std::mt19937_64 engine_;
+  std::optional<NormalizedMirror> mirror_;
 };
 
 }  // namespace mm

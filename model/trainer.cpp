@@ -96,6 +96,13 @@ Trainer::Trainer(const TrainConfig& config, const PreparedDataset& data, at::Dev
   optimizers_.reset(new Optimizers{torch::optim::Adam(model_->generator_parameters(), adam),
                                    torch::optim::Adam(model_->discriminator()->parameters(), adam)});
   sampler_ = std::make_unique<ClipSampler>(data.subset(data.train_subjects), config_.model.frames, config_.seed);
+  if (config_.mirror) {
+    try {
+      sampler_->set_mirror(normalized_mirror(motion_mirror(data.skeleton), data.normalization));
+    } catch (const InputError& error) {
+      throw InputError("mirror", std::string("true, but the dataset's motions have no mirror image: ") + error.what());
+    }
+  }
   if (config_.weights.position > 0 && config_.losses.position == PositionReduction::kStandardizedTripletMean) {
     // The statistics follow from the dataset, so a resumed run fits the same.
     const auto standardization = fit_position_standardization(*model_, data.subset(data.train_subjects));

@@ -233,6 +233,8 @@ std::string to_json_text(const TrainConfig& c) {
             {"checkpoint_every", c.checkpoint_every},
             {"dataset", c.dataset},
             {"output_dir", c.output_dir}};
+  // Absent means off: earlier configurations read, and write, as before.
+  if (c.mirror) j["mirror"] = true;
   return j.dump(2);
 }
 
@@ -282,6 +284,7 @@ TrainConfig train_config_from_json_text(const std::string& text, const std::stri
   r.read("seed", c.seed);
   r.read("log_every", c.log_every, 1, 1e9);
   r.read("checkpoint_every", c.checkpoint_every, 0, 1e9);
+  r.read("mirror", c.mirror);
   r.read("dataset", c.dataset);
   r.read("output_dir", c.output_dir);
   return c;

@@ -110,6 +110,12 @@ struct TrainConfig {
   uint64_t seed = 1;
   int log_every = 10;           // iterations between progress reports
   int checkpoint_every = 1000;  // iterations between checkpoints; 0 = only at the end
+  // Each training clip is mirrored (left and right swapped,
+  // format/motion_mirror.h) with probability 1/2: H3.6M's training subjects
+  // all walk their circles the same way round, and a manifold trained on
+  // them does not turn the other way (docs/RESULTS.md, "Motions that
+  // travel"). Off by default: the shipped models were trained without it.
+  bool mirror = false;
   std::string dataset;          // prepared dataset file (see format/prepared_dataset.h)
   std::string output_dir;       // checkpoints, training log and the exported model
 };

@@ -66,6 +66,19 @@ TEST(TrainingConfig, TheRootRotationWeightIsWrittenOnlyWhenItIsNotOne) {
   }
 }
 
+TEST(TrainingConfig, MirrorIsOffUnlessGivenAndWrittenOnlyWhenOn) {
+  TrainConfig c = variant_config("DKGM");
+  EXPECT_FALSE(c.mirror);
+  EXPECT_EQ(to_json_text(c).find("mirror"), std::string::npos);
+  c.mirror = true;
+  const TrainConfig back = train_config_from_json_text(to_json_text(c), "x");
+  EXPECT_TRUE(back.mirror);
+  EXPECT_EQ(to_json_text(back), to_json_text(c));
+  const std::string error = error_of(R"({"mirror": 1})");
+  EXPECT_NE(error.find("mirror"), std::string::npos) << error;
+  EXPECT_NE(error.find("expected true or false"), std::string::npos) << error;
+}
+
 TEST(TrainingConfig, FileOverridesTheVariantDefaults) {
   const TrainConfig c = train_config_from_json_text(R"({"variant": "DK", "batch": 4, "model": {"hidden": 128}})", "c");
   EXPECT_EQ(c.batch, 4);
