@@ -9,6 +9,7 @@
 
 #include "format/bvh_file.h"
 #include "format/input_error.h"
+#include "format/motion_mirror.h"
 #include "format/motion_resampling.h"
 #include "format/motion_text.h"
 #include "format/skeleton_bvh.h"
@@ -398,17 +399,55 @@ void add_take_resample(CLI::App* take, Action& action) {
   });
 }
 
+// take mirror: a motion's mirror image, left and right swapped
+// (format/motion_mirror.h), e.g. to see whether the manifold turns both
+// ways (docs/RESULTS.md, "Motions that travel").
+void add_take_mirror(CLI::App* take, Action& action) {
+  struct Options {
+    TakeArguments model;
+    std::string input, out;
+    double rate = kDataSetRate;
+  };
+  auto o = std::make_shared<Options>();
+  auto* command = take->add_subcommand(
+      "mirror",
+      "Mirror a motion: left and right swapped as in a mirror (each joint takes its twin's rotation reflected "
+      "across the body's plane; the root turns and moves sideways the other way), at the input's rate and length. "
+      "Needs a skeleton that is its own mirror image (H3.6M's is).");
+  o->model.add_to(command, false);
+  command->add_option("--input", o->input, "motion text at --rate, or BVH of the model's skeleton (- for standard input)")
+      ->required();
+  command->add_option("--rate", o->rate, "frame rate of a text input, Hz")->capture_default_str();
+  command->add_option("--out", o->out, "BVH for a name ending in .bvh, else motion text (- for standard output)")
+      ->required();
+  command->callback([o, &action] {
+    action = [o] {
+      check_take_rate(o->rate, "--rate");
+      check_output_file(o->out, "--out");
+      const MotionManifold model = load_model_at_precision(o->model.model_dir, o->model.precision);
+      const TakeInput in = read_take(o->input, o->rate, false, model.skeleton());
+      const MotionFrames out = mirrored(motion_mirror(model.skeleton()), in.frames);
+      write_take(out, in.rate, o->out, model.skeleton());
+      std::fprintf(message_stream({o->out}), "wrote %s (%lld frames at %g Hz, mirrored)\n",
+                   is_standard_stream(o->out) ? "standard output" : o->out.c_str(),
+                   static_cast<long long>(out.frame_count()), in.rate);
+      return kExitSuccess;
+    };
+  });
+}
+
 }  // namespace
 
 void add_take_commands(CLI::App& app, Action& action) {
   auto* take = app.add_subcommand("take", "Takes: motions of any length and frame rate (encode, reconstruct, "
-                                          "denoise, decode, resample).");
+                                          "denoise, decode, resample, mirror).");
   take->require_subcommand(1);
   add_take_operation(take, action, TakeOperation::kEncode);
   add_take_operation(take, action, TakeOperation::kReconstruct);
   add_take_operation(take, action, TakeOperation::kDenoise);
   add_take_decode(take, action);
   add_take_resample(take, action);
+  add_take_mirror(take, action);
 }
 
 }  // namespace mm::tool

@@ -79,6 +79,42 @@ TEST(ToolTake, ATakeIsAnsweredFrameForFrameAtItsRate) {
 
 // On a terminal (script(1) gives the tool one) a take's windows are counted
 // on stderr as they are done, the line cleared before the summary.
+// take mirror: the root turns the other way in every frame, the twins
+// trade places, and mirrored twice a take is itself (format/motion_mirror.h
+// checks the mirror image by forward kinematics).
+TEST(ToolTake, AMirroredTakeTurnsTheOtherWayAndMirroredTwiceIsItself) {
+  MM_REQUIRE_H36M();
+  test::ScratchDir dir;
+  const std::string take = dir.write("walking.txt", first_lines(test::read_text(s5("walking_1.txt")), 200));
+  auto r = run_tool("take mirror " + kModel + " --input " + take + " --out " + dir.file("mirrored.txt"));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = run_tool("take mirror " + kModel + " --input " + dir.file("mirrored.txt") + " --out " + dir.file("back.txt"));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto rows = [](const std::string& text) {
+    std::vector<std::vector<double>> out;
+    std::istringstream lines(text);
+    for (std::string line; std::getline(lines, line);) {
+      std::vector<double> row;
+      std::istringstream values(line);
+      for (std::string v; std::getline(values, v, ',');) row.push_back(std::stod(v));
+      out.push_back(row);
+    }
+    return out;
+  };
+  const auto original = rows(test::read_text(take)), mirrored = rows(test::read_text(dir.file("mirrored.txt"))),
+             back = rows(test::read_text(dir.file("back.txt")));
+  ASSERT_EQ(mirrored.size(), 200u);
+  ASSERT_EQ(back.size(), 200u);
+  for (size_t f = 0; f < original.size(); ++f) {
+    EXPECT_EQ(mirrored[f][4], -original[f][4]) << f;  // the turn about the up axis
+    EXPECT_EQ(mirrored[f][3 + 3 * 6], original[f][3 + 3 * 1]) << f;  // LeftUpLeg takes RightUpLeg's x
+    for (size_t c = 0; c < original[f].size(); ++c) ASSERT_NEAR(back[f][c], original[f][c], 1e-7) << f << ", " << c;
+  }
+  r = run_tool("take mirror " + kModel + " --input " + take + " --out " + dir.file("mirrored.bvh"));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(test::read_text(dir.file("mirrored.bvh")).find("Frames: 200\nFrame Time: 0.02\n"), std::string::npos);
+}
+
 TEST(ToolTake, OnATerminalATakeShowsTheWindowsDone) {
   MM_REQUIRE_H36M();
   test::ScratchDir dir;

@@ -284,7 +284,7 @@ TEST(Tool, HelpShowsNoPathOfTheBuildMachine) {
   const std::string source_dir = std::filesystem::path(MM_SHIPPED_MODEL).parent_path().parent_path().string();
   for (const std::string command :
        {"encode", "decode", "sample", "interpolate", "analogy", "denoise", "evaluate", "take encode",
-        "take reconstruct", "take denoise", "take decode", "take resample", "take-seams", "evaluate-gaps",
+        "take reconstruct", "take denoise", "take decode", "take resample", "take mirror", "take-seams", "evaluate-gaps",
         "evaluate-keyframes", "evaluate-transitions", "join-clips"}) {
     const auto r = run_tool(command + " --help");
     EXPECT_EQ(r.exit_code, 0) << command << ": " << r.output;
