@@ -92,10 +92,10 @@ TEST(Trainer, SameSeedGivesTheSameRun) {
   EXPECT_TRUE(same_parameters(a.model(), b.model()));
 }
 
-TEST(Trainer, ResumedRunMatchesUninterruptedRun) {
-  MM_REQUIRE_H36M();
+// Six steps of `config` in one run, and three then three more from its
+// checkpoint, end at the same parameters.
+void expect_resumed_run_is_uninterrupted(TrainConfig config) {
   test::ScratchDir dir;
-  TrainConfig config = tiny_config();
   config.iterations = 6;
   Trainer uninterrupted(config, small_h36m(), at::kCPU);
   for (int i = 0; i < 6; ++i) uninterrupted.step();
@@ -109,24 +109,20 @@ TEST(Trainer, ResumedRunMatchesUninterruptedRun) {
   EXPECT_TRUE(same_parameters(uninterrupted.model(), resumed->model()));
 }
 
+TEST(Trainer, ResumedRunMatchesUninterruptedRun) {
+  MM_REQUIRE_H36M();
+  expect_resumed_run_is_uninterrupted(tiny_config());
+}
+
 // Mirrored clips (TrainConfig::mirror) reach the step, and the coin that
 // mirrors them is part of the sampler's state, so a resumed mirrored run is
 // the uninterrupted one.
 TEST(Trainer, AMirroredRunTrainsOnOtherClipsAndResumesAsItself) {
   MM_REQUIRE_H36M();
-  test::ScratchDir dir;
   TrainConfig config = tiny_config();
-  config.iterations = 6;
   config.mirror = true;
   EXPECT_NE(Trainer(config, small_h36m(), at::kCPU).step(), Trainer(tiny_config(), small_h36m(), at::kCPU).step());
-  Trainer uninterrupted(config, small_h36m(), at::kCPU);
-  for (int i = 0; i < 6; ++i) uninterrupted.step();
-  Trainer first_half(config, small_h36m(), at::kCPU);
-  for (int i = 0; i < 3; ++i) first_half.step();
-  first_half.save_checkpoint(dir.file("checkpoint.pt"));
-  auto resumed = Trainer::resume(dir.file("checkpoint.pt"), small_h36m(), at::kCPU);
-  for (int i = 0; i < 3; ++i) resumed->step();
-  EXPECT_TRUE(same_parameters(uninterrupted.model(), resumed->model()));
+  expect_resumed_run_is_uninterrupted(config);
 }
 
 TEST(Trainer, RunReportsProgressWritesLogAndCheckpoint) {
