@@ -9,6 +9,8 @@ cd "$(dirname "$0")/.."
 model=${1:-models/h36m-dkgm-h100}
 bash scripts/extract-h36m.sh
 mkdir -p docs/results/turns
-python3 scripts/turn_bias.py "$model" build/model/tool/motion-manifold data/h3.6m/dataset "$(mktemp -d)" \
+scratch=$(mktemp -d)
+trap 'rm -rf "$scratch"' EXIT
+python3 scripts/turn_bias.py "$model" build/model/tool/motion-manifold data/h3.6m/dataset "$scratch" \
   S1/walking_1 S6/walking_1 S5/walking_1 S5/walking_2 S5/walkingdog_1 S5/walkingtogether_1 \
   | tee docs/results/turns/turns.md
