@@ -12,6 +12,7 @@
 
 #include "format/foot_contacts.h"
 #include "format/input_error.h"
+#include "model/borrowed_motion.h"
 #include "model/gap_code_fit.h"
 #include "model/take_processor.h"
 #include "model/take_windows.h"
@@ -23,18 +24,22 @@ constexpr double kRate = kTakeModelRate;
 // The methods the tables show, then the fitted fill at fixed detail
 // weights, then with its weights and the speed-matched gain in other
 // ranges (the JSON's, for choosing them on training subjects).
-constexpr int kShown = 8, kFixedWeights = 5, kMethods = 20;
+constexpr int kShown = 9, kFixedWeights = 5, kMethods = 22;
+// The borrowed fill (borrowed_motion.h) with its defaults, and with every
+// source taken whatever its cost (the JSON's, for choosing the cost bound).
+constexpr int kBorrowed = 8, kBorrowedUngated = kMethods - 1;
 const char* const kMethodNames[kMethods] = {
     "hold",          "slerp",           "cubic",          "manifold",        "matched",
-    "fit_raw",       "fit_full",        "fitted",         "detail_0",        "detail_0.25",
-    "detail_0.5",    "detail_0.75",     "detail_1",       "speed_0.5_1.5",   "speed_0.5_2",
-    "shared_0.5_1.5", "shared_0.5_2",   "shared_1_2",     "shared_0.75_1.5", "shared_0.5_3"};
+    "fit_raw",       "fit_full",        "fitted",         "borrowed",        "detail_0",
+    "detail_0.25",   "detail_0.5",      "detail_0.75",    "detail_1",        "speed_0.5_1.5",
+    "speed_0.5_2",   "shared_0.5_1.5",  "shared_0.5_2",   "shared_1_2",      "shared_0.75_1.5",
+    "shared_0.5_3",  "borrow_ungated"};
 // The speed-matched gain's range, and whether a gap's joints share it.
 struct SpeedGainVariant {
   std::array<double, 2> range;
   bool shared;
 };
-constexpr SpeedGainVariant kSpeedGainVariants[kMethods - kShown - kFixedWeights] = {
+constexpr SpeedGainVariant kSpeedGainVariants[kMethods - kShown - kFixedWeights - 1] = {
     {{0.5, 1.5}, false}, {{0.5, 2.0}, false}, {{0.5, 1.5}, true}, {{0.5, 2.0}, true},
     {{1.0, 2.0}, true},  {{0.75, 1.5}, true}, {{0.5, 3.0}, true}};
 
@@ -221,6 +226,9 @@ GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vec
       std::vector<GapFitWindow> fit_windows;
       const MotionFrames fitted =
           fit_gap_codes(model, corrupted, decoded.frames, options.decoder, options.code_fit, nullptr, &fit_windows);
+      // Where each span's movement would be borrowed from, and at what cost.
+      std::vector<BorrowedSpan> borrowed_spans;
+      borrow_take_motion(corrupted, kRate, options.fill.borrow, 0, &borrowed_spans);
       GapFillOptions method_options[kMethods];
       for (auto& o : method_options) {
         o.max_tangent_seconds = options.fill.max_tangent_seconds;
@@ -241,7 +249,11 @@ GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vec
       method_options[6].few_joints_detail = method_options[6].most_joints_detail = {1.0, 1.0, 1.0};
       method_options[7] = options.fill;
       method_options[7].method = GapMethod::kMatched;
-      for (int m = kShown + kFixedWeights; m < kMethods; ++m) {
+      method_options[kBorrowed] = options.fill;
+      method_options[kBorrowed].method = GapMethod::kBorrowed;
+      method_options[kBorrowedUngated] = method_options[kBorrowed];
+      method_options[kBorrowedUngated].borrow.max_cost = std::numeric_limits<double>::infinity();
+      for (int m = kShown + kFixedWeights; m < kBorrowedUngated; ++m) {
         method_options[m] = options.fill;
         method_options[m].method = GapMethod::kMatched;
         method_options[m].speed_gain_range = kSpeedGainVariants[m - kShown - kFixedWeights].range;
@@ -294,6 +306,12 @@ GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vec
             if (span.first <= gap.first && gap.last <= span.last) record["fit_observed_error"] = window.observed_error;
           }
         }
+        for (const BorrowedSpan& span : borrowed_spans) {
+          if (span.span.first <= gap.first && gap.last <= span.span.last && span.found) {
+            record["borrow_cost"] = span.cost;
+            record["borrow_source"] = {span.source_left, span.source_frames};
+          }
+        }
         for (int m = 0; m < kMethods; ++m) {
           const auto p = positions_of(skeleton, filled[m], left, right);  // frame 0 is `left`
           Sums s;
@@ -324,7 +342,7 @@ GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vec
           s.skating_recorded = recorded_skating;
           overall[gap.config][static_cast<size_t>(m)].add(s);
           per_action[take.action][gap.config][static_cast<size_t>(m)].add(s);
-          if (m < kShown + kFixedWeights) {
+          if (m < kShown + kFixedWeights || m == kBorrowedUngated) {
             record[kMethodNames[m]] = {{"mpjpe_mm", s.mpjpe},
                                        {"speed_ratio", s.moved_recorded > 0 ? s.moved / s.moved_recorded : 0.0}};
           }

@@ -9,8 +9,9 @@
 // every configuration gets about the same number of places. Every method
 // fills the same gaps of the same run: hold, slerp, cubic (gap_interpolation.h),
 // the manifold's fill as keep_observed gave it before ("manifold"), the
-// manifold made to meet the borders with its full detail in every gap
-// ("matched_full"), and the take path's fill today ("matched", options.fill).
+// take's own windows' movement ("matched"), the fitted fill ("fitted") and
+// the default, the take's own stretches where like enough ("borrowed",
+// options.fill; "borrow_ungated" takes every stretch found, in the JSON).
 //
 // Measures on the gap frames, at 25 Hz, positions by forward kinematics
 // with the root at the origin (as Table 1's): MPJPE over the joints a

@@ -10,6 +10,7 @@
 
 #include "format/expmap_slerp.h"
 #include "format/input_error.h"
+#include "model/borrowed_motion.h"
 
 namespace mm {
 namespace {
@@ -234,20 +235,26 @@ const char* gap_method_name(GapMethod method) {
     case GapMethod::kManifold: return "manifold";
     case GapMethod::kMatched: return "matched";
     case GapMethod::kFitted: return "fitted";
+    case GapMethod::kBorrowed: return "borrowed";
   }
   return "?";
 }
 
 GapMethod parse_gap_method(const std::string& name, const std::string& field) {
-  for (GapMethod method : {GapMethod::kFitted, GapMethod::kMatched, GapMethod::kCubic, GapMethod::kSlerp,
-                           GapMethod::kHold, GapMethod::kManifold}) {
+  for (GapMethod method : {GapMethod::kFitted, GapMethod::kBorrowed, GapMethod::kMatched, GapMethod::kCubic,
+                           GapMethod::kSlerp, GapMethod::kHold, GapMethod::kManifold}) {
     if (name == gap_method_name(method)) return method;
   }
-  throw InputError(field, "expected \"fitted\", \"matched\", \"cubic\", \"slerp\", \"hold\" or \"manifold\", found \"" +
-                   name + "\"");
+  throw InputError(field,
+                   "expected \"fitted\", \"borrowed\", \"matched\", \"cubic\", \"slerp\", \"hold\" or \"manifold\", "
+                   "found \"" + name + "\"");
 }
 
-bool lays_manifold_detail(GapMethod method) { return method == GapMethod::kMatched || method == GapMethod::kFitted; }
+bool reads_fitted_codes(GapMethod method) { return method == GapMethod::kFitted || method == GapMethod::kBorrowed; }
+
+bool lays_manifold_detail(GapMethod method) {
+  return method == GapMethod::kMatched || method == GapMethod::kFitted || method == GapMethod::kBorrowed;
+}
 
 std::vector<JointGap> find_joint_gaps(const MotionFrames& motion) {
   std::vector<JointGap> gaps;
@@ -372,6 +379,10 @@ void fill_gap_with(const MotionFrames& observed, const MotionFrames* manifold, c
     weight = detail_weight(options, static_cast<double>(gap.last - gap.first + 1) / rate_hz,
                            most_joints_missing(observed, (gap.first + gap.last) / 2));
     if (gap_borders_lone_keyframe(observed, gap)) weight = 0;
+    // No detail where the source has none (a span nothing was borrowed for).
+    for (int64_t f = std::max<int64_t>(0, left - 1); f <= std::min(frames - 1, right + 1) && weight > 0; ++f) {
+      if (!observed_at(*manifold, column, f)) weight = 0;
+    }
     const float* m_left = manifold->frame(has_left ? left : right) + column;
     const float* m_right = manifold->frame(has_right ? right : left) + column;
     manifold_path.emplace(quaternion_of(m_left), quaternion_of(m_right), velocity(*manifold, column, left - 1, left),
@@ -478,7 +489,10 @@ void fill_long_gap_head_frame(const LongGapHead& head, const MotionFrames* manif
   // As a gap that runs to the motion's end: held at the left border, with
   // the manifold's rotation since its own left border frame laid over it.
   Quaternion q = quaternion_of(head.left);
-  if (head.weight > 0) {
+  // No movement where the source has none (a span nothing was borrowed for).
+  const bool source_has_it = head.weight > 0 && observed_at(*manifold, column, frame) &&
+                             !std::isnan(head.manifold_left[0] + head.manifold_left[1] + head.manifold_left[2]);
+  if (source_has_it) {
     const Vector detail = log_of(multiply(inverse(quaternion_of(head.manifold_left)), quaternion_of(manifold->frame(frame) + column)));
     q = multiply(q, exp_of(scaled(detail, head.weight)));
   }
@@ -487,7 +501,7 @@ void fill_long_gap_head_frame(const LongGapHead& head, const MotionFrames* manif
 }
 
 MotionFrames fill_gaps(const MotionFrames& observed, const MotionFrames* manifold, const GapFillOptions& options,
-                       double rate_hz) {
+                       double rate_hz, int64_t needed_from, const MotionFrames* as_given) {
   // A gap longer than the bridge has its head filled first, from its left
   // border alone; what is left of it is bridged from there as any gap.
   const auto gaps = find_joint_gaps(observed);
@@ -501,7 +515,33 @@ MotionFrames fill_gaps(const MotionFrames& observed, const MotionFrames* manifol
     for (int64_t f = gap.first; f <= head_last; ++f) fill_long_gap_head_frame(head, manifold, f, options, out);
     headed = true;
   }
-  if (headed) return fill_gaps(MotionFrames(out), manifold, options, rate_hz);
+  if (headed) return fill_gaps(MotionFrames(out), manifold, options, rate_hz, needed_from, as_given ? as_given : &observed);
+  if (options.method == GapMethod::kBorrowed) {
+    // The take's own movement where it repeats itself closely enough; the
+    // fitted fill's (the manifold's frames given) elsewhere.
+    // Borrowed from the motion as given: a long gap's head, written as if
+    // observed, is no source, and a span that joins one is as long as
+    // given (borrowed_motion.h bounds its length).
+    const MotionFrames borrowed = borrow_take_motion(as_given ? *as_given : observed, rate_hz, options.borrow, needed_from);
+    GapFillOptions fitted = options;
+    fitted.method = GapMethod::kMatched;
+    GapFillOptions from_take = fitted;
+    from_take.interpolate_below_seconds = 0;
+    from_take.few_joints_detail.fill(options.borrow.weight);
+    from_take.most_joints_detail.fill(options.borrow.weight);
+    from_take.speed_gain_range = {1.0, 1.0};
+    for (const JointGap& gap : gaps) {
+      if (gap.last < needed_from) continue;
+      const bool has_source = gap.first > 0 && gap.last + 1 < observed.frame_count() &&
+                              !std::isnan(borrowed.frame(gap.first)[kRootTranslationValues + 3 * gap.joint]);
+      if (has_source) {
+        fill_gap(observed, &borrowed, gap, from_take, rate_hz, out);
+      } else {
+        fill_gap(observed, manifold, gap, fitted, rate_hz, out);
+      }
+    }
+    return out;
+  }
   const bool shared = options.speed_gain_shared && lays_manifold_detail(options.method) &&
                       options.speed_gain_range[1] > options.speed_gain_range[0];
   if (!shared) {

@@ -57,12 +57,50 @@ enum class GapMethod {
   // (gap_code_fit.h): fill_gaps() fills it as kMatched from the frames it is
   // given; the take path (take_processor.h) gives it the fitted frames.
   kFitted,
+  // The take's own movement where it repeats itself: kMatched over the
+  // take's own stretch most like each gap's surroundings (borrowed_motion.h)
+  // where one is like enough (BorrowOptions::max_cost), kFitted elsewhere.
+  kBorrowed,
 };
-const char* gap_method_name(GapMethod method);  // "hold", "slerp", "cubic", "manifold", "matched", "fitted"
+const char* gap_method_name(GapMethod method);  // "hold", "slerp", "cubic", "manifold", "matched", "fitted", "borrowed"
 // The method of that name; InputError naming `field`, the value and the names.
 GapMethod parse_gap_method(const std::string& name, const std::string& field);
-// kMatched and kFitted: the manifold's detail over the cubic.
+// kMatched, kFitted and kBorrowed: the manifold's (or the borrowed) detail over the cubic.
 bool lays_manifold_detail(GapMethod method);
+// kFitted and kBorrowed: the manifold's frames they read are those of codes
+// fitted to each gap's window (gap_code_fit.h).
+bool reads_fitted_codes(GapMethod method);
+
+// Where the borrowed fill (borrowed_motion.h) looks for a gap's movement,
+// and when it takes it.
+struct BorrowOptions {
+  // Observed frames compared on each side of a gap, from its border outward.
+  double context_seconds = 0.4;
+  // How far before a gap its source may start (what a streamed take holds).
+  double search_seconds = 60.0;
+  // How far after a gap its source may end (what a streamed take waits for
+  // before it fills the gap).
+  double lookahead_seconds = 10.0;
+  // Spans (frames where any joint is missing) longer than this borrow
+  // nothing: as long as the bridge (GapFillOptions::max_bridged_seconds),
+  // so that a streamed take knows a span will not borrow once it is longer,
+  // and answers its frames as any long gap's.
+  double max_span_seconds = 10.0;
+  // How much a source may be longer or shorter than the gap (the ratio of
+  // their lengths), tried in steps of at most `stretch_step` of the gap.
+  double min_stretch = 0.8, max_stretch = 1.25, stretch_step = 0.02;
+  // A source is used where its cost (BorrowedSpan::cost) is at most this;
+  // elsewhere the fitted fill's detail is laid. Chosen on S5's trial-1
+  // takes, every joint missing for 2 and 4 s (docs/RESULTS.md, "Gaps"): the
+  // bound of least MPJPE over both lengths.
+  double max_cost = 0.02;
+  // Spans shorter than this borrow nothing (the fitted fill's): on S5 the
+  // take's stretches were nearer than the fitted fill in gaps of 2 s and
+  // 4 s, and further in every-joint gaps of 1 s (docs/RESULTS.md, "Gaps").
+  double min_seconds = 2.0;
+  // The source's movement is laid at this weight.
+  double weight = 1.0;
+};
 
 // How much of the manifold's detail the matched fill keeps, by the gap's
 // length and whether most joints are missing with it (in-betweening) or a
@@ -80,7 +118,7 @@ bool lays_manifold_detail(GapMethod method);
 // 126.1 against 113.9), past the 5% a fill may cost; a quarter was within
 // 2% on both trials (117.0 over all).
 struct GapFillOptions {
-  GapMethod method = GapMethod::kFitted;
+  GapMethod method = GapMethod::kBorrowed;
   // No detail between lone keyframes (gap_borders_lone_keyframe: the cubic
   // is nearer there), nor up to
   // `interpolate_below_seconds`; from there the weight
@@ -128,6 +166,8 @@ struct GapFillOptions {
   // it arrived. Longer than any gap the benchmark measures (4 s), so those
   // fills are unchanged.
   double max_bridged_seconds = 10.0;
+  // kBorrowed: where the take's own movement is looked for, and when used.
+  BorrowOptions borrow;
 };
 
 // Whether one of `gap`'s borders (a joint's gap in `observed`, as
@@ -143,13 +183,20 @@ bool gap_borders_lone_keyframe(const MotionFrames& observed, const JointGap& gap
 double detail_weight(const GapFillOptions& options, double seconds, bool most_joints);
 
 // `observed` with every gap filled as options.method says; `manifold` (the
-// model's output for the same frames, same columns) is read for kManifold
-// kMatched and kFitted only and may be null otherwise. Values outside gaps (and the
-// root translation columns) are the observed ones. `rate_hz` converts gap
-// lengths to seconds. std::invalid_argument when `manifold` is needed and
-// missing or of another shape.
+// model's output for the same frames, same columns; for kFitted and
+// kBorrowed the fitted codes' frames) is read for kManifold, kMatched,
+// kFitted and kBorrowed only and may be null otherwise. kBorrowed lays the
+// take's own movement (borrowed_motion.h) over a gap whose source costs at
+// most options.borrow.max_cost, and is kFitted elsewhere. Values outside
+// gaps (and the root translation columns) are the observed ones. `rate_hz`
+// converts gap lengths to seconds. Gaps ending before frame `needed_from`
+// may be left unfilled (a caller that hands those frames out already).
+// `as_given` (null: `observed`): the same frames before any long gap's head
+// was written into them (the take path writes heads as it goes), what
+// kBorrowed borrows from. std::invalid_argument when `manifold` is needed
+// and missing or of another shape.
 MotionFrames fill_gaps(const MotionFrames& observed, const MotionFrames* manifold, const GapFillOptions& options,
-                       double rate_hz);
+                       double rate_hz, int64_t needed_from = 0, const MotionFrames* as_given = nullptr);
 
 // The same for one gap, written into `out` (same shape as observed; only
 // the gap's frames of its joint are written).

@@ -14,12 +14,24 @@ TakeGapFiller::TakeGapFiller(int columns, GapFillOptions options, double rate_hz
       context_(options.speed_gain_range[0] == 1.0 && options.speed_gain_range[1] == 1.0
                    ? 1
                    : std::max<int64_t>(1, std::lround(options.speed_context_seconds * rate_hz))),
+      // The borrowed fill searches this far before a span (at most
+      // max_span_seconds long, before the first frame not handed out), and
+      // waits for its context and lookahead after it (below).
+      history_(options.method == GapMethod::kBorrowed
+                   ? std::max(context_, std::lround((options.borrow.search_seconds + options.borrow.max_span_seconds +
+                                                     options.borrow.context_seconds) * rate_hz) + 4)
+                   : context_),
       bridge_(max_bridged_frames(options, rate_hz)) {
-  given_.columns = decoded_.columns = columns;
+  if (options.method == GapMethod::kBorrowed) {
+    context_ = std::max({context_, std::lround(options.borrow.context_seconds * rate_hz) + 1,
+                         std::lround(options.borrow.lookahead_seconds * rate_hz) + 1});
+  }
+  given_.columns = decoded_.columns = as_given_.columns = columns;
 }
 
 void TakeGapFiller::push(const MotionFrames& given, const MotionFrames& decoded, MotionFrames& out) {
   given_.values.insert(given_.values.end(), given.values.begin(), given.values.end());
+  if (borrows()) as_given_.values.insert(as_given_.values.end(), given.values.begin(), given.values.end());
   decoded_.values.insert(decoded_.values.end(), decoded.values.begin(), decoded.values.end());
   for (int64_t f = 0; f < given.frame_count(); ++f) most_missing_.push_back(most_joints_missing(given, f));
   fill_long_gap_heads(false);
@@ -34,6 +46,17 @@ void TakeGapFiller::push(const MotionFrames& given, const MotionFrames& decoded,
   int64_t end = held;
   for (const JointGap& gap : gaps) {
     if (gap.last + 1 + context_ >= held) end = std::max(handed_, std::min(end, gap.first - 2));
+  }
+  if (borrows()) {
+    // A span short enough to borrow is final once its own right border and
+    // the frames after it that it may borrow from have arrived (not only
+    // each of its joints' gaps): it is borrowed for whole, as fill_gaps()
+    // borrows on the whole take.
+    const double longest = options_.borrow.max_span_seconds * rate_hz_;
+    for (const FrameSpan& span : find_missing_spans(as_given_)) {
+      if (static_cast<double>(span.length()) > longest) continue;
+      if (span.last + 1 + context_ >= held) end = std::max(handed_, std::min(end, span.first - 2));
+    }
   }
   for (bool moved = true; moved;) {
     moved = false;
@@ -83,7 +106,7 @@ void TakeGapFiller::hand_out(int64_t count, MotionFrames& out) {
   // Every gap held is filled again from the held frames: a gap's fill reads
   // only its own borders and the frame beyond each, which stay held until
   // it is handed out.
-  MotionFrames filled = fill_gaps(given_, &decoded_, options_, rate_hz_);
+  MotionFrames filled = fill_gaps(given_, &decoded_, options_, rate_hz_, handed_, borrows() ? &as_given_ : nullptr);
   const int columns = given_.columns;
   for (int64_t f = handed_; f < handed_ + count; ++f) {
     std::memcpy(filled.frame(f), decoded_.frame(f), kRootTranslationValues * sizeof(float));
@@ -91,10 +114,12 @@ void TakeGapFiller::hand_out(int64_t count, MotionFrames& out) {
   out.values.insert(out.values.end(), filled.values.begin() + handed_ * columns,
                     filled.values.begin() + (handed_ + count) * columns);
   handed_ += count;
-  // Keep the last context_ frames handed out: a later gap's context.
-  const int64_t drop = std::max<int64_t>(0, handed_ - context_);
+  // Keep the last history_ frames handed out: a later gap's context, and
+  // what the borrowed fill searches.
+  const int64_t drop = std::max<int64_t>(0, handed_ - history_);
   given_.values.erase(given_.values.begin(), given_.values.begin() + drop * columns);
   decoded_.values.erase(decoded_.values.begin(), decoded_.values.begin() + drop * columns);
+  if (borrows()) as_given_.values.erase(as_given_.values.begin(), as_given_.values.begin() + drop * columns);
   most_missing_.erase(most_missing_.begin(), most_missing_.begin() + drop);
   handed_ -= drop;
   first_ += drop;

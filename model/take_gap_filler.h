@@ -14,7 +14,10 @@
 // however long a joint stays missing. Where the
 // detail's gain matches the recording's speed around a gap
 // (GapFillOptions::speed_gain_range), its context (speed_context_seconds)
-// on both sides is waited for and kept as well. Filling each held gap once
+// on both sides is waited for and kept as well; for the borrowed fill the
+// frames it may borrow from after a gap are waited for
+// (BorrowOptions::lookahead_seconds, 10 s) and those before it kept
+// (search_seconds, 60 s). Filling each held gap once
 // all of it is held gives exactly what fill_gaps() gives on the whole take.
 //
 // Used by one thread at a time; torch-free.
@@ -48,6 +51,7 @@ class TakeGapFiller {
   // their bridge; all of a gap still open when the take has `ended`).
   void fill_long_gap_heads(bool ended);
   void hand_out(int64_t count, MotionFrames& out);
+  bool borrows() const { return options_.method == GapMethod::kBorrowed; }
 
   // A long gap whose head is being filled: `next` the take's frame after
   // the last one filled.
@@ -59,11 +63,13 @@ class TakeGapFiller {
   GapFillOptions options_;
   double rate_hz_;
   int64_t context_;  // frames read beyond a gap's borders
+  int64_t history_;  // frames kept before the first not handed out (at least context_)
   int64_t bridge_;   // max_bridged_frames
   // Held frames: the last handed_ (at most context_) handed out already,
   // then those not yet handed out; the first is the take's frame first_.
   // A long gap's head frames are filled in given_.
   MotionFrames given_, decoded_;
+  MotionFrames as_given_;  // the borrowed fill's: given_ before the long gaps' heads were written
   int64_t handed_ = 0, first_ = 0;
   std::vector<bool> most_missing_;  // held frames with most joints missing, as given
   std::map<int, OpenHead> heads_;   // by joint

@@ -126,7 +126,7 @@ struct TakeProcessor::State {
     if (answers() && !options.at_model_rate) to_output.emplace(columns, kTakeModelRate, options.frame_rate);
     if (denoises() && options.denoise.keep_observed) {
       gap_filler.emplace(columns, options.gap_fill, options.at_model_rate ? kTakeModelRate : options.frame_rate);
-      if (options.gap_fill.method == GapMethod::kFitted) {
+      if (reads_fitted_codes(options.gap_fill.method)) {
         gap_fitter.emplace(model, options.decoder, options.gap_fit,
                            [this](const std::function<void()>& work) { run_tensor_work(run, work); });
       }

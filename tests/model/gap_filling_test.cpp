@@ -15,6 +15,7 @@
 
 #include "format/foot_contacts.h"
 #include "format/motion_text.h"
+#include "model/borrowed_motion.h"
 #include "model/default_model.h"
 #include "model/gap_code_fit.h"
 #include "model/gap_interpolation.h"
@@ -177,6 +178,7 @@ TEST_F(GapFilling, TheTakePathFillsAsTheWholeTakeFillDoes) {
     SCOPED_TRACE(gain[1]);
     const MotionFrames streamed = denoise(gapped, GapMethod::kMatched, true, 1, {}, gain).frames;
     GapFillOptions options;
+    options.method = GapMethod::kMatched;
     options.speed_gain_range = gain;
     MotionFrames whole = fill_gaps(gapped, &decoded, options, 25);
     ASSERT_EQ(streamed.values.size(), whole.values.size());
@@ -220,8 +222,10 @@ TEST_F(GapFilling, TheTakePathFitsGapsAsTheWholeTakeFitDoesUpToItsBound) {
   const MotionFrames decoded = denoise(gapped, GapMethod::kMatched, false, 1).frames;
   GapFitCounts whole_counts;
   const MotionFrames fitted = fit_gap_codes(*model_, gapped, decoded, DecoderKind::kRotation, fit, &whole_counts);
-  const MotionFrames whole = fill_gaps(gapped, &fitted, GapFillOptions{}, 25);
-  const MotionFrames matched = fill_gaps(gapped, &decoded, GapFillOptions{}, 25);
+  GapFillOptions by_fit;
+  by_fit.method = GapMethod::kFitted;
+  const MotionFrames whole = fill_gaps(gapped, &fitted, by_fit, 25);
+  const MotionFrames matched = fill_gaps(gapped, &decoded, by_fit, 25);
   const TakeResult streamed = denoise(gapped, GapMethod::kFitted, true, 1, fit);
   fit.max_windows = 2;
   const TakeResult bounded = denoise(gapped, GapMethod::kFitted, true, 1, fit);
@@ -254,6 +258,32 @@ TEST_F(GapFilling, TheTakePathFitsGapsAsTheWholeTakeFitDoesUpToItsBound) {
   std::printf("largest difference from the whole-take fit %.2g rad; the fit moved the fill by up to %.2f rad\n",
               largest, fit_changed);
   EXPECT_GT(fit_changed, 0.05);  // the fit is not the matched fill under another name
+
+  // The borrowed fill (the default) through the same path: the take's own
+  // stretch where one is like a gap's surroundings (here the 2 s gap of
+  // every joint: a walk repeats itself), the same fitted windows elsewhere
+  // (the gaps shorter than 2 s); the whole-take fill of the same fitted
+  // frames.
+  GapFillOptions by_borrowing;
+  const MotionFrames whole_borrowed = fill_gaps(gapped, &fitted, by_borrowing, 25);
+  std::vector<BorrowedSpan> spans;
+  borrow_take_motion(gapped, 25, by_borrowing.borrow, 0, &spans);
+  const auto used = std::count_if(spans.begin(), spans.end(), [](const BorrowedSpan& s) { return s.used; });
+  EXPECT_EQ(used, 1);
+  GapCodeFitOptions unbounded = fit;
+  unbounded.max_windows = GapCodeFitOptions{}.max_windows;
+  const TakeResult borrowed = denoise(gapped, GapMethod::kBorrowed, true, 1, unbounded);
+  ASSERT_EQ(borrowed.frames.values.size(), whole_borrowed.values.size());
+  double borrowing_changed = 0;
+  for (size_t i = 0; i < whole_borrowed.values.size(); ++i) {
+    if (!std::isnan(gapped.values[i])) {
+      ASSERT_EQ(borrowed.frames.values[i], gapped.values[i]) << i;
+      continue;
+    }
+    borrowing_changed = std::max(borrowing_changed, static_cast<double>(std::fabs(whole_borrowed.values[i] - whole.values[i])));
+    ASSERT_NEAR(borrowed.frames.values[i], whole_borrowed.values[i], 1e-4) << "frame " << i / 99 << " column " << i % 99;
+  }
+  EXPECT_GT(borrowing_changed, 0.05);  // some gap is not the fitted fill
 }
 
 // Between lone keyframes (one observed frame, the frames on both sides of

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "model/gap_interpolation.h"
+#include "model/borrowed_motion.h"
 #include "model/take_gap_filler.h"
 
 namespace mm {
@@ -66,7 +67,7 @@ TEST(LongGaps, TheTakePathFillsThemAsTheWholeTakeFillDoesWhateverTheBatch) {
   const int64_t frames = 1200;
   const MotionFrames take = gapped_take(frames);
   const MotionFrames manifold = smooth_motion(frames, 1.3);
-  for (const GapMethod method : {GapMethod::kMatched, GapMethod::kCubic, GapMethod::kHold}) {
+  for (const GapMethod method : {GapMethod::kMatched, GapMethod::kBorrowed, GapMethod::kCubic, GapMethod::kHold}) {
     for (const std::array<double, 2> gain : {std::array<double, 2>{1.0, 1.0}, std::array<double, 2>{0.5, 2.0}}) {
       GapFillOptions options;
       options.method = method;
@@ -94,26 +95,69 @@ TEST(LongGaps, TheTakePathFillsThemAsTheWholeTakeFillDoesWhateverTheBatch) {
   }
 }
 
+// The borrowed fill streamed: a take that repeats itself (every joint's
+// turning has a period of about 126 frames) with every joint missing for
+// 3.6 s and one joint for 2 s, both spans answered by the take's own
+// stretches; the filler, waiting for the 10 s after a span and keeping the
+// 60 s before, hands out what the whole-take fill gives, whatever the batch.
+TEST(LongGaps, TheBorrowedFillStreamsAsTheWholeTakeFillDoesWhateverTheBatch) {
+  const int64_t frames = 1200;
+  MotionFrames take = smooth_motion(frames, 0.0);
+  make_missing(take, 5, 300, 349);
+  for (int j = 0; j < 32; ++j) make_missing(take, j, 550, 639);
+  const MotionFrames manifold = smooth_motion(frames, 1.3);
+  const GapFillOptions options;
+  ASSERT_EQ(options.method, GapMethod::kBorrowed);
+  std::vector<BorrowedSpan> spans;
+  borrow_take_motion(take, kRate, options.borrow, 0, &spans);
+  ASSERT_EQ(spans.size(), 2u);
+  EXPECT_TRUE(spans[0].used && spans[1].used) << spans[0].cost << " " << spans[1].cost;
+  const MotionFrames whole = fill_gaps(take, &manifold, options, kRate);
+  for (const int64_t batch : {1, 7, 150}) {
+    SCOPED_TRACE(batch);
+    TakeGapFiller filler(take.columns, options, kRate);
+    MotionFrames streamed;
+    streamed.columns = take.columns;
+    for (int64_t f = 0; f < frames; f += batch) {
+      const int64_t count = std::min(batch, frames - f);
+      filler.push(frames_of(take, f, count), frames_of(manifold, f, count), streamed);
+    }
+    filler.finish(streamed);
+    ASSERT_EQ(streamed.frame_count(), frames);
+    for (size_t i = 0; i < whole.values.size(); ++i) {
+      if (i % take.columns < kRootTranslationValues) continue;
+      ASSERT_NEAR(streamed.values[i], whole.values[i], 1e-5) << "frame " << i / take.columns << ", column "
+                                                              << i % take.columns;
+    }
+  }
+}
+
 TEST(LongGaps, AJointLostForGoodHoldsNoFrameLongerThanTheBridge) {
   const int64_t frames = 1500;
   MotionFrames take = smooth_motion(frames, 0.0);
   make_missing(take, 5, 100, frames - 1);
   const MotionFrames manifold = smooth_motion(frames, 1.3);
-  const GapFillOptions options;
-  const int64_t bridge = max_bridged_frames(options, kRate);
-  EXPECT_EQ(bridge, 250);
-  TakeGapFiller filler(take.columns, options, kRate);
-  MotionFrames streamed;
-  streamed.columns = take.columns;
-  for (int64_t f = 0; f < frames; f += 10) {
-    filler.push(frames_of(take, f, 10), frames_of(manifold, f, 10), streamed);
-    // Before the bridge, every frame but the gap's left border and the
-    // frame before it was held from frame 98 until the take ended.
-    ASSERT_GE(streamed.frame_count(), f + 10 - bridge - 2) << "after frame " << f + 9;
-    ASSERT_LE(filler.held_frames(), bridge + 2 + 10);
+  for (const GapMethod method : {GapMethod::kMatched, GapMethod::kBorrowed}) {
+    SCOPED_TRACE(gap_method_name(method));
+    GapFillOptions options;
+    options.method = method;
+    const int64_t bridge = max_bridged_frames(options, kRate);
+    EXPECT_EQ(bridge, 250);
+    // The borrowed fill also keeps the past it searches (60 s).
+    const int64_t kept = method == GapMethod::kBorrowed ? std::lround(options.borrow.search_seconds * kRate) + 2 : 0;
+    TakeGapFiller filler(take.columns, options, kRate);
+    MotionFrames streamed;
+    streamed.columns = take.columns;
+    for (int64_t f = 0; f < frames; f += 10) {
+      filler.push(frames_of(take, f, 10), frames_of(manifold, f, 10), streamed);
+      // Before the bridge, every frame but the gap's left border and the
+      // frame before it was held from frame 98 until the take ended.
+      ASSERT_GE(streamed.frame_count(), f + 10 - bridge - 2) << "after frame " << f + 9;
+      ASSERT_LE(filler.held_frames(), bridge + 2 + 10 + kept);
+    }
+    filler.finish(streamed);
+    EXPECT_EQ(streamed.frame_count(), frames);
   }
-  filler.finish(streamed);
-  EXPECT_EQ(streamed.frame_count(), frames);
 }
 
 TEST(LongGaps, TheBridgeStartsWhereTheHeadEndsAndMeetsTheRecording) {
@@ -130,7 +174,9 @@ TEST(LongGaps, TheBridgeStartsWhereTheHeadEndsAndMeetsTheRecording) {
     for (int i = 0; i < 3; ++i) ASSERT_EQ(held.frame(f)[column + i], take.frame(99)[column + i]) << f;
   }
   EXPECT_GT(angle_between_frames(held, 5, 249, 499), 0.05);  // the bridge moves
-  const MotionFrames matched = fill_gaps(take, &manifold, GapFillOptions{}, kRate);
+  GapFillOptions by_matching;
+  by_matching.method = GapMethod::kMatched;
+  const MotionFrames matched = fill_gaps(take, &manifold, by_matching, kRate);
   for (const MotionFrames* fill : {&held, &matched}) {
     // No step across the head's end or into the recording larger than the
     // motion's own largest step (0.4 rad amplitude, 0.25 rad/frame at most
