@@ -53,7 +53,7 @@ struct TakeOptions {
   // denoise
   bool zeros_are_missing = false, means_are_missing = false, keep_observed = false;
   int iterations = 0;
-  std::string gap_fill;  // empty: the server's default, "fitted"
+  std::string gap_fill;  // empty: the server's default, "borrowed"
 
   void add_to(CLI::App* command, bool transforms) {
     command->add_option("--input,--in", input.path, "take file: .txt (exponential-map text of the model's layout) or "
@@ -159,8 +159,9 @@ void add_take_transform(CLI::App* take, const ClientSettings& settings, Action& 
     command->add_option("--iterations", o->iterations, "rounds of projecting and refilling (0: four)");
     command->add_flag("--keep-observed", o->keep_observed, "fill only the missing values");
     command->add_option("--gap-fill", o->gap_fill,
-                        "with --keep-observed, how a gap is filled: fitted (default: a code fitted to a 6 s window "
-                        "around each gap of 0.6 s or more), matched, cubic, slerp, hold or manifold");
+                        "with --keep-observed, how a gap is filled: borrowed (default: the take's own stretch most "
+                        "like the gap's surroundings where one is like enough, else fitted), fitted (a code fitted to "
+                        "a 6 s window around each gap of 0.6 s or more), matched, cubic, slerp, hold or manifold");
   }
   command->callback([o, operation, denoise, &settings, &action] {
     action = [o, operation, denoise, &settings] { return naming_options([&] {

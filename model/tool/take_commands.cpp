@@ -166,7 +166,7 @@ void add_take_operation(CLI::App* take, Action& action, TakeOperation operation)
     bool at_model_rate = false;
     std::string root = "input";
     DenoiseOptions denoise;
-    std::string gap_fill = "fitted";
+    std::string gap_fill = "borrowed";
     bool gap_fill_given = false;
   };
   auto o = std::make_shared<Options>();
@@ -219,7 +219,9 @@ void add_take_operation(CLI::App* take, Action& action, TakeOperation operation)
                       "keep the observed values as given and take the manifold's only where values are missing");
     command
         ->add_option("--gap-fill", o->gap_fill,
-                     "with --keep-observed, how a gap (a run of frames where a joint is nan) is filled: fitted (a "
+                     "with --keep-observed, how a gap (a run of frames where a joint is nan) is filled: borrowed "
+                     "(the movement of the take's own stretch most like the gap's surroundings, within 60 s before "
+                     "and 10 s after it, laid over the cubic where one is like enough, fitted elsewhere), fitted (a "
                      "code fitted to the observed frames of a 6 s window centred on each gap of 0.6 s or more, its "
                      "movement laid over a cubic that meets both borders; at most 20 windows a take, later gaps "
                      "matched), matched (the take's own windows' movement over the cubic), cubic, slerp, hold or "

@@ -58,8 +58,8 @@ struct TakeRequest {
   int iterations = 0;  // 0: four
   bool keep_observed = false;
   // With keep_observed, how a gap is filled (model/gap_interpolation.h):
-  // "fitted" (empty means this), "matched", "cubic", "slerp", "hold" or
-  // "manifold".
+  // "borrowed" (empty means this), "fitted", "matched", "cubic", "slerp",
+  // "hold" or "manifold".
   std::string gap_fill;
   // Reconstruct and denoise: the reply's root path, "input" (empty) or
   // "generated" (the model's trajectory network).

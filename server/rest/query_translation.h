@@ -36,7 +36,7 @@ std::string delete_clip_path_from_query(const QueryParameters& parameters);
 // text only; default 50), hop_seconds, blend, decoder, at_model_rate
 // (true|false), path (a data-root file as the take), and for denoise
 // (`denoise`) zeros_are_missing, means_are_missing, iterations, keep_observed,
-// gap_fill (fitted, matched, cubic, slerp, hold or manifold; with
+// gap_fill (borrowed, fitted, matched, cubic, slerp, hold or manifold; with
 // keep_observed only).
 // frame_rate with a BVH body (`bvh_body`) is refused: its rate is its Frame Time.
 TakeRequest take_request_from_query(const QueryParameters& parameters, bool denoise, bool bvh_body);

@@ -15,7 +15,7 @@ export const GAP_COLOUR = '#d35cff';
 // The fill methods of the denoise route's gap_fill, the service's default
 // first (sent without the parameter, so that the page works with a server
 // that predates it).
-export const GAP_FILL_METHODS = ['fitted', 'matched', 'cubic', 'slerp', 'hold', 'manifold'];
+export const GAP_FILL_METHODS = ['borrowed', 'fitted', 'matched', 'cubic', 'slerp', 'hold', 'manifold'];
 export const DEFAULT_GAP_FILL = GAP_FILL_METHODS[0];
 
 // The frames f of a take of `frames` frames at `rate` Hz whose time f/rate

@@ -347,9 +347,11 @@ class Client:
                      model="", timeout=None, gap_fill=""):
         """The take projected onto the manifold window by window, NaN values
         filled (keep_observed: only those): TakeResult. With keep_observed,
-        gap_fill says how a gap is filled: "fitted" ("" means this: a code
-        fitted to a 6 s window around each gap of 0.6 s or more), "matched",
-        "cubic", "slerp", "hold" or "manifold"; the result's
+        gap_fill says how a gap is filled: "borrowed" ("" means this: the
+        take's own stretch most like the gap's surroundings where one is like
+        enough, else "fitted"), "fitted" (a code fitted to a 6 s window around
+        each gap of 0.6 s or more), "matched", "cubic", "slerp", "hold" or
+        "manifold"; the result's
         gap_windows_fitted, gaps_fitted and gaps_over_fit_limit count the
         fitted fill's work."""
         replies, local_failure = self._take(self.stub.DenoiseTake, take, frame_rate, model, timeout,
