@@ -3,23 +3,26 @@
 # filling missing joints"), on every S5 take present at 25 Hz:
 # - evaluate-gaps: joints made missing at seeded places (gaps of 0.2, 0.5,
 #   1, 2 and 4 s of 1 joint, 5 joints and every joint), filled by hold,
-#   slerp, cubic, the manifold as it is, the matched fill as it was and the
-#   fitted fill, measured against the recording (one run of each take,
-#   about 6 gaps a take);
+#   slerp, cubic, the manifold as it is, the matched fill as it was, the
+#   fitted fill and the borrowed fill (the default: the take's own stretch
+#   where one is like the gap's surroundings, the fitted fill elsewhere),
+#   measured against the recording (one run of each take, about 6 gaps a
+#   take);
 # - evaluate-gaps again on the long every-joint gaps alone (2 and 4 s),
 #   about 65 a length, where a share of 7 to 12 gaps in the first run is
-#   too few to tell the fitted fill from interpolation;
+#   too few to tell the fills from interpolation;
 # - evaluate-keyframes: one pose every 0.5, 1 and 2 s of the first 12 s of
 #   one take of each action, the rest filled;
 # - evaluate-transitions: a 5 s clip of each take joined to one of another
 #   action by transitions of 0.5 to 4 s, generated and crossfaded.
-# The fitted fill is measured with its defaults (GapFillOptions and
-# GapCodeFitOptions, the detail weights chosen on S1 and S6, every joint
-# at 4 s lowered by S5's trial-1 takes), as the take path and the service's
-# DenoiseTake fill with keep_observed.
-# Writes docs/results/gaps/. On the two CPU cores, beside a few minutes of
-# page tests, the four runs took 13.4 minutes (22 of CPU; gaps 6, long
-# gaps 3, keyframes 1, transitions 3), most of it the fitted codes (15 Adam
+# The fills are measured with their defaults (GapFillOptions and
+# GapCodeFitOptions: the detail weights chosen on S1 and S6, every joint at
+# 4 s lowered by S5's trial-1 takes; the borrowed fill's cost bound chosen
+# on S5's trial-1 takes), as the take path and the service's DenoiseTake
+# fill with keep_observed.
+# Writes docs/results/gaps/. On the two CPU cores, beside a test build for
+# some minutes, the four runs took 9.4 minutes (12.7 of CPU; gaps 4, long
+# gaps 4, keyframes 1, transitions 2), most of it the fitted codes (15 Adam
 # steps through the decoder for each gap of 0.6 s or more). Needs the built tool (or
 # MM_TOOL naming a copy of it) and the extracted H3.6M.
 #   scripts/gap-results.sh [MODEL_DIR]
