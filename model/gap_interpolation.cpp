@@ -517,11 +517,11 @@ MotionFrames fill_gaps(const MotionFrames& observed, const MotionFrames* manifol
   }
   if (headed) return fill_gaps(MotionFrames(out), manifold, options, rate_hz, needed_from, as_given ? as_given : &observed);
   if (options.method == GapMethod::kBorrowed) {
-    // The take's own movement where it repeats itself closely enough; the
-    // fitted fill's (the manifold's frames given) elsewhere.
-    // Borrowed from the motion as given: a long gap's head, written as if
-    // observed, is no source, and a span that joins one is as long as
-    // given (borrowed_motion.h bounds its length).
+    // The take's own movement where it repeats itself closely enough, the
+    // fitted fill's (the manifold's frames given) elsewhere. Borrowed from
+    // the motion as given: a long gap's head, written as if observed, is no
+    // source, and a span that joins one is as long as given (too long to
+    // borrow for), in a streamed take as in the whole.
     const MotionFrames borrowed = borrow_take_motion(as_given ? *as_given : observed, rate_hz, options.borrow, needed_from);
     GapFillOptions fitted = options;
     fitted.method = GapMethod::kMatched;
