@@ -241,12 +241,12 @@ const char* gap_method_name(GapMethod method) {
 }
 
 GapMethod parse_gap_method(const std::string& name, const std::string& field) {
-  for (GapMethod method : {GapMethod::kFitted, GapMethod::kBorrowed, GapMethod::kMatched, GapMethod::kCubic,
+  for (GapMethod method : {GapMethod::kBorrowed, GapMethod::kFitted, GapMethod::kMatched, GapMethod::kCubic,
                            GapMethod::kSlerp, GapMethod::kHold, GapMethod::kManifold}) {
     if (name == gap_method_name(method)) return method;
   }
   throw InputError(field,
-                   "expected \"fitted\", \"borrowed\", \"matched\", \"cubic\", \"slerp\", \"hold\" or \"manifold\", "
+                   "expected \"borrowed\", \"fitted\", \"matched\", \"cubic\", \"slerp\", \"hold\" or \"manifold\", "
                    "found \"" + name + "\"");
 }
 

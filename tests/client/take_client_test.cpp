@@ -219,9 +219,11 @@ TEST_F(TakeClientTest, DenoiseFillsTheMissingValuesOfATextTake) {
 // take denoise --gap-fill reaches the server over both protocols: 20 s of
 // S5 walking with every joint missing for 2 s (frames 500 to 599), filled
 // by slerp, comes back the same over gRPC and REST and unlike the default
-// fill (a code fitted to the gap's window), whose line counts the window
-// and the gap it fitted (from the gRPC summary and REST's X-Take-Gap*
-// headers); slerp's counts none. A method the server does not know is
+// fill (borrowed: the walk's own steps, or a code fitted to the gap's
+// window where none is like enough, the window fitted either way), whose
+// line counts the window and the gap it fitted (from the gRPC summary and
+// REST's X-Take-Gap* headers), as the fitted fill's does; slerp's counts
+// none. A method the server does not know is
 // refused naming --gap-fill.
 TEST_F(TakeClientTest, DenoiseGapFillIsSentOverBothProtocolsAndTheFittedGapsAreCounted) {
   auto rows = motion_rows(s5("walking_1.txt"));

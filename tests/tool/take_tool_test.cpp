@@ -164,7 +164,7 @@ TEST(ToolTake, BadTakesAreExitTwoNamingWhatIsWrong) {
   r = run_tool("take denoise " + kModel + " --input " + gapped_file + " --keep-observed --gap-fill spline --out " +
                dir.file("out.txt"));
   EXPECT_EQ(r.exit_code, 2);
-  EXPECT_NE(r.err.find("--gap-fill: expected \"fitted\", \"matched\""), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("--gap-fill: expected \"borrowed\", \"fitted\", \"matched\""), std::string::npos) << r.err;
   r = run_tool("take denoise " + kModel + " --input " + gapped_file + " --gap-fill matched --out " + dir.file("out.txt"));
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("--gap-fill: applies with --keep-observed only"), std::string::npos) << r.err;
