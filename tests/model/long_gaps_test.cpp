@@ -45,6 +45,22 @@ MotionFrames frames_of(const MotionFrames& motion, int64_t first, int64_t count)
   return part;
 }
 
+// `take` pushed through the take path's filler `batch` frames at a time,
+// `manifold` as the model's frames, and what it hands out.
+MotionFrames streamed_fill(const MotionFrames& take, const MotionFrames& manifold, const GapFillOptions& options,
+                           int64_t batch) {
+  const int64_t frames = take.frame_count();
+  TakeGapFiller filler(take.columns, options, kRate);
+  MotionFrames streamed;
+  streamed.columns = take.columns;
+  for (int64_t f = 0; f < frames; f += batch) {
+    const int64_t count = std::min(batch, frames - f);
+    filler.push(frames_of(take, f, count), frames_of(manifold, f, count), streamed);
+  }
+  filler.finish(streamed);
+  return streamed;
+}
+
 double angle_between_frames(const MotionFrames& motion, int joint, int64_t a, int64_t b) {
   const int column = kRootTranslationValues + 3 * joint;
   return expmap_angle_between(motion.frame(a) + column, motion.frame(b) + column);
@@ -75,14 +91,7 @@ TEST(LongGaps, TheTakePathFillsThemAsTheWholeTakeFillDoesWhateverTheBatch) {
       const MotionFrames whole = fill_gaps(take, &manifold, options, kRate);
       for (const int64_t batch : {1, 7, 150}) {
         SCOPED_TRACE(testing::Message() << gap_method_name(method) << ", gain up to " << gain[1] << ", batch " << batch);
-        TakeGapFiller filler(take.columns, options, kRate);
-        MotionFrames streamed;
-        streamed.columns = take.columns;
-        for (int64_t f = 0; f < frames; f += batch) {
-          const int64_t count = std::min(batch, frames - f);
-          filler.push(frames_of(take, f, count), frames_of(manifold, f, count), streamed);
-        }
-        filler.finish(streamed);
+        const MotionFrames streamed = streamed_fill(take, manifold, options, batch);
         ASSERT_EQ(streamed.frame_count(), frames);
         for (size_t i = 0; i < whole.values.size(); ++i) {
           if (i % take.columns < kRootTranslationValues) continue;  // the filler takes the manifold's root
@@ -115,14 +124,7 @@ TEST(LongGaps, TheBorrowedFillStreamsAsTheWholeTakeFillDoesWhateverTheBatch) {
   const MotionFrames whole = fill_gaps(take, &manifold, options, kRate);
   for (const int64_t batch : {1, 7, 150}) {
     SCOPED_TRACE(batch);
-    TakeGapFiller filler(take.columns, options, kRate);
-    MotionFrames streamed;
-    streamed.columns = take.columns;
-    for (int64_t f = 0; f < frames; f += batch) {
-      const int64_t count = std::min(batch, frames - f);
-      filler.push(frames_of(take, f, count), frames_of(manifold, f, count), streamed);
-    }
-    filler.finish(streamed);
+    const MotionFrames streamed = streamed_fill(take, manifold, options, batch);
     ASSERT_EQ(streamed.frame_count(), frames);
     for (size_t i = 0; i < whole.values.size(); ++i) {
       if (i % take.columns < kRootTranslationValues) continue;
