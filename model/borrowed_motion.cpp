@@ -194,12 +194,18 @@ MotionFrames borrow_take_motion(const MotionFrames& observed, double rate_hz, co
   if (spans) spans->clear();
   const int64_t frames = observed.frame_count();
   if (frames == 0 || observed.columns <= kRootTranslationValues) return donor;
-  const SearchableTake searchable(observed, rate_hz, options);
+  std::vector<FrameSpan> searched;
   for (const FrameSpan& span : find_missing_spans(observed)) {
     // A span at either end has one border: held, nothing to borrow between.
     if (span.first < 1 || span.last + 1 >= frames || span.last < needed_from) continue;
     const auto seconds = static_cast<double>(span.length()) / rate_hz;
-    if (seconds < options.min_seconds - 1e-9 || seconds > options.max_span_seconds) continue;
+    if (seconds >= options.min_seconds - 1e-9 && seconds <= options.max_span_seconds) searched.push_back(span);
+  }
+  // The take path calls this at every hand-out: a take with nothing to
+  // search costs no reading of its rotations.
+  if (searched.empty()) return donor;
+  const SearchableTake searchable(observed, rate_hz, options);
+  for (const FrameSpan& span : searched) {
     BorrowedSpan record = searchable.search(span);
     record.used = record.found && record.cost <= options.max_cost;
     if (record.used) write_source(observed, record, donor);

@@ -379,10 +379,6 @@ void fill_gap_with(const MotionFrames& observed, const MotionFrames* manifold, c
     weight = detail_weight(options, static_cast<double>(gap.last - gap.first + 1) / rate_hz,
                            most_joints_missing(observed, (gap.first + gap.last) / 2));
     if (gap_borders_lone_keyframe(observed, gap)) weight = 0;
-    // No detail where the source has none (a span nothing was borrowed for).
-    for (int64_t f = std::max<int64_t>(0, left - 1); f <= std::min(frames - 1, right + 1) && weight > 0; ++f) {
-      if (!observed_at(*manifold, column, f)) weight = 0;
-    }
     const float* m_left = manifold->frame(has_left ? left : right) + column;
     const float* m_right = manifold->frame(has_right ? right : left) + column;
     manifold_path.emplace(quaternion_of(m_left), quaternion_of(m_right), velocity(*manifold, column, left - 1, left),
@@ -489,10 +485,7 @@ void fill_long_gap_head_frame(const LongGapHead& head, const MotionFrames* manif
   // As a gap that runs to the motion's end: held at the left border, with
   // the manifold's rotation since its own left border frame laid over it.
   Quaternion q = quaternion_of(head.left);
-  // No movement where the source has none (a span nothing was borrowed for).
-  const bool source_has_it = head.weight > 0 && observed_at(*manifold, column, frame) &&
-                             !std::isnan(head.manifold_left[0] + head.manifold_left[1] + head.manifold_left[2]);
-  if (source_has_it) {
+  if (head.weight > 0) {
     const Vector detail = log_of(multiply(inverse(quaternion_of(head.manifold_left)), quaternion_of(manifold->frame(frame) + column)));
     q = multiply(q, exp_of(scaled(detail, head.weight)));
   }
@@ -532,9 +525,8 @@ MotionFrames fill_gaps(const MotionFrames& observed, const MotionFrames* manifol
     from_take.speed_gain_range = {1.0, 1.0};
     for (const JointGap& gap : gaps) {
       if (gap.last < needed_from) continue;
-      const bool has_source = gap.first > 0 && gap.last + 1 < observed.frame_count() &&
-                              !std::isnan(borrowed.frame(gap.first)[kRootTranslationValues + 3 * gap.joint]);
-      if (has_source) {
+      // A span borrowed for holds its source's values; any other, its NaN.
+      if (!std::isnan(borrowed.frame(gap.first)[kRootTranslationValues + 3 * gap.joint])) {
         fill_gap(observed, &borrowed, gap, from_take, rate_hz, out);
       } else {
         fill_gap(observed, manifold, gap, fitted, rate_hz, out);

@@ -41,22 +41,14 @@ void TakeGapFiller::push(const MotionFrames& given, const MotionFrames& decoded,
   // cubic needs the first, the speed-matched gain all), keeping the frame
   // before its left border for the same reason (and the context_ frames
   // before it, kept after they are handed out). A final gap is handed out
-  // whole or not at all.
+  // whole or not at all; so is a span of gaps that touch or overlap (each
+  // moves the end before the one it reaches into), which is what the
+  // borrowed fill searches for as a whole: it is final once its last gap
+  // and the lookahead after it have arrived.
   const auto gaps = find_joint_gaps(given_);
   int64_t end = held;
   for (const JointGap& gap : gaps) {
     if (gap.last + 1 + context_ >= held) end = std::max(handed_, std::min(end, gap.first - 2));
-  }
-  if (borrows()) {
-    // A span short enough to borrow is final once its own right border and
-    // the frames after it that it may borrow from have arrived (not only
-    // each of its joints' gaps): it is borrowed for whole, as fill_gaps()
-    // borrows on the whole take.
-    const double longest = options_.borrow.max_span_seconds * rate_hz_;
-    for (const FrameSpan& span : find_missing_spans(as_given_)) {
-      if (static_cast<double>(span.length()) > longest) continue;
-      if (span.last + 1 + context_ >= held) end = std::max(handed_, std::min(end, span.first - 2));
-    }
   }
   for (bool moved = true; moved;) {
     moved = false;

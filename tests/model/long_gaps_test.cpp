@@ -106,21 +106,29 @@ TEST(LongGaps, TheTakePathFillsThemAsTheWholeTakeFillDoesWhateverTheBatch) {
 
 // The borrowed fill streamed: a take that repeats itself (every joint's
 // turning has a period of about 126 frames) with every joint missing for
-// 3.6 s and one joint for 2 s, both spans answered by the take's own
-// stretches; the filler, waiting for the 10 s after a span and keeping the
-// 60 s before, hands out what the whole-take fill gives, whatever the batch.
+// 3.6 s near its start (too little before it: its stretch lies after it)
+// and again later, and two joints over 3.2 s, one of them for its first
+// 2 s only, every span answered by the take's own stretches; the filler,
+// waiting for the 10 s after a span (not only after each joint's gap) and
+// keeping the 60 s before, hands out what the whole-take fill gives,
+// whatever the batch.
 TEST(LongGaps, TheBorrowedFillStreamsAsTheWholeTakeFillDoesWhateverTheBatch) {
   const int64_t frames = 1200;
   MotionFrames take = smooth_motion(frames, 0.0);
   make_missing(take, 5, 300, 349);
-  for (int j = 0; j < 32; ++j) make_missing(take, j, 550, 639);
+  make_missing(take, 7, 330, 379);  // one span with joint 5's, ending after it
+  for (int j = 0; j < 32; ++j) {
+    make_missing(take, j, 40, 129);
+    make_missing(take, j, 550, 639);
+  }
   const MotionFrames manifold = smooth_motion(frames, 1.3);
   const GapFillOptions options;
   ASSERT_EQ(options.method, GapMethod::kBorrowed);
   std::vector<BorrowedSpan> spans;
   borrow_take_motion(take, kRate, options.borrow, 0, &spans);
-  ASSERT_EQ(spans.size(), 2u);
-  EXPECT_TRUE(spans[0].used && spans[1].used) << spans[0].cost << " " << spans[1].cost;
+  ASSERT_EQ(spans.size(), 3u);
+  for (const BorrowedSpan& span : spans) EXPECT_TRUE(span.used) << span.span.first << ": " << span.cost;
+  EXPECT_GT(spans[0].source_left, spans[0].span.last);
   const MotionFrames whole = fill_gaps(take, &manifold, options, kRate);
   for (const int64_t batch : {1, 7, 150}) {
     SCOPED_TRACE(batch);
