@@ -192,7 +192,8 @@ int64_t count_motion_text_rows(const char* data, size_t size, const std::string&
 }
 
 MotionFrames parse_motion_text_rows(const char* data, size_t size, const std::string& source_name,
-                                    int expected_columns, int64_t first_row, int64_t row_count) {
+                                    int expected_columns, int64_t first_row, int64_t row_count,
+                                    bool nan_is_missing) {
   check_columns(expected_columns, source_name);
   MotionFrames motion;
   motion.columns = expected_columns;
@@ -203,7 +204,7 @@ MotionFrames parse_motion_text_rows(const char* data, size_t size, const std::st
   motion.values.reserve(static_cast<size_t>(row_count) * static_cast<size_t>(expected_columns));
   int64_t row_index = 0;
   for_each_row(data, size, source_name, expected_columns, [&](const TextRow& row) {
-    if (row_index >= first_row) parse_row(row, source_name, expected_columns, motion.values);
+    if (row_index >= first_row) parse_row(row, source_name, expected_columns, motion.values, nan_is_missing);
     return ++row_index < first_row + row_count;
   });
   if (motion.frame_count() < row_count) {

@@ -31,8 +31,10 @@ int64_t count_motion_text_rows(const char* data, size_t size, const std::string&
 // Rows first_row .. first_row + row_count - 1 of motion text, parsed and
 // checked as parse_motion_text_buffer does; the rows before them are only
 // counted, the rows after them not read. Throws InputError as
-// parse_motion_text_buffer, and when the text has fewer rows.
+// parse_motion_text_buffer (NaN taken in the joint columns when
+// `nan_is_missing`), and when the text has fewer rows.
 MotionFrames parse_motion_text_rows(const char* data, size_t size, const std::string& source_name,
-                                    int expected_columns, int64_t first_row, int64_t row_count);
+                                    int expected_columns, int64_t first_row, int64_t row_count,
+                                    bool nan_is_missing = false);
 
 }  // namespace mm

@@ -1,5 +1,7 @@
 #include "wire/rest_json.h"
 
+#include <cmath>
+
 namespace mm::wire {
 
 namespace {
@@ -12,7 +14,16 @@ FloatJson floats_json(const Floats& values) {
   FloatJson out = FloatJson::array();
   auto& array = out.get_ref<FloatJson::array_t&>();
   array.reserve(static_cast<size_t>(values.size()));
-  for (const float v : values) array.emplace_back(v);
+  // proto3's JSON mapping spells the non-finite floats as strings, as the
+  // reader takes them: a value missing from a take (NaN) stays missing, where
+  // JSON's own writer would make it null.
+  for (const float v : values) {
+    if (std::isfinite(v)) {
+      array.emplace_back(v);
+    } else {
+      array.emplace_back(std::isnan(v) ? "NaN" : v > 0 ? "Infinity" : "-Infinity");
+    }
+  }
   return out;
 }
 

@@ -23,7 +23,9 @@
 //
 // Documents holding motions or codes are FloatJson: each number is written
 // in its shortest form that reads back to the same float32 ("0.106", not the
-// 17 digits of the double), a third of the size. Their other numbers (a
+// 17 digits of the double), a third of the size, and a non-finite one as
+// proto3's JSON mapping spells it ("NaN", "Infinity", "-Infinity": a missing
+// value of a take read whole stays NaN). Their other numbers (a
 // motion's frame_rate, a take's seconds) are float32 too, as the server has
 // always written them. The other documents are nlohmann::json.
 //

@@ -126,7 +126,8 @@ void read_text_window(const std::string& data, const std::string& relative, cons
                               std::to_string(shape.frames) + " at the model's 25 Hz)");
   }
   check_start(start, reply.last_start, window);
-  const MotionFrames rows = parse_motion_text_rows(data.data(), data.size(), relative, kH36mColumns, start, window_rows);
+  const MotionFrames rows = parse_motion_text_rows(data.data(), data.size(), relative, kH36mColumns, start, window_rows,
+                                                   /*nan_is_missing=*/true);
   Motion& motion = reply.motion;
   motion.frames = shape.frames;
   motion.columns = rows.columns;
@@ -228,7 +229,8 @@ void read_text_whole(const std::string& data, const std::string& relative, const
   reply.file_frames = count_motion_text_rows(data.data(), data.size(), relative, kH36mColumns);
   reply.file_frame_rate = kH36mFrameRate;
   check_whole_length(reply.file_frames, kH36mFrameRate, kH36mColumns, limits, relative);
-  MotionFrames rows = parse_motion_text_rows(data.data(), data.size(), relative, kH36mColumns, 0, reply.file_frames);
+  MotionFrames rows = parse_motion_text_rows(data.data(), data.size(), relative, kH36mColumns, 0, reply.file_frames,
+                                             /*nan_is_missing=*/true);
   reply.motion.frames = reply.file_frames;
   reply.motion.columns = rows.columns;
   reply.motion.frame_rate = kH36mFrameRate;

@@ -57,7 +57,10 @@ ListClipsReply list_data_root_clips(const std::string& data_root, int max_clips)
 // path); NOT_FOUND "path" when nothing is there; INVALID_ARGUMENT "start"
 // when it is negative or past the last full window (naming the largest
 // valid start); RESOURCE_EXHAUSTED "path" for a file over 256 MiB. Only the
-// window's frames are resampled, or its rows parsed.
+// window's frames are resampled, or its rows parsed. A text's value marked
+// missing (`nan` in a joint column, as DenoiseTake reads it) comes back NaN,
+// here and in a whole read: the page shows such a take and fills its gaps
+// (Encode refuses the NaN, naming the value).
 //
 // With request.whole, every frame of the file at its own rate instead, as a
 // take names the file (TakeRequest.path): H3.6M text's rows at 50 Hz in

@@ -11,15 +11,19 @@
 // GET /v1/clips/motion) is every row of the text file at 50 Hz, refused
 // naming "start" for a nonzero start, naming "path" for a file longer
 // than --max-take-seconds, and for a BVH of another skeleton in the words a
-// take of it is refused in.
+// take of it is refused in. Values a text marks missing (`nan`) are read
+// as NaN, whole and in a window, over both protocols.
 #include <gtest/gtest.h>
 #include <grpcpp/grpcpp.h>
 #include <httplib.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -251,6 +255,85 @@ TEST_F(ClipsService, AWholeReadIsEveryRowOfTheTextFileAt50HzOverBothProtocols) {
   EXPECT_EQ(bvh.document["motion"]["frame_rate"], 50);
   EXPECT_EQ(bvh.document["motion"]["layout"], "h36m-expmap-99");
   EXPECT_EQ(bvh.document["motion"]["values"].size(), 400u * 99u);
+}
+
+// A take with lost markers: values a text marks `nan` come back NaN where
+// they are, whole and in a window, over gRPC as floats and over REST as
+// proto3's "NaN" (JSON's own writer would have made them null); every other
+// value is the file's. Encoding such a window is refused naming the value,
+// and a `nan` in the root translation is still a malformed file.
+TEST_F(ClipsService, ValuesATextMarksMissingAreReadAsNaNWholeAndInAWindow) {
+  auto rows = read_motion_text((data_root() / kText).string());
+  rows.values.resize(400 * static_cast<size_t>(rows.columns));
+  const auto missing = [&](int64_t f, int c) { return f >= 100 && f < 150 && c >= 6 && c < 21; };
+  // The file's own text, its missing fields replaced.
+  std::ifstream file(data_root() / kText);
+  std::string text, line;
+  for (int64_t f = 0; f < rows.frame_count() && std::getline(file, line); ++f) {
+    std::stringstream fields(line);
+    std::string field;
+    for (int c = 0; std::getline(fields, field, ','); ++c) text += (c ? "," : "") + (missing(f, c) ? "nan" : field);
+    text += "\n";
+  }
+  const char* const lost = "h36m/S5/walking_1_lost.txt";
+  std::ofstream(data_root() / lost) << text;
+  const auto expect_as_file = [&](const std::vector<float>& values, int64_t first_row, int64_t step, const std::string& via) {
+    ASSERT_EQ(values.size() % 99, 0u) << via;
+    int64_t nans = 0;
+    for (size_t i = 0; i < values.size(); ++i) {
+      const int64_t f = first_row + step * static_cast<int64_t>(i / 99);
+      const int c = static_cast<int>(i % 99);
+      if (missing(f, c)) {
+        ++nans;
+        EXPECT_TRUE(std::isnan(values[i])) << via << ": frame " << f << " column " << c << " is " << values[i];
+      } else {
+        ASSERT_EQ(values[i], rows.frame(f)[c]) << via << ": frame " << f << " column " << c;
+      }
+    }
+    EXPECT_GT(nans, 0) << via;
+  };
+
+  grpc::ClientContext context;
+  v1::ReadClipReply whole;
+  const auto status = read_clip(lost, 0, &whole, &context, /*whole=*/true);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  expect_as_file({whole.motion().values().begin(), whole.motion().values().end()}, 0, 1, "gRPC, whole");
+
+  const test::Reply rest = test::get(port(), "/v1/clips/motion?path=h36m%2FS5%2Fwalking_1_lost.txt");
+  ASSERT_EQ(rest.status, 200) << rest.body.substr(0, 400);
+  const json& values = rest.document["motion"]["values"];
+  ASSERT_EQ(values.size(), 400u * 99u);
+  std::vector<float> read;
+  for (size_t i = 0; i < values.size(); ++i) {
+    if (values[i].is_string()) {
+      ASSERT_EQ(values[i], "NaN") << "REST value " << i;
+      read.push_back(std::numeric_limits<float>::quiet_NaN());
+    } else {
+      read.push_back(values[i].get<float>());
+    }
+  }
+  expect_as_file(read, 0, 1, "REST, whole");
+
+  grpc::ClientContext window_context;
+  v1::ReadClipReply window;
+  const auto window_status = read_clip(lost, 80, &window, &window_context);
+  ASSERT_TRUE(window_status.ok()) << window_status.error_message();
+  expect_as_file({window.motion().values().begin(), window.motion().values().end()}, 80, 2, "gRPC, a window");
+  grpc::ClientContext encode_context;
+  v1::EncodeRequest encode;
+  *encode.add_motions() = window.motion();
+  v1::EncodeReply encoded;
+  const auto refused = stub_->Encode(&encode_context, encode, &encoded);
+  EXPECT_EQ(refused.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << refused.error_message();
+  EXPECT_NE(refused.error_message().find("found NaN"), std::string::npos) << refused.error_message();
+
+  std::ofstream(data_root() / "h36m/S5/root_lost.txt") << "nan" << text.substr(text.find(','));
+  grpc::ClientContext root_context;
+  v1::ReadClipReply root_reply;
+  const auto root_status = read_clip("h36m/S5/root_lost.txt", 0, &root_reply, &root_context, /*whole=*/true);
+  EXPECT_EQ(root_status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(error_field(root_context), "path");
+  EXPECT_NE(root_status.error_message().find("not a root translation"), std::string::npos) << root_status.error_message();
 }
 
 TEST_F(ClipsService, AWholeReadWithAStartIsRefusedNamingStart) {

@@ -15,7 +15,9 @@
 // root (the whole S5 file, 60 s, reconstructed with path=) is read whole by
 // the page (GET v1/clips/motion), drawn under its reconstruction, and a gap
 // marked on it is filled alike: every observed value of the file comes back,
-// the gap's values are filled.
+// the gap's values are filled. A take that comes with values missing (NaN,
+// from the data root or a file) is filled as it loads, drawn filled with its
+// own gaps shaded and coloured, and a gap can be marked on it then.
 //
 //   node take_gap_page_test.mjs NODE_MODULES   (ctest: web_take_view_fills_a_gap_in_chromium)
 import assert from 'node:assert/strict';
@@ -45,7 +47,18 @@ function sameAsSent(sent, value) {
   return Math.abs(sent - value) <= 1e-6 * Math.max(Math.abs(sent), 1e-6);
 }
 
+// A take with markers lost already: the first 20 s of S5 walking_1 with its
+// values `nan` in LOST's spans (joints 6 to 8, the left leg, for 1 s; every
+// joint for 0.5 s), as text.
+const LOST = [{ first: 300, last: 349, columns: [21, 30] }, { first: 600, last: 624, columns: [3, 99] }];
+const lostAt = (f, c) => LOST.some((span) => f >= span.first && f <= span.last && c >= span.columns[0] && c < span.columns[1]);
+function lostTakeRows() {
+  return fs.readFileSync(path.join(h36mDatasetDir(), 'S5', 'walking_1.txt'), 'utf8').trim().split('\n').slice(0, TAKE_FRAMES)
+    .map((row, f) => row.split(',').map((value, c) => (lostAt(f, c) ? 'nan' : value)).join(','));
+}
+
 const server = await startServer();
+fs.writeFileSync(path.join(server.scratch, 'data', 'small', 'S5', 'walking_1_lost.txt'), `${lostTakeRows().join('\n')}\n`);
 const browser = await launchBrowser(puppeteer);
 try {
   const page = await browser.newPage();
@@ -234,6 +247,70 @@ try {
   checkKeepsObserved(fromRoot, `slerp on ${clip}`, fileRows);
   assert.equal((await page.evaluate(() => window.motionManifoldPage.take.describe())).gap.first, GAP.first);
   assert.equal((await describe()).figures[0].label, clip, 'the fill beside the data-root recording');
+
+  // A take that comes with values missing is filled as it loads, by the
+  // form's method, and drawn filled, its own gaps shaded and coloured; the
+  // same from the data root (read whole, its NaN spelt "NaN") and from a file.
+  const lostRows = lostTakeRows().map((row) => row.split(',').map(Number));
+  const checkOwnGapsFilled = async (name, load) => {
+    await page.select('#gap-method', 'slerp');
+    const before = (await page.evaluate(() => window.motionManifoldPage.take.filled())).count;
+    await load();
+    await page.waitForFunction((n) => !document.getElementById('error').hidden ||
+                                      window.motionManifoldPage.take.filled().count > n, { timeout: 300000 }, before);
+    assert.equal(await banner(), '', `loading ${name}, the page shows an error`);
+    const reply = (await page.evaluate(() => window.motionManifoldPage.take.filled())).reply;
+    assert.equal(reply.frames, TAKE_FRAMES, `${name}: frames`);
+    let filledValues = 0;
+    for (let f = 0; f < TAKE_FRAMES; ++f) {
+      for (let c = 0; c < columns; ++c) {
+        const value = reply.values[f * columns + c];
+        if (lostAt(f, c)) {
+          assert.ok(Number.isFinite(value), `${name}: lost frame ${f} column ${c} came back ${value}`);
+          ++filledValues;
+        } else {
+          assert.ok(sameAsSent(lostRows[f][c], value), `${name}: frame ${f} column ${c} sent ${lostRows[f][c]}, came back ${value}`);
+        }
+      }
+    }
+    const take = await page.evaluate(() => window.motionManifoldPage.take.describe());
+    assert.equal(take.gap.own, true, `${name}: its own gaps shown`);
+    assert.deepEqual(take.gap.spans, LOST.map(({ first, last }) => ({ first, last })), `${name}: the spans shown`);
+    assert.equal(take.gap.method, 'slerp');
+    assert.equal(await page.$$eval('#take-strip .gap', (shades) => shades.length), LOST.length, `${name}: a shade a gap`);
+    await seek(LOST[0].first - 20);
+    const outside = await describe();
+    assert.equal(outside.figures.length, 1, `${name}: the filled take alone (nothing recorded to compare in its gaps)`);
+    assert.match(outside.figures[0].label, /its missing values filled by slerp$/);
+    const { colour } = outside.figures[0].marked;
+    assert.deepEqual(outside.figures[0].marked.spans, take.gap.spans);
+    assert.notEqual(outside.figures[0].jointColour, colour, `${name}: a frame before its gaps in the gap colour`);
+    for (const span of LOST) {
+      await seek(Math.round((span.first + span.last) / 2));
+      assert.equal((await describe()).figures[0].jointColour, colour, `${name}: frames ${span.first} to ${span.last} in the gap colour`);
+    }
+    // Between the two gaps nothing was filled.
+    await seek(Math.round((LOST[0].last + LOST[1].first) / 2));
+    assert.notEqual((await describe()).figures[0].jointColour, colour, `${name}: a frame between its gaps in the gap colour`);
+    assert.match(await page.$eval('#take-info', (e) => e.textContent), /2 gaps with values missing \(.*\) filled by slerp/);
+    console.log(`   ${name}: ${filledValues} missing values filled by slerp, every other value as in the file; 2 gaps shaded`);
+  };
+  const lostClip = 'small/S5/walking_1_lost.txt';
+  step(`a take of the data root with values missing already (${lostClip}): filled as it loads`);
+  await page.$eval('#take-rate', (e, v) => (e.value = String(v)), RATE);
+  await page.select('#clip-path', lostClip);
+  await checkOwnGapsFilled(lostClip, () => page.click('#take-clip-button'));
+  step('the same take as a file: filled as it loads');
+  const lostFile = path.join(scratch, 'walking_1_lost.txt');
+  fs.writeFileSync(lostFile, `${lostTakeRows().join('\n')}\n`);
+  await (await page.$('#take-file')).uploadFile(lostFile);
+  await checkOwnGapsFilled('walking_1_lost.txt', () => page.click('#take-button'));
+  step('a gap marked on the filled take');
+  await setField('#gap-from', GAP.fromSeconds);
+  await setField('#gap-to', GAP.toSeconds);
+  const onFilled = await fill('slerp');
+  assert.equal(onFilled.frames, TAKE_FRAMES);
+  assert.equal((await describe()).figures.length, 2, 'the marked gap\'s fill beside the filled take');
   assert.deepEqual(consoleErrors, [], 'console errors');
 } catch (error) {
   console.error(server.log().slice(-4000));

@@ -31,7 +31,9 @@ class Figure {
   // positions: one Float64Array (joints x 3, mm, the root at the origin) per
   // frame; parents[j] < j; rootPath: [x, y, z] (mm) of the root per frame, or
   // null to stand at the origin; marked: { first, last, colour, label } to
-  // draw frames first..last (inclusive) in that colour, or null.
+  // draw frames first..last (inclusive) in that colour (with spans: [{ first,
+  // last }], the frames of those spans only, first..last their extent), or
+  // null.
   constructor(scene, { label, positions, parents, frameRate, colour, rootPath = null, marked = null }) {
     this.label = label;
     this.frameRate = frameRate;
@@ -72,7 +74,7 @@ class Figure {
     const p = this.positions[last];
     this.root = this.rootPath ? this.rootPath[last] : STANDING_ROOT_MM;
     this.place();
-    const inMarked = this.marked && last >= this.marked.first && last <= this.marked.last;
+    const inMarked = this.marked && (this.marked.spans ?? [this.marked]).some((span) => last >= span.first && last <= span.last);
     const colour = inMarked ? this.marked.colour : this.colour;
     this.jointMaterial.color.set(colour);
     this.boneMaterial.color.set(colour);
@@ -290,7 +292,7 @@ export class SkeletonView {
         rootMm: [f.group.position.x - f.laneX, f.group.position.y, f.group.position.z],
         jointColour: `#${f.jointMaterial.color.getHexString()}`,
         boneColour: `#${f.boneMaterial.color.getHexString()}`,
-        marked: f.marked && { first: f.marked.first, last: f.marked.last, colour: f.marked.colour },
+        marked: f.marked && { first: f.marked.first, last: f.marked.last, spans: f.marked.spans ?? null, colour: f.marked.colour },
       })),
     };
   }

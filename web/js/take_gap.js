@@ -4,7 +4,10 @@
 // those joints' values `nan` over the gap (the root translation is never
 // missing: server/rest/README.md, "Takes"), to be filled by POST
 // v1/takes:denoise?keep_observed=true, which keeps every other value as it
-// came. The form's fields are read here; the take panel sends and draws.
+// came. A take that arrives with values missing already (NaN in a file's
+// text, or in a data-root file read whole) has its own gaps: the spans
+// missingSpans finds, filled the same way as it loads. The form's fields
+// are read here; the take panel sends and draws.
 
 const $ = (id) => document.getElementById(id);
 
@@ -58,6 +61,49 @@ export function motionTextWithGap(motion, { first, last, columns }) {
   return `${lines.join('\n')}\n`;
 }
 
+// The take's own gaps: the spans of frames of `motion` (a wire motion) in
+// which some joint value is missing (NaN, as a take's text marks it and
+// the whole read carries it), as [{ first, last }], and the joints missing
+// somewhere in them (indices into the skeleton's joints); no spans for a
+// take with nothing missing.
+export function missingSpans(motion) {
+  const spans = [];
+  const joints = new Set();
+  for (let f = 0; f < motion.frames; ++f) {
+    let missing = false;
+    for (let c = 3; c < motion.columns; ++c) {
+      if (Number.isNaN(motion.values[f * motion.columns + c])) {
+        missing = true;
+        joints.add(Math.floor((c - 3) / 3));
+      }
+    }
+    if (!missing) continue;
+    const last = spans[spans.length - 1];
+    if (last && last.last === f - 1) last.last = f;
+    else spans.push({ first: f, last: f });
+  }
+  return { spans, joints: [...joints].sort((a, b) => a - b) };
+}
+
+// The gap shown for a take's own missing values (missingSpans) filled by
+// `method`: as markedGap's, with every span and `own` set.
+export function ownGap({ spans, joints }, skeleton, method) {
+  return {
+    first: spans[0].first,
+    last: spans[spans.length - 1].last,
+    spans,
+    columns: joints.flatMap(jointColumns),
+    joints: joints.length === skeleton.jointNames.length ? 'every joint' : joints.map((j) => skeleton.jointNames[j]).join(', '),
+    method,
+    own: true,
+  };
+}
+
+// The fill method the form has chosen.
+export function chosenGapFill() {
+  return $('gap-method').value;
+}
+
 // Fills the joint menu with `skeleton`'s joint names (when it is another
 // skeleton than the one listed), keeping what was chosen of the same one.
 export function listGapJoints(skeleton) {
@@ -81,7 +127,7 @@ export function markedGap(frames, rate, skeleton) {
     last,
     columns: chosen.flatMap(jointColumns),
     joints: every ? 'every joint' : chosen.map((j) => skeleton.jointNames[j]).join(', '),
-    method: $('gap-method').value,
+    method: chosenGapFill(),
   };
 }
 

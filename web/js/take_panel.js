@@ -10,12 +10,16 @@
 // (POST v1/takes:denoise?keep_observed=true) and played beside the
 // recording, its filled frames drawn in GAP_COLOUR and shaded on the strip
 // and on the plot, which then shows each frame's distance from the recording.
+// A take that has values missing already (NaN) is filled as it loads (the
+// same route, the form's fill method) and drawn filled, its own gaps shaded;
+// a gap marked later is marked on the filled take.
 import { callApi, callWithToken } from './api_client.js';
 import { runAction } from './call_log.js';
 import { meanJointErrorMm, motionPositions } from './forward_kinematics.js';
 import { skeletonOf } from './model_skeletons.js';
 import { bvhToMotion, textTake } from './motion_files.js';
-import { DEFAULT_GAP_FILL, GAP_COLOUR, listGapJoints, markedGap, motionTextWithGap, setUpGapForm } from './take_gap.js';
+import { DEFAULT_GAP_FILL, GAP_COLOUR, chosenGapFill, listGapJoints, markedGap, missingSpans, motionTextWithGap, ownGap,
+  setUpGapForm } from './take_gap.js';
 
 const $ = (id) => document.getElementById(id);
 
@@ -62,8 +66,8 @@ export function codeColours(codes) {
 
 // The code track as a strip: cell i from window i's start to window i+1's
 // (the last to the take's end), left to right over the take's duration; a
-// filled gap ({ first, last } frames, or null) shaded over it.
-function drawStrip(strip, windows, frames, rate, view, gap) {
+// filled gap (gapSpans: [{ first, last }] frames, none without one) shaded over it.
+function drawStrip(strip, windows, frames, rate, view, spans) {
   const duration = Math.max((frames - 1) / rate, 1e-9);
   const colours = codeColours(windows.map((w) => w.code));
   strip.replaceChildren(...windows.map((w, i) => {
@@ -78,7 +82,7 @@ function drawStrip(strip, windows, frames, rate, view, gap) {
     cell.addEventListener('click', () => view.seek(w.start_frame));
     return cell;
   }));
-  if (gap) {
+  for (const gap of spans) {
     const shade = document.createElement('div');
     shade.className = 'gap';
     shade.style.left = `${(100 * gap.first) / Math.max(frames - 1, 1)}%`;
@@ -96,9 +100,9 @@ function drawStrip(strip, windows, frames, rate, view, gap) {
 }
 
 // Each frame's error (mm) over the take, with a cursor at the frame shown
-// and a filled gap ({ first, last } frames, or null) shaded; returns the
+// and a filled gap's spans ([{ first, last }] frames) shaded; returns the
 // function that moves the cursor.
-function drawErrorPlot(canvas, errors, rate, view, gap) {
+function drawErrorPlot(canvas, errors, rate, view, spans) {
   const { width, height } = canvas;
   const margin = { left: 38, bottom: 16, top: 6 };
   const plotWidth = width - margin.left, plotHeight = height - margin.bottom - margin.top;
@@ -116,12 +120,10 @@ function drawErrorPlot(canvas, errors, rate, view, gap) {
   g.fillText(`${top.toFixed(0)} mm`, 2, margin.top + 9);
   g.fillText('0', 2, margin.top + plotHeight);
   g.fillText(`${((errors.length - 1) / rate).toFixed(1)} s`, width - 40, height - 3);
-  if (gap) {
-    g.fillStyle = GAP_COLOUR;
-    g.globalAlpha = 0.3;
-    g.fillRect(x(gap.first), margin.top, Math.max(x(gap.last) - x(gap.first), 1), plotHeight);
-    g.globalAlpha = 1;
-  }
+  g.fillStyle = GAP_COLOUR;
+  g.globalAlpha = 0.3;
+  for (const gap of spans) g.fillRect(x(gap.first), margin.top, Math.max(x(gap.last) - x(gap.first), 1), plotHeight);
+  g.globalAlpha = 1;
   g.strokeStyle = '#ff8a3d';
   g.beginPath();
   errors.forEach((error, frame) => (frame ? g.lineTo(x(frame), y(error)) : g.moveTo(x(frame), y(error))));
@@ -145,7 +147,8 @@ function drawErrorPlot(canvas, errors, rate, view, gap) {
 }
 
 // What the take view shows, for the browser test; gap: the filled gap shown
-// ({ first, last, columns, joints, method }), or null.
+// ({ first, last, columns, joints, method }, with spans and own for a take's
+// own gaps: take_gap.js's ownGap), or null.
 const shown = { frames: 0, frameRate: 0, windows: 0, errorFrames: 0, meanErrorMm: 0, gap: null };
 
 // The take loaded from a file, which a gap can be marked on: { name, motion
@@ -168,20 +171,26 @@ const downloaded = { count: 0, fileName: '', bvh: '' };
 // strip and the error plot; or, given the `gap` it filled, the filled take
 // beside the original, the gap marked, the plot each frame's distance (mm)
 // from the original.
+// A take's own gaps (gap.own) have no recording to compare: the filled take
+// is drawn alone, the plot the reply's own per-frame error.
 async function showTake(view, name, reply, original, gap = null) {
   const skeleton = await skeletonOf(reply.answered_by.model, reply.answered_by.version);
   const result = motionPositions({ frames: reply.frames, columns: reply.columns, values: reply.values }, skeleton);
-  const recording = original && motionPositions(original, skeleton);
-  const errors = gap ? result.map((pose, f) => meanJointErrorMm([pose], [recording[f]])) : reply.error_mm;
-  const gapMeanMm = gap ? meanJointErrorMm(result.slice(gap.first, gap.last + 1), recording.slice(gap.first, gap.last + 1)) : 0;
-  const label = gap ? `${gap.method} fill (${gapMeanMm.toFixed(1)} mm from the recording in the gap)`
-    : `reconstruction (${reply.summary.mean_error_mm.toFixed(1)} mm)`;
-  const marked = gap && { first: gap.first, last: gap.last, colour: GAP_COLOUR,
-                          label: `filled frames ${gap.first} to ${gap.last} (${gap.joints})` };
+  const compared = gap && !gap.own;
+  const recording = original && !gap?.own && motionPositions(original, skeleton);
+  const errors = compared ? result.map((pose, f) => meanJointErrorMm([pose], [recording[f]])) : reply.error_mm;
+  const gapMeanMm = compared ? meanJointErrorMm(result.slice(gap.first, gap.last + 1), recording.slice(gap.first, gap.last + 1)) : 0;
+  const spans = gap ? gap.spans ?? [{ first: gap.first, last: gap.last }] : [];
+  const label = !gap ? `reconstruction (${reply.summary.mean_error_mm.toFixed(1)} mm)`
+    : compared ? `${gap.method} fill (${gapMeanMm.toFixed(1)} mm from the recording in the gap)`
+      : `${name}, its missing values filled by ${gap.method}`;
+  const marked = gap && { first: gap.first, last: gap.last, spans: gap.spans, colour: GAP_COLOUR,
+                          label: gap.own ? `filled: ${spanCount(spans)} (${gap.joints})`
+                            : `filled frames ${gap.first} to ${gap.last} (${gap.joints})` };
   const figures = [{ label, positions: result, parents: skeleton.parents, frameRate: reply.frame_rate, marked }];
-  if (original) figures.unshift({ label: name, positions: recording, parents: skeleton.parents, frameRate: reply.frame_rate });
-  const moveStripCursor = drawStrip($('take-strip'), reply.windows, reply.frames, reply.frame_rate, view, gap);
-  const movePlotCursor = drawErrorPlot($('take-error'), errors, reply.frame_rate, view, gap);
+  if (recording) figures.unshift({ label: name, positions: recording, parents: skeleton.parents, frameRate: reply.frame_rate });
+  const moveStripCursor = drawStrip($('take-strip'), reply.windows, reply.frames, reply.frame_rate, view, spans);
+  const movePlotCursor = drawErrorPlot($('take-error'), errors, reply.frame_rate, view, spans);
   // The reconstruction over the original, on one spot; a fill beside the
   // recording, which it equals outside the gap.
   $('overlay').checked = !gap;
@@ -193,6 +202,12 @@ async function showTake(view, name, reply, original, gap = null) {
   Object.assign(shown, { frames: reply.frames, frameRate: reply.frame_rate, windows: reply.windows.length,
                          errorFrames: errors.length, meanErrorMm: reply.summary.mean_error_mm, gap });
   const { summary } = reply;
+  if (gap?.own) {
+    $('take-info').textContent = `${name}: ${reply.frames} frames at ${reply.frame_rate} Hz, ${spanCount(spans)} with ` +
+      `values missing (${gap.joints}) filled by ${gap.method}${fittedWork(summary)}; answered by ${reply.answered_by.model}`;
+    $('result').textContent = 'the take\'s missing values filled: the filled frames are drawn and shaded in violet';
+    return;
+  }
   if (gap) {
     $('take-info').textContent = `${name}: frames ${gap.first} to ${gap.last} (${(gap.first / reply.frame_rate).toFixed(2)} ` +
       `to ${(gap.last / reply.frame_rate).toFixed(2)} s) of ${gap.joints} filled by ${gap.method}${fittedWork(summary)}, ` +
@@ -205,6 +220,11 @@ async function showTake(view, name, reply, original, gap = null) {
     `windows of ${summary.window_seconds} s every ${summary.hop_seconds} s; error mean ${summary.mean_error_mm.toFixed(1)} ` +
     `mm, max ${summary.max_error_mm.toFixed(1)} mm; answered by ${reply.answered_by.model}`;
   $('result').textContent = `take reconstructed window by window: click the strip or the plot to seek`;
+}
+
+// "1 gap" or "3 gaps" of `spans`.
+function spanCount(spans) {
+  return `${spans.length} gap${spans.length === 1 ? '' : 's'}`;
 }
 
 // What the fitted fill did, from the reply's summary (its counts are 0 for
@@ -278,12 +298,19 @@ async function reconstructTakeFile(view) {
   const isBvh = extension === 'bvh';
   const text = animationType && !isBvh ? null : await file.text();
   const rate = Number($('take-rate').value);
+  const parsed = text !== null && !isBvh ? textTake(text, rate) : null;
+  const own = parsed && missingSpans(parsed);
+  if (own?.spans.length) {
+    await fillOwnGaps(view, file.name, own, { frame_rate: rate },
+                      (route, options) => callApi('POST', route, { body: text, contentType: 'text/plain', ...options }));
+    return;
+  }
   const route = `v1/takes:reconstruct?${takeQuery(animationType ? {} : { frame_rate: rate })}`;
   const reconstruct = (options) => callApi('POST', route, { body: text ?? file, contentType: animationType ?? 'text/plain',
                                                             summary: file.name, ...options });
   const reply = await reconstruct();
   const skeleton = await skeletonOf(reply.answered_by.model, reply.answered_by.version);
-  const original = isBvh ? bvhToMotion(text, skeleton) : text === null ? null : textTake(text, rate);
+  const original = isBvh ? bvhToMotion(text, skeleton) : parsed;
   await showTake(view, file.name, reply, original);
   rememberTake(file.name, reconstruct);
   loadTake(original && { name: file.name, motion: { ...original, frame_rate: reply.frame_rate }, skeleton });
@@ -295,6 +322,26 @@ function loadTake(take) {
   $('gap-button').disabled = !take;
   if (take) listGapJoints(take.skeleton);
   showGapFrames();
+}
+
+// A take with values missing already (`own`: missingSpans of it), filled as
+// it loads by the route the form's gap fill names (POST
+// v1/takes:denoise?keep_observed=true, `query` saying where the take is,
+// `send` sending it), drawn filled with its gaps shaded, and loaded to mark
+// a gap on as filled.
+async function fillOwnGaps(view, name, own, query, send) {
+  const method = chosenGapFill();
+  const fillQuery = { ...query, keep_observed: 'true' };
+  if (method !== DEFAULT_GAP_FILL) fillQuery.gap_fill = method;
+  const route = `v1/takes:denoise?${takeQuery(fillQuery)}`;
+  const fill = (options) => send(route, { summary: `${name}, its missing values (${method})`, ...options });
+  const reply = await fill();
+  const skeleton = await skeletonOf(reply.answered_by.model, reply.answered_by.version);
+  await showTake(view, name, reply, null, ownGap(own, skeleton, method));
+  rememberTake(name, fill, `${method}-filled`);
+  Object.assign(filled, { count: filled.count + 1, reply });
+  loadTake({ name, skeleton,
+             motion: { frames: reply.frames, columns: reply.columns, frame_rate: reply.frame_rate, values: reply.values } });
 }
 
 // The gap the form marks on the loaded take, sent with those values `nan`
@@ -324,25 +371,46 @@ async function fillTakeGap(view) {
 async function reconstructTakeClip(view) {
   const path = $('clip-path').value;
   if (!path) throw new Error("choose a file of the server's data root first (Refresh lists them)");
-  const text = path.toLowerCase().endsWith('.txt') ? { frame_rate: $('take-rate').value } : {};
+  const isText = path.toLowerCase().endsWith('.txt');
+  const text = isText ? { frame_rate: $('take-rate').value } : {};
+  // A text file is read whole first (its 99 columns whatever the model): one
+  // with values missing is filled as it loads, which reconstructing it is not.
+  let textWhole = null;
+  if (isText) {
+    textWhole = await readWhole(path, {});
+    const own = textWhole && missingSpans(textWhole.motion);
+    if (own?.spans.length) {
+      await fillOwnGaps(view, path, own, { path, ...text }, (route, options) => callWithToken('POST', route, options));
+      return;
+    }
+  }
   const route = `v1/takes:reconstruct?${takeQuery({ path, ...text })}`;
   const reconstruct = (options) => callWithToken('POST', route, { summary: path, ...options });
   const reply = await reconstruct();
   const { model, version } = reply.answered_by;
-  // A file too large to answer whole in one reply (--max-message-bytes) is
-  // still shown reconstructed, with no gap to mark on it.
-  let original = null;
-  try {
-    const whole = await callWithToken('GET', `v1/clips/motion?${new URLSearchParams({ path, model })}`,
-                                      { summary: `${path}, whole` });
-    // At the take's rate: a text file's rows at the rate it was sent at.
-    original = { ...whole.motion, frame_rate: reply.frame_rate };
-  } catch (error) {
-    console.warn(`${path} not read whole, so no gap can be marked on it: ${error.message}`);
-  }
+  const whole = isText ? textWhole : await readWhole(path, { model });
+  // At the take's rate: a text file's rows at the rate it was sent at.
+  const original = whole && { ...whole.motion, frame_rate: reply.frame_rate };
   await showTake(view, path, reply, original);
   rememberTake(path, reconstruct);
   loadTake(original && { name: path, motion: original, skeleton: await skeletonOf(model, version) });
+}
+
+// The data-root file `path` read whole (GET v1/clips/motion; `query` may
+// name the model), its values' NaN spelt "NaN" made numbers; or null when
+// it cannot be (a file too large to answer whole in one reply,
+// --max-message-bytes: it is still shown reconstructed, with no gap to mark
+// on it).
+async function readWhole(path, query) {
+  try {
+    const whole = await callWithToken('GET', `v1/clips/motion?${new URLSearchParams({ path, ...query })}`,
+                                      { summary: `${path}, whole` });
+    whole.motion.values = whole.motion.values.map(Number);
+    return whole;
+  } catch (error) {
+    console.warn(`${path} not read whole, so no gap can be marked on it: ${error.message}`);
+    return null;
+  }
 }
 
 // Writes the frames the gap's times stand for on the loaded take.
