@@ -61,6 +61,10 @@ struct Sums {
   int64_t gaps = 0;
   double mpjpe = 0, angle = 0, jump_ratio = 0, jump_mm = 0, median_move = 0;
   int64_t over_limit = 0;       // gaps whose border jump exceeds 1.5x the median move
+  // The recording's own move at the same frames, over the same median: what
+  // a fill that continues the motion without a pop jumps by.
+  double recorded_jump_ratio = 0;
+  int64_t recorded_over_limit = 0;
   double moved = 0, moved_recorded = 0;  // mm over the gap's transitions
   SkatingCount skating, skating_recorded;
   void add(const Sums& o) {
@@ -71,6 +75,8 @@ struct Sums {
     jump_mm += o.jump_mm;
     median_move += o.median_move;
     over_limit += o.over_limit;
+    recorded_jump_ratio += o.recorded_jump_ratio;
+    recorded_over_limit += o.recorded_over_limit;
     moved += o.moved;
     moved_recorded += o.moved_recorded;
     skating.skating += o.skating.skating;
@@ -87,6 +93,8 @@ struct Sums {
             {"median_move_mm", median_move / n},
             {"border_jump_ratio", jump_ratio / n},
             {"border_jump_over_1_5_share", static_cast<double>(over_limit) / n},
+            {"recorded_border_jump_ratio", recorded_jump_ratio / n},
+            {"recorded_border_jump_over_1_5_share", static_cast<double>(recorded_over_limit) / n},
             {"speed_ratio", moved_recorded > 0 ? moved / moved_recorded : 0.0},
             {"skating_ratio", skating.ratio()},
             {"recorded_skating_ratio", skating_recorded.ratio()}};
@@ -292,6 +300,9 @@ GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vec
         const SkatingCount recorded_skating = skating_ratio(skeleton, slice(take.frames, context_first, context_last), kRate);
         double recorded_moved = 0;
         for (int64_t f = left; f < right; ++f) recorded_moved += mean_move(recorded_positions, joint_count, f, f + 1, moved_joints);
+        const double recorded_jump = std::max(mean_move(recorded_positions, joint_count, left, left + 1, moved_joints),
+                                              mean_move(recorded_positions, joint_count, right - 1, right, moved_joints));
+        const double recorded_jump_ratio = recorded_jump / std::max(median_move, 1e-6);
         // One row a gap (the JSON's gap_records): where it is, how well its
         // window's fitted code met the observed values, and the MPJPE and
         // speed ratio of each method and fixed detail weight, for choosing
@@ -336,6 +347,8 @@ GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vec
           s.median_move = median_move;
           s.jump_ratio = s.jump_mm / std::max(median_move, 1e-6);
           s.over_limit = s.jump_ratio > 1.5 ? 1 : 0;
+          s.recorded_jump_ratio = recorded_jump_ratio;
+          s.recorded_over_limit = recorded_jump_ratio > 1.5 ? 1 : 0;
           for (int64_t f = 0; f < right - left; ++f) s.moved += mean_move(p, joint_count, f, f + 1, moved_joints);
           s.moved_recorded = recorded_moved;
           s.skating = skating_ratio(skeleton, slice(filled[m], context_first, context_last), kRate);
@@ -391,24 +404,29 @@ GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vec
   // Markdown: one table per measure, configurations by method, then the
   // every-joint gaps per action.
   std::string md;
-  auto table = [&](const char* title, const char* key, const char* format) {
-    md += std::string("\n") + title + "\n\n| joints | gap (s) | gaps |";
+  // `recorded_key`: the recording's own value of the measure, in a column
+  // before the methods'.
+  auto table = [&](const char* title, const char* key, const char* format, const char* recorded_key = nullptr) {
+    md += std::string("\n") + title + "\n\n| joints | gap (s) | gaps |" + (recorded_key ? " recording |" : "");
     for (int m = 0; m < kShown; ++m) md += std::string(" ") + kMethodNames[m] + " |";
-    md += "\n|---|---:|---:|";
+    md += std::string("\n|---|---:|---:|") + (recorded_key ? "---:|" : "");
     for (int m = 0; m < kShown; ++m) md += "---:|";
     md += "\n";
     for (size_t c = 0; c < configs.size(); ++c) {
       md += "| " + config_joints_name(configs[c].joints) + " | " + number(configs[c].seconds) + " | " +
             std::to_string(overall[c][0].gaps) + " |";
+      if (recorded_key) md += " " + number(overall[c][0].json()[recorded_key].get<double>(), format) + " |";
       for (int m = 0; m < kShown; ++m) md += " " + number(overall[c][static_cast<size_t>(m)].json()[key].get<double>(), format) + " |";
       md += "\n";
     }
   };
   table("MPJPE on the gap frames (mm, joints the missing rotations move):", "mpjpe_mm", "%.1f");
   table("Joint-angle error of the missing joints (degrees):", "angle_error_deg", "%.1f");
-  table("Border jump, the larger of into and out of the gap, over the take's median move of the same joints:",
-        "border_jump_ratio", "%.2f");
-  table("Share of gaps whose border jump exceeds 1.5x the take's median move:", "border_jump_over_1_5_share", "%.2f");
+  table("Border jump, the larger of into and out of the gap, over the take's median move of the same joints "
+        "(recording: the recording's own move at the same frames):",
+        "border_jump_ratio", "%.2f", "recorded_border_jump_ratio");
+  table("Share of gaps whose border jump exceeds 1.5x the take's median move:", "border_jump_over_1_5_share", "%.2f",
+        "recorded_border_jump_over_1_5_share");
   table("Speed ratio: the joints' movement across the gap over the recording's:", "speed_ratio", "%.2f");
   table("Foot-skating ratio of the gap with 1 s each side (the recording's beside it in the JSON):", "skating_ratio",
         "%.3f");

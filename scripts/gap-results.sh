@@ -20,10 +20,9 @@
 # 4 s lowered by S5's trial-1 takes; the borrowed fill's cost bound chosen
 # on S5's trial-1 takes), as the take path and the service's DenoiseTake
 # fill with keep_observed.
-# Writes docs/results/gaps/. On the two CPU cores, beside a test build for
-# some minutes, the four runs took 9.4 minutes (12.7 of CPU; gaps 4, long
-# gaps 4, keyframes 1, transitions 2), most of it the fitted codes (15 Adam
-# steps through the decoder for each gap of 0.6 s or more). Needs the built tool (or
+# Writes docs/results/gaps/. On the two idle CPU cores the four runs took
+# 10.6 minutes (20.1 of CPU), most of it the fitted codes (15 Adam steps
+# through the decoder for each gap of 0.6 s or more). Needs the built tool (or
 # MM_TOOL naming a copy of it) and the extracted H3.6M.
 #   scripts/gap-results.sh [MODEL_DIR]
 set -euo pipefail

@@ -297,7 +297,8 @@ TEST(Tool, HelpShowsNoPathOfTheBuildMachine) {
 
 // The gap benchmark's JSON holds one record a gap, which the tables'
 // means are made of, with how well the gap's fitted code met the frames
-// observed around it (docs/RESULTS.md relates the two).
+// observed around it (docs/RESULTS.md relates the two), and beside the
+// border jumps the recording's own move at the same frames.
 TEST(Tool, TheGapBenchmarkRecordsEveryGapWithItsFit) {
   MM_REQUIRE_H36M();
   test::ScratchDir dir;
@@ -316,8 +317,16 @@ TEST(Tool, TheGapBenchmarkRecordsEveryGapWithItsFit) {
     EXPECT_GT(record.at("fit_observed_error").get<double>(), 0.0) << record.dump();
     cubic += record.at("cubic").at("mpjpe_mm").get<double>();
   }
-  const double table = document.at("configurations").at(0).at("methods").at("cubic").at("mpjpe_mm").get<double>();
+  const auto& methods = document.at("configurations").at(0).at("methods");
+  const double table = methods.at("cubic").at("mpjpe_mm").get<double>();
   EXPECT_NEAR(cubic / static_cast<double>(records.size()), table, 1e-9);
+  // The recording's own border move, the jumps' reference, is the same
+  // beside every method; the recording moves there.
+  const double recorded = methods.at("slerp").at("recorded_border_jump_ratio").get<double>();
+  EXPECT_GT(recorded, 0.0);
+  for (const auto& [name, method] : methods.items()) {
+    EXPECT_EQ(method.at("recorded_border_jump_ratio").get<double>(), recorded) << name;
+  }
 }
 
 // decode writes 25 Hz; encode reads it back with --rate 25, and the code it
