@@ -509,6 +509,56 @@ TEST_F(ClientTest, ClipsReadWholeWritesEveryRowOfTheFile) {
   }
 }
 
+// A take whose markers dropped out (nan in its joint columns) is read whole
+// as it is: each missing value comes back as nan in the same row and
+// column, over both protocols (REST carries it as "NaN"), and every other
+// value as the file has it.
+TEST_F(ClientTest, ClipsReadWholeKeepsATakesMissingValuesWhereTheFileHasThem) {
+  auto rows = motion_rows(s5("walking_1.txt"));
+  rows.resize(120);
+  const auto lost = [](size_t row, size_t column) {
+    return (row >= 30 && row < 45 && column >= 12 && column < 18) || (row >= 90 && row < 100 && column >= 3);
+  };
+  const fs::path file = scratch_->path() / "data" / "lost" / "walking_1_lost.txt";
+  fs::create_directories(file.parent_path());
+  {
+    std::ofstream out(file);
+    out.precision(9);
+    for (size_t k = 0; k < rows.size(); ++k) {
+      for (size_t c = 0; c < rows[k].size(); ++c) {
+        if (c) out << ',';
+        if (lost(k, c)) {
+          out << "nan";
+        } else {
+          out << rows[k][c];
+        }
+      }
+      out << '\n';
+    }
+  }
+  for (const auto& protocol : {grpc(), rest()}) {
+    const std::string out = dir_.file("lost.txt");
+    const auto run = run_client(protocol + " " + token() + " clips read lost/walking_1_lost.txt --whole --out " + out);
+    ASSERT_EQ(run.exit_code, 0) << protocol << ": " << run.err;
+    const auto whole = motion_rows(out);
+    ASSERT_EQ(whole.size(), rows.size()) << protocol;
+    size_t missing = 0;
+    for (size_t k = 0; k < whole.size(); ++k) {
+      ASSERT_EQ(whole[k].size(), 99u);
+      for (size_t c = 0; c < 99; ++c) {
+        if (lost(k, c)) {
+          ASSERT_TRUE(std::isnan(whole[k][c])) << protocol << " row " << k << " column " << c << ": " << whole[k][c];
+          ++missing;
+        } else {
+          ASSERT_NEAR(whole[k][c], rows[k][c], 1e-6) << protocol << " row " << k << " column " << c;
+        }
+      }
+    }
+    EXPECT_EQ(missing, 15u * 6 + 10u * 96) << protocol;
+  }
+  fs::remove_all(file.parent_path());
+}
+
 // One unit for every start: encode --start counts the file's rows as
 // clips read --start and REST's start= do, so the same start of the same
 // file is the same window and gives the same code (an odd row included).
