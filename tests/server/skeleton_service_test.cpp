@@ -125,9 +125,12 @@ fs::path dance_data_root(const ScratchDir& scratch) {
 }
 
 // A server that trains jobs on `data_root`, with its state in `scratch`.
+// Its jobs train on one thread: ctest runs two suites at once on two
+// cores, and a child's two OpenMP threads spinning beside the other suite
+// slowed this suite from 20 s alone to 241 s in a full run.
 std::vector<std::string> job_server_args(const ScratchDir& scratch, const fs::path& data_root) {
   fs::create_directories(data_root);
-  return {"--state-dir", (scratch.path() / "state").string(), "--data-root", data_root.string(), "--training-threads", "2"};
+  return {"--state-dir", (scratch.path() / "state").string(), "--data-root", data_root.string(), "--training-threads", "1"};
 }
 
 // Trains a tiny manifold of the dances under `dataset` (dances/) of the data

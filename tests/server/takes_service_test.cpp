@@ -306,7 +306,7 @@ std::string raw_answer(int port, const std::string& request) {
 // ------------------------------------------------------------------ suite
 
 // One server with the shipped models for the suite's ordinary takes.
-class Takes : public ::testing::Test {
+class TakesService : public ::testing::Test {
  protected:
   // One executor thread: ctest runs two suites at once on two cores, where
   // OpenMP threads spinning beside another suite slow a take several times.
@@ -318,13 +318,13 @@ class Takes : public ::testing::Test {
   static ServerProcess& server() { return *server_; }
   static ServerProcess* server_;
 };
-ServerProcess* Takes::server_ = nullptr;
+ServerProcess* TakesService::server_ = nullptr;
 
 // Every whole S5 file, any length, through the default model at its own
 // 50 Hz: as many frames come back as went in, at the same rate, in chunks
 // of at most 2048 frames, each with its error. A hop of 6 s (windows side
 // by side) halves the suite's time; the other tests join overlapping ones.
-TEST_F(Takes, EveryS5FileComesBackWithItsFramesAndRateOverGrpc) {
+TEST_F(TakesService, EveryS5FileComesBackWithItsFramesAndRateOverGrpc) {
   auto stub = stub_of(server());
   double motion_seconds = 0, wall_seconds = 0, cpu_seconds = 0;
   for (const auto& [name, motion] : s5_files()) {
@@ -364,7 +364,7 @@ TEST_F(Takes, EveryS5FileComesBackWithItsFramesAndRateOverGrpc) {
 
 // An S5 file over REST: motion text in; JSON, motion text and BVH out,
 // each as long as the input at its rate; the code track of encode.
-TEST_F(Takes, S5FilesOverRestComeBackAsJsonTextAndBvh) {
+TEST_F(TakesService, S5FilesOverRestComeBackAsJsonTextAndBvh) {
   const int port = server().rest_port();
   for (const std::string name : {"walking_1.txt"}) {
     const MotionFrames& motion = s5(name);
@@ -417,7 +417,7 @@ TEST_F(Takes, S5FilesOverRestComeBackAsJsonTextAndBvh) {
 // The H3.6M skeleton as a 120 Hz BVH (an S5 file brought to 120 Hz by the
 // library's resampling and exported): a 120 Hz BVH of the same frame count
 // comes back, over REST as BVH and over gRPC as frames at 120 Hz.
-TEST_F(Takes, A120HzBvhOfTheH36mSkeletonComesBackAt120HzOverBothProtocols) {
+TEST_F(TakesService, A120HzBvhOfTheH36mSkeletonComesBackAt120HzOverBothProtocols) {
   const Skeleton skeleton = Skeleton::h36m();
   const MotionFrames at_120 = resample_motion(head(s5("walking_1.txt"), 1500), 50, 120);
   const std::string bvh = write_bvh_text(skeleton_motion_to_bvh(skeleton, bvh_layout_of(skeleton), at_120, 120));
@@ -449,7 +449,7 @@ TEST_F(Takes, A120HzBvhOfTheH36mSkeletonComesBackAt120HzOverBothProtocols) {
 // comes back where it was: the reply's root follows the input's absolute
 // positions over REST (BVH in and out) and over gRPC (the client's import
 // of the BVH, the reply exported again), not restarted at the origin.
-TEST_F(Takes, ABvhTakeKeepsItsAbsoluteRootOverBothProtocols) {
+TEST_F(TakesService, ABvhTakeKeepsItsAbsoluteRootOverBothProtocols) {
   const Skeleton skeleton = Skeleton::h36m();
   MotionFrames at_60 = resample_motion(head(s5("walking_1.txt"), 600), 50, 60);
   at_60.frame(0)[0] = 1234.5f;  // the capture's start, mm
@@ -488,7 +488,7 @@ TEST_F(Takes, ABvhTakeKeepsItsAbsoluteRootOverBothProtocols) {
 // travels about as far as the recording over 20 s of walking, with the
 // lowest foot on the floor; "input" copies the take's; anything else, or a
 // model without a trajectory network, is refused naming "root".
-TEST_F(Takes, AGeneratedRootTravelsLikeTheRecordingAndABadRootIsRefusedNamingIt) {
+TEST_F(TakesService, AGeneratedRootTravelsLikeTheRecordingAndABadRootIsRefusedNamingIt) {
   const MotionFrames walk = head(s5("walking_1.txt"), 1000);
   auto stub = stub_of(server());
   v1::TakeHeader header = take_header(50);
@@ -524,7 +524,7 @@ TEST_F(Takes, AGeneratedRootTravelsLikeTheRecordingAndABadRootIsRefusedNamingIt)
 // DenoiseTake fills gaps of 0.5 s on five joints (NaN): nothing missing
 // comes back, and with keep_observed every observed value is returned as
 // sent (the root translation always is).
-TEST_F(Takes, DenoiseTakeFillsHalfSecondGapsOnFiveJointsAndKeepsTheObservedValues) {
+TEST_F(TakesService, DenoiseTakeFillsHalfSecondGapsOnFiveJointsAndKeepsTheObservedValues) {
   MotionFrames motion = head(s5("walking_1.txt"), 1500);  // 30 s at 50 Hz
   const int joints[] = {1, 2, 6, 7, 17};
   std::vector<bool> missing(motion.values.size(), false);
@@ -621,7 +621,7 @@ double pose_distance(const float* a, const float* b) {
 // the gap, none for "matched". Measured: slerp 73.2 mm at 0.14x the
 // recording's speed, matched 98.1 mm at 1.00x, fitted 60.5 mm at 1.00x
 // (23 s, 31 s of CPU with the next test, at a load of 7 on two cores).
-TEST_F(Takes, DenoiseTakeFillsATwoSecondGapOfEveryJointFromAFittedCodeNearerTheRecordingThanSlerp) {
+TEST_F(TakesService, DenoiseTakeFillsATwoSecondGapOfEveryJointFromAFittedCodeNearerTheRecordingThanSlerp) {
   const MotionFrames take = head(s5("walking_1.txt"), 1500);  // 30 s
   const int64_t first = 1000, last = 1099;
   const MotionFrames gapped = with_every_joint_missing(take, {{first, last}});
@@ -678,7 +678,7 @@ TEST_F(Takes, DenoiseTakeFillsATwoSecondGapOfEveryJointFromAFittedCodeNearerTheR
 // the gap in the X-Take-Gap* headers, slerp none. A name the server does
 // not know, or gap_fill without keep_observed, is 400 naming gap_fill, as
 // gRPC's refusal names it.
-TEST_F(Takes, GapFillOverRestFillsAsOverGrpcAndItsHeadersCountTheFittedGaps) {
+TEST_F(TakesService, GapFillOverRestFillsAsOverGrpcAndItsHeadersCountTheFittedGaps) {
   const MotionFrames gapped = with_every_joint_missing(head(s5("walking_1.txt"), 1000), {{500, 599}});
   const std::string body = motion_text(gapped);
   const int port = server().rest_port();
@@ -766,8 +766,10 @@ TEST(TakesOfAnotherRig, ACmuDanceAt120HzComesBackAt120HzThroughAModelOfItsRig) {
     fs::create_directories((root / "dances" / file).parent_path());
     fs::copy_file(cmu_dance_dir() / file, root / "dances" / file);
   }
+  // The job on one thread, as skeleton_service_test.cpp's: two spinning
+  // beside another suite slow both many times over.
   ServerProcess server({"--state-dir", (scratch.path() / "state").string(), "--data-root", root.string(),
-                        "--training-threads", "2"});
+                        "--training-threads", "1"});
   const int port = server.rest_port();
   const auto started = Clock::now();
   const Reply job = post(port, "/v1/jobs",
