@@ -32,7 +32,7 @@ export function h36mDatasetDir() {
 
 function smallDataRoot(scratch) {
   const dataset = h36mDatasetDir();
-  const files = { S1: ['walking_1.txt', 'walking_2.txt', 'eating_1.txt'], S5: ['walking_1.txt'] };
+  const files = { S1: ['walking_1.txt', 'walking_2.txt', 'eating_1.txt'], S5: ['walking_1.txt', 'greeting_1.txt'] };
   for (const [subject, names] of Object.entries(files)) {
     fs.mkdirSync(path.join(scratch, 'data', 'small', subject), { recursive: true });
     for (const name of names) fs.copyFileSync(path.join(dataset, subject, name), path.join(scratch, 'data', 'small', subject, name));

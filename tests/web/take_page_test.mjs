@@ -83,7 +83,7 @@ try {
   assert.equal(await page.$eval('#take-download-button', (e) => e.disabled), true, 'no take to download yet');
 
   step('a whole S5 file as a take: every frame plays at 50 Hz beside its reconstruction');
-  const s5File = path.join(h36mDatasetDir(), 'S5', 'walking_1.txt');
+  const s5File = path.join(h36mDatasetDir(), 'S5', 'greeting_1.txt');
   const rows = fs.readFileSync(s5File, 'utf8').trim().split('\n');
   // The server's own reply to the same take, for the windows and the reconstruction.
   const direct = await fetch(`${server.direct}/v1/takes:reconstruct?frame_rate=50`, {
@@ -94,7 +94,7 @@ try {
   await reconstructFile(s5File, 50);
   let view = await describe();
   assert.equal(view.figures.length, 2);
-  assert.equal(view.figures[0].label, 'walking_1.txt');
+  assert.equal(view.figures[0].label, 'greeting_1.txt');
   assert.match(view.figures[1].label, /^reconstruction \(\d+\.\d mm\)$/);
   for (const figure of view.figures) {
     assert.equal(figure.joints, 32);
@@ -115,7 +115,7 @@ try {
 
   step('Download BVH: the take shown as a BVH file of every frame at 50 Hz');
   let download = await downloadBvh();
-  assert.equal(download.fileName, 'walking_1-reconstructed.bvh');
+  assert.equal(download.fileName, 'greeting_1-reconstructed.bvh');
   let timing = bvhTiming(download.bvh);
   console.log(`   ${download.fileName}: ${download.bvh.length} bytes, ${JSON.stringify(timing)}`);
   assert.equal(timing.frames, rows.length, 'Frames: of the downloaded BVH');
@@ -126,7 +126,7 @@ try {
   await page.click('#take-download-glb-button');
   await page.waitForFunction((n) => window.motionManifoldPage.take.downloaded().count > n, { timeout: 300000 }, beforeGlb);
   const glb = await page.evaluate(() => window.motionManifoldPage.take.downloaded());
-  assert.equal(glb.fileName, 'walking_1-reconstructed.glb');
+  assert.equal(glb.fileName, 'greeting_1-reconstructed.glb');
   // 25 rotations and a translation of 4-byte floats a frame, at least.
   assert.ok(glb.bytes > rows.length * (25 * 16 + 12), `the glb holds ${glb.bytes} bytes for ${rows.length} frames`);
   console.log(`   ${glb.fileName}: ${glb.bytes} bytes`);
@@ -163,17 +163,17 @@ try {
   await checkBothAt(rows.length - 1, 'slider');
 
   step("the same file read by the server from its data root (path=)");
-  await page.select('#clip-path', 'small/S5/walking_1.txt');
+  await page.select('#clip-path', 'small/S5/greeting_1.txt');
   await page.click('#take-clip-button');
-  await waitForTake('small/S5/walking_1.txt');
+  await waitForTake('small/S5/greeting_1.txt');
   view = await describe();
   // The file, read whole from the data root (GET v1/clips/motion), under its reconstruction.
-  assert.deepEqual(view.figures.map((f) => [f.label, f.frames]).slice(0, 1), [['small/S5/walking_1.txt', rows.length]]);
+  assert.deepEqual(view.figures.map((f) => [f.label, f.frames]).slice(0, 1), [['small/S5/greeting_1.txt', rows.length]]);
   assert.equal(view.figures.length, 2);
   assert.equal(view.figures[1].frames, rows.length);
   assert.equal((await describeTake()).cells, reply.windows.length);
   download = await downloadBvh();
-  assert.equal(download.fileName, 'walking_1-reconstructed.bvh', 'a data-root file is named without its folders');
+  assert.equal(download.fileName, 'greeting_1-reconstructed.bvh', 'a data-root file is named without its folders');
   assert.deepEqual(bvhTiming(download.bvh), { frames: rows.length, frameTime: 0.02 }, 'the data-root file as BVH');
 
   step('a take of the model\'s own for the screenshot: sampled codes decoded as a track, 50 Hz');
