@@ -24,22 +24,38 @@ constexpr double kRate = kTakeModelRate;
 // The methods the tables show, then the fitted fill at fixed detail
 // weights, then with its weights and the speed-matched gain in other
 // ranges (the JSON's, for choosing them on training subjects).
-constexpr int kShown = 9, kFixedWeights = 5, kMethods = 22;
+constexpr int kShown = 9, kFixedWeights = 5, kMethods = 28;
 // The borrowed fill (borrowed_motion.h) with its defaults, and with every
-// source taken whatever its cost (the JSON's, for choosing the cost bound).
-constexpr int kBorrowed = 8, kBorrowedUngated = kMethods - 1;
+// source taken whatever its cost (the JSON's, for choosing the cost bound),
+// then with the detail's slow movement taken out (of the sources' and the
+// fitted fallback's, or of the fallback's alone, at its weights or at full
+// weight) and a speed gain on the fallback (the JSON's, for choosing
+// GapFillOptions::detail_lowcut_seconds).
+constexpr int kBorrowed = 8, kBorrowedUngated = 21, kLowcut = 22;
 const char* const kMethodNames[kMethods] = {
     "hold",          "slerp",           "cubic",          "manifold",        "matched",
     "fit_raw",       "fit_full",        "fitted",         "borrowed",        "detail_0",
     "detail_0.25",   "detail_0.5",      "detail_0.75",    "detail_1",        "speed_0.5_1.5",
     "speed_0.5_2",   "shared_0.5_1.5",  "shared_0.5_2",   "shared_1_2",      "shared_0.75_1.5",
-    "shared_0.5_3",  "borrow_ungated"};
+    "shared_0.5_3",  "borrow_ungated",  "borrowed_lowcut_1", "fallback_lowcut_1", "fallback_lowcut_1_full",
+    "fallback_lowcut_1_full_gain_1_2", "fallback_lowcut_1_full_gain_1_3", "fallback_lowcut_0.5_full"};
+// The low-cut period (s, 0: none) of the fitted fallback's detail and of
+// the sources', whether the fallback lays its detail at full weight, and
+// the fallback's speed gain.
+struct LowcutVariant {
+  double fallback_seconds, source_seconds;
+  bool full_weight;
+  std::array<double, 2> gain;
+};
+constexpr LowcutVariant kLowcutVariants[kMethods - kLowcut] = {
+    {1.0, 1.0, false, {1.0, 1.0}}, {1.0, 0.0, false, {1.0, 1.0}}, {1.0, 0.0, true, {1.0, 1.0}},
+    {1.0, 0.0, true, {1.0, 2.0}},  {1.0, 0.0, true, {1.0, 3.0}},  {0.5, 0.0, true, {1.0, 1.0}}};
 // The speed-matched gain's range, and whether a gap's joints share it.
 struct SpeedGainVariant {
   std::array<double, 2> range;
   bool shared;
 };
-constexpr SpeedGainVariant kSpeedGainVariants[kMethods - kShown - kFixedWeights - 1] = {
+constexpr SpeedGainVariant kSpeedGainVariants[kBorrowedUngated - kShown - kFixedWeights] = {
     {{0.5, 1.5}, false}, {{0.5, 2.0}, false}, {{0.5, 1.5}, true}, {{0.5, 2.0}, true},
     {{1.0, 2.0}, true},  {{0.75, 1.5}, true}, {{0.5, 3.0}, true}};
 
@@ -261,6 +277,14 @@ GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vec
       method_options[kBorrowed].method = GapMethod::kBorrowed;
       method_options[kBorrowedUngated] = method_options[kBorrowed];
       method_options[kBorrowedUngated].borrow.max_cost = std::numeric_limits<double>::infinity();
+      for (int m = kLowcut; m < kMethods; ++m) {
+        const LowcutVariant& variant = kLowcutVariants[m - kLowcut];
+        method_options[m] = method_options[kBorrowed];
+        method_options[m].detail_lowcut_seconds = variant.fallback_seconds;
+        method_options[m].borrow.detail_lowcut_seconds = variant.source_seconds;
+        if (variant.full_weight) method_options[m].most_joints_detail = {1.0, 1.0, 1.0};
+        method_options[m].speed_gain_range = variant.gain;
+      }
       for (int m = kShown + kFixedWeights; m < kBorrowedUngated; ++m) {
         method_options[m] = options.fill;
         method_options[m].method = GapMethod::kMatched;
@@ -355,7 +379,7 @@ GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vec
           s.skating_recorded = recorded_skating;
           overall[gap.config][static_cast<size_t>(m)].add(s);
           per_action[take.action][gap.config][static_cast<size_t>(m)].add(s);
-          if (m < kShown + kFixedWeights || m == kBorrowedUngated) {
+          if (m < kShown + kFixedWeights || m >= kBorrowedUngated) {
             record[kMethodNames[m]] = {{"mpjpe_mm", s.mpjpe},
                                        {"speed_ratio", s.moved_recorded > 0 ? s.moved / s.moved_recorded : 0.0}};
           }

@@ -206,6 +206,49 @@ double speed_matched_weight(const MotionFrames& observed, int column, const Join
   return (a + b) / 2;
 }
 
+// `detail` (a gap's frames, nil at the border frames just outside it) less
+// its movement slower than `period_frames`: a Gaussian low-pass (half
+// response at that period) of the detail continued past each border as its
+// odd mirror image (period 2 (n + 1), nil at -1 and n), subtracted.
+void remove_slow_detail(std::vector<Vector>& detail, double period_frames) {
+  const auto n = static_cast<int64_t>(detail.size());
+  if (n == 0 || !(period_frames > 0)) return;
+  const double sigma = std::sqrt(std::log(2.0) / 2.0) / M_PI * period_frames;
+  const auto radius = static_cast<int64_t>(std::ceil(3 * sigma));
+  std::vector<double> kernel(static_cast<size_t>(radius + 1));
+  double kernel_sum = 0;
+  for (int64_t k = 0; k <= radius; ++k) {
+    kernel[static_cast<size_t>(k)] = std::exp(-0.5 * static_cast<double>(k * k) / (sigma * sigma));
+    kernel_sum += (k == 0 ? 1 : 2) * kernel[static_cast<size_t>(k)];
+  }
+  const int64_t period = 2 * (n + 1);
+  const auto extended = [&](int64_t i) {
+    int64_t j = (i + 1) % period;
+    if (j < 0) j += period;
+    if (j == 0 || j == n + 1) return Vector{};
+    if (j <= n) return detail[static_cast<size_t>(j - 1)];
+    return scaled(detail[static_cast<size_t>(2 * n + 1 - j)], -1.0);
+  };
+  std::vector<Vector> slow(detail.size());
+  for (int64_t i = 0; i < n; ++i) {
+    Vector sum;
+    for (int64_t k = -radius; k <= radius; ++k) {
+      const Vector v = extended(i + k);
+      const double w = kernel[static_cast<size_t>(std::abs(k))];
+      sum.x += w * v.x;
+      sum.y += w * v.y;
+      sum.z += w * v.z;
+    }
+    slow[static_cast<size_t>(i)] = scaled(sum, 1.0 / kernel_sum);
+  }
+  for (int64_t i = 0; i < n; ++i) {
+    Vector& d = detail[static_cast<size_t>(i)];
+    d.x -= slow[static_cast<size_t>(i)].x;
+    d.y -= slow[static_cast<size_t>(i)].y;
+    d.z -= slow[static_cast<size_t>(i)].z;
+  }
+}
+
 // The gains a gap's joints share (GapFillOptions::speed_gain_shared) are
 // chosen among these steps across speed_gain_range.
 constexpr int kSharedGainSteps = 64;
@@ -402,6 +445,9 @@ void fill_gap_with(const MotionFrames& observed, const MotionFrames* manifold, c
       detail[i] = log_of(multiply(inverse(manifold_path->at(u)), quaternion_of(manifold->frame(f) + column)));
     }
   }
+  if (!detail.empty() && !one_border && options.detail_lowcut_seconds > 0) {
+    remove_slow_detail(detail, options.detail_lowcut_seconds * rate_hz);
+  }
   if (probe) {
     if (detail.empty()) return;
     probe->target =
@@ -523,6 +569,7 @@ MotionFrames fill_gaps(const MotionFrames& observed, const MotionFrames* manifol
     from_take.few_joints_detail.fill(options.borrow.weight);
     from_take.most_joints_detail.fill(options.borrow.weight);
     from_take.speed_gain_range = {1.0, 1.0};
+    from_take.detail_lowcut_seconds = options.borrow.detail_lowcut_seconds;
     for (const JointGap& gap : gaps) {
       if (gap.last < needed_from) continue;
       // A span borrowed for holds its source's values; any other, its NaN.

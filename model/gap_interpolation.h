@@ -100,6 +100,9 @@ struct BorrowOptions {
   double min_seconds = 2.0;
   // The source's movement is laid at this weight.
   double weight = 1.0;
+  // The source's detail's slow movement taken out
+  // (GapFillOptions::detail_lowcut_seconds, for the borrowed spans; 0: none).
+  double detail_lowcut_seconds = 0.0;
 };
 
 // How much of the manifold's detail the matched fill keeps, by the gap's
@@ -146,6 +149,20 @@ struct GapFillOptions {
   // 0.69x).
   std::array<double, 2> speed_gain_range = {1.0, 1.0};
   double speed_context_seconds = 1.0;
+  // Where not 0: the detail's movement slower than this period (s) is taken
+  // out of it before it is laid (a Gaussian low-pass of the detail, half its
+  // amplitude at this period, subtracted), so that the cubic says where a
+  // joint goes across a long gap and the detail only how it moves on the way:
+  // a detail's slow drift puts the whole pose somewhere the recording was
+  // not, its faster movement is what keeps the fill from freezing. The
+  // detail is continued past each border as its odd mirror image (it is nil
+  // at both borders), so the filtered detail is nil there too and the fill
+  // still meets the observed frames. Gaps with both borders only. Off, as
+  // measured (evaluate-gaps, the JSON's `*lowcut*` columns; docs/RESULTS.md
+  // "Gaps"): on the training subjects the manifold's slow movement is right,
+  // and taking it out of the fitted fallback costs every-joint gaps of 2 s
+  // 88.1 mm against 56.3; on S5 it gains 3% at 2 s and nothing sure at 4 s.
+  double detail_lowcut_seconds = 0.0;
   // fill_gaps(): one gain for the joints missing over the same frames,
   // matching the sum of their speeds, instead of one a joint.
   bool speed_gain_shared = false;
