@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <vector>
 
 #include "format/input_error.h"
@@ -163,8 +164,12 @@ void write_fitted_window(const GapFitWindow& fit, const float* clip, int64_t win
       const auto at = static_cast<size_t>(f - out_first);
       if (!gap_frames && written[at]) continue;
       if (gap_frames) written[at] = true;
-      std::memcpy(out.frame(f - out_first) + kRootTranslationValues,
-                  clip + (f - fit.start) * columns + kRootTranslationValues,
+      float* values = out.frame(f - out_first) + kRootTranslationValues;
+      if (gap_frames && !fit.lays_detail) {
+        std::fill_n(values, columns - kRootTranslationValues, std::numeric_limits<float>::quiet_NaN());
+        continue;
+      }
+      std::memcpy(values, clip + (f - fit.start) * columns + kRootTranslationValues,
                   sizeof(float) * static_cast<size_t>(columns - kRootTranslationValues));
     }
   }
@@ -207,7 +212,10 @@ MotionFrames fit_gap_codes(const MotionManifold& model, const MotionFrames& obse
   if (fits.empty()) return result;
   std::vector<double> errors;
   const auto clips = fit_window_clips(model, windows, kind, options, &errors);
-  for (size_t b = 0; b < fits.size(); ++b) fits[b].observed_error = errors[b];
+  for (size_t b = 0; b < fits.size(); ++b) {
+    fits[b].observed_error = errors[b];
+    fits[b].lays_detail = errors[b] <= options.max_observed_error;
+  }
   if (fitted_windows) *fitted_windows = fits;
   std::vector<bool> written(static_cast<size_t>(frames), false);
   for (const bool gap_frames : {false, true}) {

@@ -24,6 +24,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "format/motion_frames.h"
@@ -50,6 +51,14 @@ struct GapCodeFitOptions {
   // done: at most about 12 minutes of CPU at that load whatever the take
   // (docs/RESULTS.md, "Gaps").
   int max_windows = 20;
+  // A window whose fitted code meets its observed values worse than this
+  // (GapFitWindow::observed_error) lays no detail over its gaps: their
+  // frames are written missing (NaN), which the matched fill reads as the
+  // cubic alone (gap_interpolation.h), since a code that misses what was
+  // observed around a gap is no guide to the gap. Off (infinite) by
+  // default; docs/RESULTS.md "Gaps" measures a bound of 0.3 from the gap
+  // records (level on the training subjects, 6% nearer on S5 at 2 s).
+  double max_observed_error = std::numeric_limits<double>::infinity();
 };
 
 // One window of the model's clip fitted to the observed values around the
@@ -60,6 +69,9 @@ struct GapFitWindow {
   // After the fit: the mean squared error of the fitted code's decoded
   // values against the window's observed ones (normalised, as the fit's loss).
   double observed_error = 0;
+  // Whether its gaps get its clip (observed_error within the options'
+  // max_observed_error) or are written missing.
+  bool lays_detail = true;
 };
 
 // The rules by which gaps get windows, shared by the whole-motion fit below
@@ -96,9 +108,10 @@ std::vector<std::vector<float>> fit_window_clips(const MotionManifold& model, co
 // out.frame(f - out_first)): the frames two either side of each gap (the
 // matched fill reads the manifold's borders and their velocities) when
 // `gap_frames` is false, skipping those `written` marks; the gaps' own
-// frames when true, marking them in `written` (same indexing). Written in
-// that order over every window, a gap's frames are never another window's
-// border frames.
+// frames when true, marking them in `written` (same indexing), as missing
+// (NaN) where the window lays no detail (GapFitWindow::lays_detail).
+// Written in that order over every window, a gap's frames are never
+// another window's border frames.
 void write_fitted_window(const GapFitWindow& fit, const float* clip, int64_t window, bool gap_frames,
                          MotionFrames& out, int64_t out_first, std::vector<bool>& written);
 

@@ -24,7 +24,7 @@ constexpr double kRate = kTakeModelRate;
 // The methods the tables show, then the fitted fill at fixed detail
 // weights, then with its weights and the speed-matched gain in other
 // ranges (the JSON's, for choosing them on training subjects).
-constexpr int kShown = 9, kFixedWeights = 5, kMethods = 28;
+constexpr int kShown = 9, kFixedWeights = 5, kMethods = 29;
 // The borrowed fill (borrowed_motion.h) with its defaults, and with every
 // source taken whatever its cost (the JSON's, for choosing the cost bound),
 // then with the detail's slow movement taken out (of the sources' and the
@@ -32,13 +32,19 @@ constexpr int kShown = 9, kFixedWeights = 5, kMethods = 28;
 // weight) and a speed gain on the fallback (the JSON's, for choosing
 // GapFillOptions::detail_lowcut_seconds).
 constexpr int kBorrowed = 8, kBorrowedUngated = 21, kLowcut = 22;
+// Last, the borrowed fill with the fitted windows whose error on their
+// observed values exceeds kFitGate laying no detail
+// (GapCodeFitOptions::max_observed_error).
+constexpr int kFitGated = 28;
+constexpr double kFitGate = 0.3;
 const char* const kMethodNames[kMethods] = {
     "hold",          "slerp",           "cubic",          "manifold",        "matched",
     "fit_raw",       "fit_full",        "fitted",         "borrowed",        "detail_0",
     "detail_0.25",   "detail_0.5",      "detail_0.75",    "detail_1",        "speed_0.5_1.5",
     "speed_0.5_2",   "shared_0.5_1.5",  "shared_0.5_2",   "shared_1_2",      "shared_0.75_1.5",
     "shared_0.5_3",  "borrow_ungated",  "borrowed_lowcut_1", "fallback_lowcut_1", "fallback_lowcut_1_full",
-    "fallback_lowcut_1_full_gain_1_2", "fallback_lowcut_1_full_gain_1_3", "fallback_lowcut_0.5_full"};
+    "fallback_lowcut_1_full_gain_1_2", "fallback_lowcut_1_full_gain_1_3", "fallback_lowcut_0.5_full",
+    "borrowed_fit_gate_0.3"};
 // The low-cut period (s, 0: none) of the fitted fallback's detail and of
 // the sources', whether the fallback lays its detail at full weight, and
 // the fallback's speed gain.
@@ -47,7 +53,7 @@ struct LowcutVariant {
   bool full_weight;
   std::array<double, 2> gain;
 };
-constexpr LowcutVariant kLowcutVariants[kMethods - kLowcut] = {
+constexpr LowcutVariant kLowcutVariants[kFitGated - kLowcut] = {
     {1.0, 1.0, false, {1.0, 1.0}}, {1.0, 0.0, false, {1.0, 1.0}}, {1.0, 0.0, true, {1.0, 1.0}},
     {1.0, 0.0, true, {1.0, 2.0}},  {1.0, 0.0, true, {1.0, 3.0}},  {0.5, 0.0, true, {1.0, 1.0}}};
 // The speed-matched gain's range, and whether a gap's joints share it.
@@ -277,7 +283,16 @@ GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vec
       method_options[kBorrowed].method = GapMethod::kBorrowed;
       method_options[kBorrowedUngated] = method_options[kBorrowed];
       method_options[kBorrowedUngated].borrow.max_cost = std::numeric_limits<double>::infinity();
-      for (int m = kLowcut; m < kMethods; ++m) {
+      method_options[kFitGated] = method_options[kBorrowed];
+      // The fitted frames as a bound on the fit's error would leave them.
+      MotionFrames gated = fitted;
+      std::vector<bool> gated_written(static_cast<size_t>(frames), false);
+      for (GapFitWindow window : fit_windows) {
+        if (window.observed_error <= kFitGate) continue;
+        window.lays_detail = false;  // its gaps written missing: no clip read
+        write_fitted_window(window, nullptr, model.config().frames, true, gated, 0, gated_written);
+      }
+      for (int m = kLowcut; m < kFitGated; ++m) {
         const LowcutVariant& variant = kLowcutVariants[m - kLowcut];
         method_options[m] = method_options[kBorrowed];
         method_options[m].detail_lowcut_seconds = variant.fallback_seconds;
@@ -299,7 +314,7 @@ GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vec
       }
       MotionFrames filled[kMethods];
       for (int m = 0; m < kMethods; ++m) {
-        filled[m] = fill_gaps(corrupted, m < 5 ? &decoded.frames : &fitted, method_options[m], kRate);
+        filled[m] = fill_gaps(corrupted, m < 5 ? &decoded.frames : m == kFitGated ? &gated : &fitted, method_options[m], kRate);
       }
 
       for (const PlacedGap& gap : gaps) {
@@ -421,7 +436,10 @@ GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vec
         {"speed_context_seconds", options.fill.speed_context_seconds},
         {"speed_gain_shared", options.fill.speed_gain_shared},
         {"code_fit_iterations", options.code_fit.iterations},
-        {"code_fit_min_seconds", options.code_fit.min_seconds}}},
+        {"code_fit_min_seconds", options.code_fit.min_seconds},
+        {"code_fit_max_observed_error", std::isfinite(options.code_fit.max_observed_error)
+                                            ? nlohmann::json(options.code_fit.max_observed_error)
+                                            : nlohmann::json(nullptr)}}},
       {"configurations", config_rows},
       {"gap_records", gap_records}};
 

@@ -422,6 +422,9 @@ void fill_gap_with(const MotionFrames& observed, const MotionFrames* manifold, c
     weight = detail_weight(options, static_cast<double>(gap.last - gap.first + 1) / rate_hz,
                            most_joints_missing(observed, (gap.first + gap.last) / 2));
     if (gap_borders_lone_keyframe(observed, gap)) weight = 0;
+    // Frames written missing: a fitted window that laid no detail
+    // (GapCodeFitOptions::max_observed_error), the cubic alone.
+    if (std::isnan(manifold->frame(gap.first)[column])) weight = 0;
     const float* m_left = manifold->frame(has_left ? left : right) + column;
     const float* m_right = manifold->frame(has_right ? right : left) + column;
     manifold_path.emplace(quaternion_of(m_left), quaternion_of(m_right), velocity(*manifold, column, left - 1, left),

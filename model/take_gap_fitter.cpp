@@ -122,7 +122,8 @@ void TakeGapFitter::fit_ready_windows(bool ended) {
   std::vector<const float*> windows;
   for (const GapFitWindow& fit : ready) windows.push_back(observed_frame(fit.start));
   std::vector<std::vector<float>> clips;
-  auto work = [&] { clips = fit_window_clips(model_, windows, kind_, options_); };
+  std::vector<double> errors;
+  auto work = [&] { clips = fit_window_clips(model_, windows, kind_, options_, &errors); };
   if (run_) {
     run_(work);
   } else {
@@ -132,6 +133,8 @@ void TakeGapFitter::fit_ready_windows(bool ended) {
   // marks keep a gap's frames from a later window's borders, which gives
   // what fit_gap_codes() writes on the whole take.
   for (size_t i = 0; i < ready.size(); ++i) {
+    ready[i].observed_error = errors[i];
+    ready[i].lays_detail = errors[i] <= options_.max_observed_error;
     for (const bool gap_frames : {false, true}) {
       write_fitted_window(ready[i], clips[i].data(), window_, gap_frames, decoded_, decoded_first_, written_);
     }

@@ -286,6 +286,63 @@ TEST_F(GapFilling, TheTakePathFitsGapsAsTheWholeTakeFitDoesUpToItsBound) {
   EXPECT_GT(borrowing_changed, 0.05);  // some gap is not the fitted fill
 }
 
+// A fitted window whose code meets its observed values worse than
+// GapCodeFitOptions::max_observed_error lays no detail: its gap is the
+// cubic's fill, on the whole take and through the take path alike, while
+// the window within the bound lays its fitted detail as without a bound.
+TEST_F(GapFilling, AWindowFittedPastTheErrorBoundLaysOnlyTheCubic) {
+  MM_REQUIRE_H36M();
+  MotionFrames gapped = s5_at_25("walking_1.txt", 16);
+  std::vector<int> every;
+  for (int j = 0; j < model_->skeleton().joint_count(); ++j) every.push_back(j);
+  make_missing(gapped, every, 60, 109);   // 2 s, window 1
+  make_missing(gapped, every, 300, 349);  // 2 s, window 2
+  GapCodeFitOptions fit;
+  fit.iterations = 2;
+  fit.encoder_rounds = 1;
+  const MotionFrames decoded = denoise(gapped, GapMethod::kMatched, false, 1).frames;
+  std::vector<GapFitWindow> windows;
+  const MotionFrames fitted = fit_gap_codes(*model_, gapped, decoded, DecoderKind::kRotation, fit, nullptr, &windows);
+  ASSERT_EQ(windows.size(), 2u);
+  std::printf("the windows' errors on their observed values: %.4f and %.4f\n", windows[0].observed_error,
+              windows[1].observed_error);
+  ASSERT_NE(windows[0].observed_error, windows[1].observed_error);
+  // The bound between the two: the worse window is past it.
+  fit.max_observed_error = (windows[0].observed_error + windows[1].observed_error) / 2;
+  const bool first_over = windows[0].observed_error > windows[1].observed_error;
+  const MotionFrames gated = fit_gap_codes(*model_, gapped, decoded, DecoderKind::kRotation, fit);
+  GapFillOptions by_fit;
+  by_fit.method = GapMethod::kFitted;
+  GapFillOptions cubic;
+  cubic.method = GapMethod::kCubic;
+  const MotionFrames whole = fill_gaps(gapped, &gated, by_fit, 25);
+  const MotionFrames unbounded = fill_gaps(gapped, &fitted, by_fit, 25);
+  const MotionFrames interpolated = fill_gaps(gapped, nullptr, cubic, 25);
+  const TakeResult streamed = denoise(gapped, GapMethod::kFitted, true, 1, fit);
+  ASSERT_EQ(streamed.frames.values.size(), whole.values.size());
+  double laid = 0;
+  for (int64_t f = 0; f < gapped.frame_count(); ++f) {
+    for (int c = 0; c < gapped.columns; ++c) {
+      const float value = gapped.frame(f)[c];
+      if (!std::isnan(value)) {
+        ASSERT_EQ(whole.frame(f)[c], value) << "frame " << f << " column " << c;
+        ASSERT_EQ(streamed.frames.frame(f)[c], value) << "frame " << f << " column " << c;
+        continue;
+      }
+      const bool over = (f < 200) == first_over;
+      if (over) {
+        ASSERT_EQ(whole.frame(f)[c], interpolated.frame(f)[c]) << "frame " << f << " column " << c;
+        ASSERT_NEAR(streamed.frames.frame(f)[c], interpolated.frame(f)[c], 1e-6) << "frame " << f << " column " << c;
+      } else {
+        ASSERT_EQ(whole.frame(f)[c], unbounded.frame(f)[c]) << "frame " << f << " column " << c;
+        ASSERT_NEAR(streamed.frames.frame(f)[c], unbounded.frame(f)[c], 1e-4) << "frame " << f << " column " << c;
+        laid = std::max(laid, static_cast<double>(std::fabs(whole.frame(f)[c] - interpolated.frame(f)[c])));
+      }
+    }
+  }
+  EXPECT_GT(laid, 0.05);  // the window within the bound is not the cubic
+}
+
 // Between lone keyframes (one observed frame, the frames on both sides of
 // it missing) the manifold's detail is laid nowhere: the fill is the cubic
 // through the keyframes, which was nearer the recording (keyframes every
