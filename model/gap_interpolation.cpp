@@ -392,7 +392,11 @@ void fill_gap_with(const MotionFrames& observed, const MotionFrames* manifold, c
     throw std::invalid_argument("fill_gap: the manifold's frames are needed, of the observed motion's shape");
   }
   if (probe && !has_left && !has_right) return;
-  if (options.method == GapMethod::kManifold || (!has_left && !has_right && uses_manifold)) {
+  // The manifold's frames as they are, unless they were written missing (a
+  // fitted window that lays no detail, GapCodeFitOptions::max_observed_error):
+  // then the cubic, as the matched fills give such a gap.
+  const bool manifold_missing = uses_manifold && std::isnan(manifold->frame(gap.first)[column]);
+  if (!manifold_missing && (options.method == GapMethod::kManifold || (!has_left && !has_right && uses_manifold))) {
     for (int64_t f = gap.first; f <= gap.last; ++f) std::copy_n(manifold->frame(f) + column, 3, out.frame(f) + column);
     return;
   }
@@ -422,9 +426,7 @@ void fill_gap_with(const MotionFrames& observed, const MotionFrames* manifold, c
     weight = detail_weight(options, static_cast<double>(gap.last - gap.first + 1) / rate_hz,
                            most_joints_missing(observed, (gap.first + gap.last) / 2));
     if (gap_borders_lone_keyframe(observed, gap)) weight = 0;
-    // Frames written missing: a fitted window that laid no detail
-    // (GapCodeFitOptions::max_observed_error), the cubic alone.
-    if (std::isnan(manifold->frame(gap.first)[column])) weight = 0;
+    if (manifold_missing) weight = 0;  // the cubic alone, as above
     const float* m_left = manifold->frame(has_left ? left : right) + column;
     const float* m_right = manifold->frame(has_right ? right : left) + column;
     manifold_path.emplace(quaternion_of(m_left), quaternion_of(m_right), velocity(*manifold, column, left - 1, left),

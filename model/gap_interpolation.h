@@ -202,7 +202,9 @@ double detail_weight(const GapFillOptions& options, double seconds, bool most_jo
 // `observed` with every gap filled as options.method says; `manifold` (the
 // model's output for the same frames, same columns; for kFitted and
 // kBorrowed the fitted codes' frames) is read for kManifold, kMatched,
-// kFitted and kBorrowed only and may be null otherwise. kBorrowed lays the
+// kFitted and kBorrowed only and may be null otherwise; a gap whose manifold
+// frames are missing (NaN: a fitted window past
+// GapCodeFitOptions::max_observed_error) gets the cubic. kBorrowed lays the
 // take's own movement (borrowed_motion.h) over a gap whose source costs at
 // most options.borrow.max_cost, and is kFitted elsewhere. Values outside
 // gaps (and the root translation columns) are the observed ones. `rate_hz`
