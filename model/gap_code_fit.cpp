@@ -81,6 +81,16 @@ bool gap_joins_window(const GapFitWindow& fit, const FrameSpan& span, int64_t wi
   return !fit.spans.empty() && span.last - fit.spans.front().first + 1 <= window - context;
 }
 
+bool window_lays_detail(const GapFitWindow& fit, const float* window_values, int columns,
+                        const GapCodeFitOptions& options) {
+  if (fit.observed_error <= options.max_observed_error) return true;
+  for (const FrameSpan& span : fit.spans) {
+    const int64_t middle = (span.first + span.last) / 2 - fit.start;
+    if (most_joints_missing(window_values + middle * columns, columns)) return false;
+  }
+  return true;
+}
+
 int64_t centred_window_start(const GapFitWindow& fit, int64_t frames, int64_t window) {
   const int64_t first = fit.spans.front().first, last = fit.spans.back().last;
   return std::clamp<int64_t>((first + last + 1) / 2 - window / 2, 0, frames - window);
@@ -214,7 +224,7 @@ MotionFrames fit_gap_codes(const MotionManifold& model, const MotionFrames& obse
   const auto clips = fit_window_clips(model, windows, kind, options, &errors);
   for (size_t b = 0; b < fits.size(); ++b) {
     fits[b].observed_error = errors[b];
-    fits[b].lays_detail = errors[b] <= options.max_observed_error;
+    fits[b].lays_detail = window_lays_detail(fits[b], windows[b], observed.columns, options);
   }
   if (fitted_windows) *fitted_windows = fits;
   std::vector<bool> written(static_cast<size_t>(frames), false);

@@ -24,7 +24,6 @@
 #pragma once
 
 #include <cstdint>
-#include <limits>
 #include <vector>
 
 #include "format/motion_frames.h"
@@ -51,14 +50,19 @@ struct GapCodeFitOptions {
   // done: at most about 12 minutes of CPU at that load whatever the take
   // (docs/RESULTS.md, "Gaps").
   int max_windows = 20;
-  // A window whose fitted code meets its observed values worse than this
-  // (GapFitWindow::observed_error) lays no detail over its gaps: their
-  // frames are written missing (NaN), which the matched fill reads as the
-  // cubic alone (gap_interpolation.h), since a code that misses what was
-  // observed around a gap is no guide to the gap. Off (infinite) by
-  // default; docs/RESULTS.md "Gaps" measures a bound of 0.3 from the gap
-  // records (level on the training subjects, 6% nearer on S5 at 2 s).
-  double max_observed_error = std::numeric_limits<double>::infinity();
+  // A window of in-betweening (a gap with most joints missing at its middle,
+  // as GapFillOptions tells most joints from a few) whose fitted code meets
+  // its observed values worse than this (GapFitWindow::observed_error) lays
+  // no detail over its gaps: their frames are written missing (NaN), which
+  // the matched fill reads as the cubic alone (gap_interpolation.h), since a
+  // code that misses the whole body around a gap is no guide to the gap.
+  // Chosen from the gap records of the benchmark (docs/RESULTS.md "Gaps"):
+  // 0.3 is the tightest bound that costs the training subjects' every-joint
+  // gaps under 2%, and it brings S5's 2 s gaps 5 to 10% nearer. Windows of a
+  // few joints' gaps are not bounded: there the error is mostly that of the
+  // joints observed through the gap, and bounding them cost S5's gaps of 1
+  // and 5 joints up to 24%. Infinity: no bound.
+  double max_observed_error = 0.3;
 };
 
 // One window of the model's clip fitted to the observed values around the
@@ -69,10 +73,17 @@ struct GapFitWindow {
   // After the fit: the mean squared error of the fitted code's decoded
   // values against the window's observed ones (normalised, as the fit's loss).
   double observed_error = 0;
-  // Whether its gaps get its clip (observed_error within the options'
-  // max_observed_error) or are written missing.
+  // Whether its gaps get its clip (window_lays_detail) or are written missing.
   bool lays_detail = true;
 };
+
+// Whether a fitted window lays its clip's detail over its gaps: its
+// observed_error within options.max_observed_error, or none of its gaps
+// in-betweening (most joints missing at the gap's middle frame).
+// `window_values`: the window's observed values (the model's clip from
+// fit.start, `columns` values a frame, NaN where missing).
+bool window_lays_detail(const GapFitWindow& fit, const float* window_values, int columns,
+                        const GapCodeFitOptions& options);
 
 // The rules by which gaps get windows, shared by the whole-motion fit below
 // and the take path's streaming one (take_gap_fitter.h), so that both make

@@ -32,11 +32,9 @@ constexpr int kShown = 9, kFixedWeights = 5, kMethods = 29;
 // weight) and a speed gain on the fallback (the JSON's, for choosing
 // GapFillOptions::detail_lowcut_seconds).
 constexpr int kBorrowed = 8, kBorrowedUngated = 21, kLowcut = 22;
-// Last, the borrowed fill with the fitted windows whose error on their
-// observed values exceeds kFitGate laying no detail
-// (GapCodeFitOptions::max_observed_error).
-constexpr int kFitGated = 28;
-constexpr double kFitGate = 0.3;
+// Then the borrowed fill with every fitted window laying its detail, none
+// bounded by its error on its observed values (GapCodeFitOptions::max_observed_error).
+constexpr int kFitUnbounded = 28;
 const char* const kMethodNames[kMethods] = {
     "hold",          "slerp",           "cubic",          "manifold",        "matched",
     "fit_raw",       "fit_full",        "fitted",         "borrowed",        "detail_0",
@@ -44,7 +42,7 @@ const char* const kMethodNames[kMethods] = {
     "speed_0.5_2",   "shared_0.5_1.5",  "shared_0.5_2",   "shared_1_2",      "shared_0.75_1.5",
     "shared_0.5_3",  "borrow_ungated",  "borrowed_lowcut_1", "fallback_lowcut_1", "fallback_lowcut_1_full",
     "fallback_lowcut_1_full_gain_1_2", "fallback_lowcut_1_full_gain_1_3", "fallback_lowcut_0.5_full",
-    "borrowed_fit_gate_0.3"};
+    "borrowed_no_fit_bound"};
 // The low-cut period (s, 0: none) of the fitted fallback's detail and of
 // the sources', whether the fallback lays its detail at full weight, and
 // the fallback's speed gain.
@@ -53,7 +51,7 @@ struct LowcutVariant {
   bool full_weight;
   std::array<double, 2> gain;
 };
-constexpr LowcutVariant kLowcutVariants[kFitGated - kLowcut] = {
+constexpr LowcutVariant kLowcutVariants[kFitUnbounded - kLowcut] = {
     {1.0, 1.0, false, {1.0, 1.0}}, {1.0, 0.0, false, {1.0, 1.0}}, {1.0, 0.0, true, {1.0, 1.0}},
     {1.0, 0.0, true, {1.0, 2.0}},  {1.0, 0.0, true, {1.0, 3.0}},  {0.5, 0.0, true, {1.0, 1.0}}};
 // The speed-matched gain's range, and whether a gap's joints share it.
@@ -252,10 +250,22 @@ GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vec
       take_options.at_model_rate = true;
       take_options.decoder = options.decoder;
       const TakeResult decoded = process_take(model, corrupted, take_options);
-      // The code fitted to each gap's centred window (gap_code_fit.h).
+      // The code fitted to each gap's centred window (gap_code_fit.h), every
+      // window's clip written (what the fitted codes give as they are, and
+      // the fixed weights' columns), and as options.code_fit's bound on the
+      // fit's error leaves them (the default fills').
       std::vector<GapFitWindow> fit_windows;
+      GapCodeFitOptions unbounded_fit = options.code_fit;
+      unbounded_fit.max_observed_error = std::numeric_limits<double>::infinity();
       const MotionFrames fitted =
-          fit_gap_codes(model, corrupted, decoded.frames, options.decoder, options.code_fit, nullptr, &fit_windows);
+          fit_gap_codes(model, corrupted, decoded.frames, options.decoder, unbounded_fit, nullptr, &fit_windows);
+      MotionFrames bounded = fitted;
+      std::vector<bool> bounded_written(static_cast<size_t>(frames), false);
+      for (GapFitWindow& window : fit_windows) {
+        window.lays_detail = window_lays_detail(window, corrupted.frame(window.start), corrupted.columns, options.code_fit);
+        // Its gaps written missing: no clip read.
+        if (!window.lays_detail) write_fitted_window(window, nullptr, model.config().frames, true, bounded, 0, bounded_written);
+      }
       // Where each span's movement would be borrowed from, and at what cost.
       std::vector<BorrowedSpan> borrowed_spans;
       borrow_take_motion(corrupted, kRate, options.fill.borrow, 0, &borrowed_spans);
@@ -283,16 +293,8 @@ GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vec
       method_options[kBorrowed].method = GapMethod::kBorrowed;
       method_options[kBorrowedUngated] = method_options[kBorrowed];
       method_options[kBorrowedUngated].borrow.max_cost = std::numeric_limits<double>::infinity();
-      method_options[kFitGated] = method_options[kBorrowed];
-      // The fitted frames as a bound on the fit's error would leave them.
-      MotionFrames gated = fitted;
-      std::vector<bool> gated_written(static_cast<size_t>(frames), false);
-      for (GapFitWindow window : fit_windows) {
-        if (window.observed_error <= kFitGate) continue;
-        window.lays_detail = false;  // its gaps written missing: no clip read
-        write_fitted_window(window, nullptr, model.config().frames, true, gated, 0, gated_written);
-      }
-      for (int m = kLowcut; m < kFitGated; ++m) {
+      method_options[kFitUnbounded] = method_options[kBorrowed];
+      for (int m = kLowcut; m < kFitUnbounded; ++m) {
         const LowcutVariant& variant = kLowcutVariants[m - kLowcut];
         method_options[m] = method_options[kBorrowed];
         method_options[m].detail_lowcut_seconds = variant.fallback_seconds;
@@ -314,7 +316,8 @@ GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vec
       }
       MotionFrames filled[kMethods];
       for (int m = 0; m < kMethods; ++m) {
-        filled[m] = fill_gaps(corrupted, m < 5 ? &decoded.frames : m == kFitGated ? &gated : &fitted, method_options[m], kRate);
+        const bool reads_unbounded = m == 5 || m == 6 || (m >= kShown && m < kShown + kFixedWeights) || m == kFitUnbounded;
+        filled[m] = fill_gaps(corrupted, m < 5 ? &decoded.frames : reads_unbounded ? &fitted : &bounded, method_options[m], kRate);
       }
 
       for (const PlacedGap& gap : gaps) {
@@ -353,7 +356,10 @@ GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vec
                                  {"joints", configs[gap.config].joints}};
         for (const GapFitWindow& window : fit_windows) {
           for (const FrameSpan& span : window.spans) {
-            if (span.first <= gap.first && gap.last <= span.last) record["fit_observed_error"] = window.observed_error;
+            if (span.first <= gap.first && gap.last <= span.last) {
+              record["fit_observed_error"] = window.observed_error;
+              record["fit_lays_detail"] = window.lays_detail;
+            }
           }
         }
         for (const BorrowedSpan& span : borrowed_spans) {

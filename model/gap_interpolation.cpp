@@ -482,8 +482,11 @@ void fill_gap_with(const MotionFrames& observed, const MotionFrames* manifold, c
 }  // namespace
 
 bool most_joints_missing(const MotionFrames& observed, int64_t frame) {
-  const int joints = (observed.columns - kRootTranslationValues) / 3;
-  const float* values = observed.frame(frame);
+  return most_joints_missing(observed.frame(frame), observed.columns);
+}
+
+bool most_joints_missing(const float* values, int columns) {
+  const int joints = (columns - kRootTranslationValues) / 3;
   int missing = 0;
   for (int j = 0; j < joints; ++j) missing += std::isnan(values[kRootTranslationValues + 3 * j]) ? 1 : 0;
   return 2 * missing >= joints;

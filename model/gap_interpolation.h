@@ -244,6 +244,8 @@ void fill_long_gap_head_frame(const LongGapHead& head, const MotionFrames* manif
                               const GapFillOptions& options, MotionFrames& out);
 // Whether half the joints or more are missing in `frame` of `observed`.
 bool most_joints_missing(const MotionFrames& observed, int64_t frame);
+// The same for one frame's values (`columns` of them, in the layout above).
+bool most_joints_missing(const float* values, int columns);
 
 // Geodesic angle (radians, 0..pi) between two rotations given as exponential maps.
 double expmap_angle_between(const float* a, const float* b);

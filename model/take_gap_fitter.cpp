@@ -134,7 +134,7 @@ void TakeGapFitter::fit_ready_windows(bool ended) {
   // what fit_gap_codes() writes on the whole take.
   for (size_t i = 0; i < ready.size(); ++i) {
     ready[i].observed_error = errors[i];
-    ready[i].lays_detail = errors[i] <= options_.max_observed_error;
+    ready[i].lays_detail = window_lays_detail(ready[i], windows[i], columns_, options_);
     for (const bool gap_frames : {false, true}) {
       write_fitted_window(ready[i], clips[i].data(), window_, gap_frames, decoded_, decoded_first_, written_);
     }

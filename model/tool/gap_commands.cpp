@@ -192,8 +192,9 @@ void add_gap_commands(CLI::App& app, Action& action) {
                       "fitted fill: gaps shorter than this (s) are not fitted")
       ->capture_default_str();
   command->add_option("--fit-max-error", options->benchmark.code_fit.max_observed_error,
-                      "fitted fill: a window whose fitted code meets its observed values worse than this (mean "
-                      "squared error, normalised) lays no detail, its gaps the cubic's (default: no bound)")
+                      "fitted fill: a window of in-betweening whose fitted code meets its observed values worse "
+                      "than this (mean squared error, normalised) lays no detail, its gaps the cubic's; inf: no bound")
+      ->capture_default_str()
       ->check(CLI::PositiveNumber);
   command->add_option("--max-tangent", options->benchmark.fill.max_tangent_seconds,
                       "cubic and matched fills: the longest a border's velocity is carried into the gap (s)")

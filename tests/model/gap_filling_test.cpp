@@ -298,6 +298,7 @@ TEST_F(GapFilling, AWindowFittedPastTheErrorBoundLaysOnlyTheCubic) {
   make_missing(gapped, every, 60, 109);   // 2 s, window 1
   make_missing(gapped, every, 300, 349);  // 2 s, window 2
   GapCodeFitOptions fit;
+  fit.max_observed_error = std::numeric_limits<double>::infinity();
   fit.iterations = 2;
   fit.encoder_rounds = 1;
   const MotionFrames decoded = denoise(gapped, GapMethod::kMatched, false, 1).frames;
@@ -341,6 +342,52 @@ TEST_F(GapFilling, AWindowFittedPastTheErrorBoundLaysOnlyTheCubic) {
     }
   }
   EXPECT_GT(laid, 0.05);  // the window within the bound is not the cubic
+}
+
+// The bound is for in-betweening only: a window of a gap of five joints
+// lays its detail past any bound (there its error is mostly that of the
+// joints observed through the gap), while an every-joint gap's window
+// past it gets the cubic, on the whole take and through the take path.
+TEST_F(GapFilling, TheFitErrorBoundLeavesAFewJointsGapsWindowLayingItsDetail) {
+  MM_REQUIRE_H36M();
+  MotionFrames gapped = s5_at_25("walking_1.txt", 16);
+  std::vector<int> every;
+  for (int j = 0; j < model_->skeleton().joint_count(); ++j) every.push_back(j);
+  make_missing(gapped, {1, 7, 12, 17, 26}, 60, 109);  // 2 s of five joints, window 1
+  make_missing(gapped, every, 300, 349);              // 2 s of every joint, window 2
+  GapCodeFitOptions fit;
+  fit.max_observed_error = std::numeric_limits<double>::infinity();
+  fit.iterations = 2;
+  fit.encoder_rounds = 1;
+  const MotionFrames decoded = denoise(gapped, GapMethod::kMatched, false, 1).frames;
+  std::vector<GapFitWindow> windows;
+  const MotionFrames fitted = fit_gap_codes(*model_, gapped, decoded, DecoderKind::kRotation, fit, nullptr, &windows);
+  ASSERT_EQ(windows.size(), 2u);
+  fit.max_observed_error = std::min(windows[0].observed_error, windows[1].observed_error) / 2;  // both past it
+  const MotionFrames bounded = fit_gap_codes(*model_, gapped, decoded, DecoderKind::kRotation, fit, nullptr, &windows);
+  ASSERT_EQ(windows.size(), 2u);
+  EXPECT_TRUE(windows[0].lays_detail);
+  EXPECT_FALSE(windows[1].lays_detail);
+  GapFillOptions by_fit;
+  by_fit.method = GapMethod::kFitted;
+  GapFillOptions cubic;
+  cubic.method = GapMethod::kCubic;
+  const MotionFrames whole = fill_gaps(gapped, &bounded, by_fit, 25);
+  const MotionFrames unbounded = fill_gaps(gapped, &fitted, by_fit, 25);
+  const MotionFrames interpolated = fill_gaps(gapped, nullptr, cubic, 25);
+  const TakeResult streamed = denoise(gapped, GapMethod::kFitted, true, 1, fit);
+  ASSERT_EQ(streamed.frames.values.size(), whole.values.size());
+  double laid = 0;
+  for (int64_t f = 0; f < gapped.frame_count(); ++f) {
+    for (int c = 0; c < gapped.columns; ++c) {
+      if (!std::isnan(gapped.frame(f)[c])) continue;
+      const MotionFrames& expected = f < 200 ? unbounded : interpolated;
+      ASSERT_EQ(whole.frame(f)[c], expected.frame(f)[c]) << "frame " << f << " column " << c;
+      ASSERT_NEAR(streamed.frames.frame(f)[c], expected.frame(f)[c], 1e-4) << "frame " << f << " column " << c;
+      if (f < 200) laid = std::max(laid, static_cast<double>(std::fabs(whole.frame(f)[c] - interpolated.frame(f)[c])));
+    }
+  }
+  EXPECT_GT(laid, 0.05);  // the five joints' gap is not the cubic
 }
 
 // Between lone keyframes (one observed frame, the frames on both sides of
