@@ -18,10 +18,11 @@
 # The fills are measured with their defaults (GapFillOptions and
 # GapCodeFitOptions: the detail weights chosen on S1 and S6, every joint at
 # 4 s lowered by S5's trial-1 takes; the borrowed fill's cost bound chosen
-# on S5's trial-1 takes), as the take path and the service's DenoiseTake
+# on S5's trial-1 takes; the bound on an in-betweening window's fit error
+# chosen on S1 and S6), as the take path and the service's DenoiseTake
 # fill with keep_observed.
 # Writes docs/results/gaps/. On the two idle CPU cores the four runs took
-# 10.6 minutes (20.1 of CPU), most of it the fitted codes (15 Adam steps
+# 12.8 minutes, most of it the fitted codes (15 Adam steps
 # through the decoder for each gap of 0.6 s or more). Needs the built tool (or
 # MM_TOOL naming a copy of it) and the extracted H3.6M.
 #   scripts/gap-results.sh [MODEL_DIR]
