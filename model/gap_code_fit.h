@@ -58,7 +58,8 @@ struct GapCodeFitOptions {
   // code that misses the whole body around a gap is no guide to the gap.
   // Chosen from the gap records of the benchmark (docs/RESULTS.md "Gaps"):
   // 0.3 is the tightest bound that costs the training subjects' every-joint
-  // gaps under 2%, and it brings S5's 2 s gaps 5 to 10% nearer. Windows of a
+  // gaps under 2%, and over three runs it brings S5's every-joint gaps of
+  // 2 s 5% nearer (106 gaps) and leaves those of 4 s level. Windows of a
   // few joints' gaps are not bounded: there the error is mostly that of the
   // joints observed through the gap, and bounding them cost S5's gaps of 1
   // and 5 joints up to 24%. Infinity: no bound.
