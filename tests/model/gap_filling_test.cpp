@@ -94,6 +94,71 @@ class GapFilling : public test::ShippedModelSuite {
     }
     return result;
   }
+  // The fitted fill of a take with two fitted windows, the first before
+  // frame 200, with a bound on the fit's error that `bound` picks from the
+  // two windows' errors (2 Adam steps a fit from one round of the encoder).
+  struct BoundedFit {
+    std::vector<double> errors;       // each window's, in order
+    std::vector<bool> lays_detail;    // each window's, under the bound
+    MotionFrames whole, unbounded, interpolated;  // fill_gaps: bounded, unbounded, the cubic
+    MotionFrames streamed;            // the take path's, bounded
+  };
+  static BoundedFit bounded_fit(const MotionFrames& gapped, double (*bound)(double, double)) {
+    GapCodeFitOptions fit;
+    fit.max_observed_error = std::numeric_limits<double>::infinity();
+    fit.iterations = 2;
+    fit.encoder_rounds = 1;
+    const MotionFrames decoded = denoise(gapped, GapMethod::kMatched, false, 1).frames;
+    std::vector<GapFitWindow> windows;
+    const MotionFrames fitted =
+        fit_gap_codes(*model_, gapped, decoded, DecoderKind::kRotation, fit, nullptr, &windows);
+    BoundedFit result;
+    if (windows.size() != 2) return result;
+    result.errors = {windows[0].observed_error, windows[1].observed_error};
+    fit.max_observed_error = bound(result.errors[0], result.errors[1]);
+    const MotionFrames bounded =
+        fit_gap_codes(*model_, gapped, decoded, DecoderKind::kRotation, fit, nullptr, &windows);
+    for (const GapFitWindow& window : windows) result.lays_detail.push_back(window.lays_detail);
+    GapFillOptions by_fit;
+    by_fit.method = GapMethod::kFitted;
+    GapFillOptions cubic;
+    cubic.method = GapMethod::kCubic;
+    result.whole = fill_gaps(gapped, &bounded, by_fit, 25);
+    result.unbounded = fill_gaps(gapped, &fitted, by_fit, 25);
+    result.interpolated = fill_gaps(gapped, nullptr, cubic, 25);
+    result.streamed = denoise(gapped, GapMethod::kFitted, true, 1, fit).frames;
+    return result;
+  }
+
+  // Checks each window's gaps: the unbounded fill where the window lays its
+  // detail, the cubic where it does not, whole and streamed alike, the
+  // observed values untouched. Returns the largest difference from the cubic
+  // in the windows that lay their detail.
+  static double expect_windows_filled(const MotionFrames& gapped, const BoundedFit& fit) {
+    EXPECT_EQ(fit.streamed.values.size(), fit.whole.values.size());
+    double laid = 0;
+    for (int64_t f = 0; f < gapped.frame_count() && fit.streamed.values.size() == fit.whole.values.size(); ++f) {
+      const bool lays_detail = fit.lays_detail[f < 200 ? 0 : 1];
+      for (int c = 0; c < gapped.columns; ++c) {
+        const float value = gapped.frame(f)[c];
+        if (!std::isnan(value)) {
+          EXPECT_EQ(fit.whole.frame(f)[c], value) << "frame " << f << " column " << c;
+          EXPECT_EQ(fit.streamed.frame(f)[c], value) << "frame " << f << " column " << c;
+          continue;
+        }
+        const MotionFrames& expected = lays_detail ? fit.unbounded : fit.interpolated;
+        if (fit.whole.frame(f)[c] != expected.frame(f)[c] ||
+            std::fabs(fit.streamed.frame(f)[c] - expected.frame(f)[c]) > (lays_detail ? 1e-4 : 1e-6)) {
+          ADD_FAILURE() << "frame " << f << " column " << c << ": whole " << fit.whole.frame(f)[c] << ", streamed "
+                        << fit.streamed.frame(f)[c] << ", expected " << expected.frame(f)[c];
+          return laid;
+        }
+        if (lays_detail) laid = std::max(laid, static_cast<double>(std::fabs(fit.whole.frame(f)[c] - fit.interpolated.frame(f)[c])));
+      }
+    }
+    return laid;
+  }
+
 };
 
 // Measured (walking_1 at 25 Hz, the first 16 s, every joint missing for 1 s
@@ -297,51 +362,14 @@ TEST_F(GapFilling, AWindowFittedPastTheErrorBoundLaysOnlyTheCubic) {
   for (int j = 0; j < model_->skeleton().joint_count(); ++j) every.push_back(j);
   make_missing(gapped, every, 60, 109);   // 2 s, window 1
   make_missing(gapped, every, 300, 349);  // 2 s, window 2
-  GapCodeFitOptions fit;
-  fit.max_observed_error = std::numeric_limits<double>::infinity();
-  fit.iterations = 2;
-  fit.encoder_rounds = 1;
-  const MotionFrames decoded = denoise(gapped, GapMethod::kMatched, false, 1).frames;
-  std::vector<GapFitWindow> windows;
-  const MotionFrames fitted = fit_gap_codes(*model_, gapped, decoded, DecoderKind::kRotation, fit, nullptr, &windows);
-  ASSERT_EQ(windows.size(), 2u);
-  std::printf("the windows' errors on their observed values: %.4f and %.4f\n", windows[0].observed_error,
-              windows[1].observed_error);
-  ASSERT_NE(windows[0].observed_error, windows[1].observed_error);
   // The bound between the two: the worse window is past it.
-  fit.max_observed_error = (windows[0].observed_error + windows[1].observed_error) / 2;
-  const bool first_over = windows[0].observed_error > windows[1].observed_error;
-  const MotionFrames gated = fit_gap_codes(*model_, gapped, decoded, DecoderKind::kRotation, fit);
-  GapFillOptions by_fit;
-  by_fit.method = GapMethod::kFitted;
-  GapFillOptions cubic;
-  cubic.method = GapMethod::kCubic;
-  const MotionFrames whole = fill_gaps(gapped, &gated, by_fit, 25);
-  const MotionFrames unbounded = fill_gaps(gapped, &fitted, by_fit, 25);
-  const MotionFrames interpolated = fill_gaps(gapped, nullptr, cubic, 25);
-  const TakeResult streamed = denoise(gapped, GapMethod::kFitted, true, 1, fit);
-  ASSERT_EQ(streamed.frames.values.size(), whole.values.size());
-  double laid = 0;
-  for (int64_t f = 0; f < gapped.frame_count(); ++f) {
-    for (int c = 0; c < gapped.columns; ++c) {
-      const float value = gapped.frame(f)[c];
-      if (!std::isnan(value)) {
-        ASSERT_EQ(whole.frame(f)[c], value) << "frame " << f << " column " << c;
-        ASSERT_EQ(streamed.frames.frame(f)[c], value) << "frame " << f << " column " << c;
-        continue;
-      }
-      const bool over = (f < 200) == first_over;
-      if (over) {
-        ASSERT_EQ(whole.frame(f)[c], interpolated.frame(f)[c]) << "frame " << f << " column " << c;
-        ASSERT_NEAR(streamed.frames.frame(f)[c], interpolated.frame(f)[c], 1e-6) << "frame " << f << " column " << c;
-      } else {
-        ASSERT_EQ(whole.frame(f)[c], unbounded.frame(f)[c]) << "frame " << f << " column " << c;
-        ASSERT_NEAR(streamed.frames.frame(f)[c], unbounded.frame(f)[c], 1e-4) << "frame " << f << " column " << c;
-        laid = std::max(laid, static_cast<double>(std::fabs(whole.frame(f)[c] - interpolated.frame(f)[c])));
-      }
-    }
-  }
-  EXPECT_GT(laid, 0.05);  // the window within the bound is not the cubic
+  const BoundedFit fit = bounded_fit(gapped, [](double a, double b) { return (a + b) / 2; });
+  ASSERT_EQ(fit.errors.size(), 2u);
+  std::printf("the windows' errors on their observed values: %.4f and %.4f\n", fit.errors[0], fit.errors[1]);
+  ASSERT_NE(fit.errors[0], fit.errors[1]);
+  const bool first_over = fit.errors[0] > fit.errors[1];
+  EXPECT_EQ(fit.lays_detail, (std::vector<bool>{!first_over, first_over}));
+  EXPECT_GT(expect_windows_filled(gapped, fit), 0.05);  // the window within the bound is not the cubic
 }
 
 // The bound is for in-betweening only: a window of a gap of five joints
@@ -355,39 +383,11 @@ TEST_F(GapFilling, TheFitErrorBoundLeavesAFewJointsGapsWindowLayingItsDetail) {
   for (int j = 0; j < model_->skeleton().joint_count(); ++j) every.push_back(j);
   make_missing(gapped, {1, 7, 12, 17, 26}, 60, 109);  // 2 s of five joints, window 1
   make_missing(gapped, every, 300, 349);              // 2 s of every joint, window 2
-  GapCodeFitOptions fit;
-  fit.max_observed_error = std::numeric_limits<double>::infinity();
-  fit.iterations = 2;
-  fit.encoder_rounds = 1;
-  const MotionFrames decoded = denoise(gapped, GapMethod::kMatched, false, 1).frames;
-  std::vector<GapFitWindow> windows;
-  const MotionFrames fitted = fit_gap_codes(*model_, gapped, decoded, DecoderKind::kRotation, fit, nullptr, &windows);
-  ASSERT_EQ(windows.size(), 2u);
-  fit.max_observed_error = std::min(windows[0].observed_error, windows[1].observed_error) / 2;  // both past it
-  const MotionFrames bounded = fit_gap_codes(*model_, gapped, decoded, DecoderKind::kRotation, fit, nullptr, &windows);
-  ASSERT_EQ(windows.size(), 2u);
-  EXPECT_TRUE(windows[0].lays_detail);
-  EXPECT_FALSE(windows[1].lays_detail);
-  GapFillOptions by_fit;
-  by_fit.method = GapMethod::kFitted;
-  GapFillOptions cubic;
-  cubic.method = GapMethod::kCubic;
-  const MotionFrames whole = fill_gaps(gapped, &bounded, by_fit, 25);
-  const MotionFrames unbounded = fill_gaps(gapped, &fitted, by_fit, 25);
-  const MotionFrames interpolated = fill_gaps(gapped, nullptr, cubic, 25);
-  const TakeResult streamed = denoise(gapped, GapMethod::kFitted, true, 1, fit);
-  ASSERT_EQ(streamed.frames.values.size(), whole.values.size());
-  double laid = 0;
-  for (int64_t f = 0; f < gapped.frame_count(); ++f) {
-    for (int c = 0; c < gapped.columns; ++c) {
-      if (!std::isnan(gapped.frame(f)[c])) continue;
-      const MotionFrames& expected = f < 200 ? unbounded : interpolated;
-      ASSERT_EQ(whole.frame(f)[c], expected.frame(f)[c]) << "frame " << f << " column " << c;
-      ASSERT_NEAR(streamed.frames.frame(f)[c], expected.frame(f)[c], 1e-4) << "frame " << f << " column " << c;
-      if (f < 200) laid = std::max(laid, static_cast<double>(std::fabs(whole.frame(f)[c] - interpolated.frame(f)[c])));
-    }
-  }
-  EXPECT_GT(laid, 0.05);  // the five joints' gap is not the cubic
+  // Both windows past the bound.
+  const BoundedFit fit = bounded_fit(gapped, [](double a, double b) { return std::min(a, b) / 2; });
+  ASSERT_EQ(fit.errors.size(), 2u);
+  EXPECT_EQ(fit.lays_detail, (std::vector<bool>{true, false}));
+  EXPECT_GT(expect_windows_filled(gapped, fit), 0.05);  // the five joints' gap is not the cubic
 }
 
 // Between lone keyframes (one observed frame, the frames on both sides of
