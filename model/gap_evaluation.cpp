@@ -25,6 +25,8 @@ constexpr double kRate = kTakeModelRate;
 // weights, then with its weights and the speed-matched gain in other
 // ranges (the JSON's, for choosing them on training subjects).
 constexpr int kShown = 9, kFixedWeights = 5, kMethods = 29;
+// The fitted codes' frames as they are, and their detail at full weight.
+constexpr int kFitRaw = 5, kFitFull = 6;
 // The borrowed fill (borrowed_motion.h) with its defaults, and with every
 // source taken whatever its cost (the JSON's, for choosing the cost bound),
 // then with the detail's slow movement taken out (of the sources' and the
@@ -283,10 +285,10 @@ GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vec
       method_options[4].method = GapMethod::kMatched;
       method_options[4].interpolate_below_seconds = 0.6;
       method_options[4].few_joints_detail = method_options[4].most_joints_detail = {0.4 / 1.4, 1.0, 1.0};
-      method_options[5].method = GapMethod::kManifold;
-      method_options[6].method = GapMethod::kMatched;
-      method_options[6].interpolate_below_seconds = 0;
-      method_options[6].few_joints_detail = method_options[6].most_joints_detail = {1.0, 1.0, 1.0};
+      method_options[kFitRaw].method = GapMethod::kManifold;
+      method_options[kFitFull].method = GapMethod::kMatched;
+      method_options[kFitFull].interpolate_below_seconds = 0;
+      method_options[kFitFull].few_joints_detail = method_options[kFitFull].most_joints_detail = {1.0, 1.0, 1.0};
       method_options[7] = options.fill;
       method_options[7].method = GapMethod::kMatched;
       method_options[kBorrowed] = options.fill;
@@ -316,7 +318,8 @@ GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vec
       }
       MotionFrames filled[kMethods];
       for (int m = 0; m < kMethods; ++m) {
-        const bool reads_unbounded = m == 5 || m == 6 || (m >= kShown && m < kShown + kFixedWeights) || m == kFitUnbounded;
+        const bool reads_unbounded =
+            m == kFitRaw || m == kFitFull || (m >= kShown && m < kShown + kFixedWeights) || m == kFitUnbounded;
         filled[m] = fill_gaps(corrupted, m < 5 ? &decoded.frames : reads_unbounded ? &fitted : &bounded, method_options[m], kRate);
       }
 

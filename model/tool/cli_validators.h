@@ -24,6 +24,20 @@ inline CLI::Validator at_least(long long minimum) {
       "INT>=" + std::to_string(minimum));
 }
 
+// A number above 0, or "inf" (no bound).
+inline CLI::Validator positive_or_inf() {
+  return CLI::Validator(
+      [](std::string& value) -> std::string {
+        try {
+          size_t used = 0;
+          if (std::stod(value, &used) > 0 && used == value.size()) return "";
+        } catch (const std::exception&) {
+        }
+        return "expected a number above 0 or inf, found " + value;
+      },
+      "NUMBER>0|inf");
+}
+
 // An option that takes one value for every input or one per input (in the
 // order the inputs are listed): the value for input `input` of `inputs`, or
 // `fallback` when the option was not given. Throws InputError naming the

@@ -195,7 +195,7 @@ void add_gap_commands(CLI::App& app, Action& action) {
                       "fitted fill: a window of in-betweening whose fitted code meets its observed values worse "
                       "than this (mean squared error, normalised) lays no detail, its gaps the cubic's; inf: no bound")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(positive_or_inf());
   command->add_option("--max-tangent", options->benchmark.fill.max_tangent_seconds,
                       "cubic and matched fills: the longest a border's velocity is carried into the gap (s)")
       ->capture_default_str();

@@ -98,6 +98,21 @@ TEST(Tool, TrainFlagsAreHeldToTheConfigurationsRanges) {
   EXPECT_EQ(r.output.find("nowhere.mmd"), std::string::npos) << r.output;
 }
 
+// evaluate-gaps' bound on the fit's error takes any number above 0, or inf
+// for none (as its help and docs/RESULTS.md say); 0 and text are refused
+// by name before any input is read.
+TEST(Tool, TheFitErrorBoundTakesInfAndRefusesZeroByName) {
+  const auto unbounded = run_tool("evaluate-gaps --input nowhere.txt --fit-max-error inf");
+  EXPECT_EQ(unbounded.output.find("--fit-max-error"), std::string::npos) << unbounded.output;
+  EXPECT_NE(unbounded.output.find("nowhere.txt"), std::string::npos) << unbounded.output;
+  for (const std::string value : {"0", "0.3x"}) {
+    const auto r = run_tool("evaluate-gaps --input nowhere.txt --fit-max-error " + value);
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_NE(r.output.find("--fit-max-error: expected a number above 0 or inf, found " + value), std::string::npos)
+        << r.output;
+  }
+}
+
 TEST(Tool, MissingSubcommandIsAUsageError) { EXPECT_EQ(run_tool("").exit_code, 2); }
 
 // A tiny bench run: every operation is timed and its tensor operations
