@@ -488,7 +488,10 @@ bool most_joints_missing(const MotionFrames& observed, int64_t frame) {
 bool most_joints_missing(const float* values, int columns) {
   const int joints = (columns - kRootTranslationValues) / 3;
   int missing = 0;
-  for (int j = 0; j < joints; ++j) missing += std::isnan(values[kRootTranslationValues + 3 * j]) ? 1 : 0;
+  for (int j = 0; j < joints; ++j) {
+    const float* v = values + kRootTranslationValues + 3 * j;
+    missing += std::isnan(v[0]) || std::isnan(v[1]) || std::isnan(v[2]) ? 1 : 0;
+  }
   return 2 * missing >= joints;
 }
 
@@ -580,8 +583,9 @@ MotionFrames fill_gaps(const MotionFrames& observed, const MotionFrames* manifol
     from_take.detail_lowcut_seconds = options.borrow.detail_lowcut_seconds;
     for (const JointGap& gap : gaps) {
       if (gap.last < needed_from) continue;
-      // A span borrowed for holds its source's values; any other, its NaN.
-      if (!std::isnan(borrowed.frame(gap.first)[kRootTranslationValues + 3 * gap.joint])) {
+      // A span borrowed for holds its source's values; any other, its NaN
+      // (in any of the joint's values: a joint is missing where one is).
+      if (observed_at(borrowed, kRootTranslationValues + 3 * gap.joint, gap.first)) {
         fill_gap(observed, &borrowed, gap, from_take, rate_hz, out);
       } else {
         fill_gap(observed, manifold, gap, fitted, rate_hz, out);

@@ -248,7 +248,8 @@ LongGapHead long_gap_head(const MotionFrames& observed, const MotionFrames* mani
 // reading the manifold's frame `frame` (null for the methods that lay none).
 void fill_long_gap_head_frame(const LongGapHead& head, const MotionFrames* manifold, int64_t frame,
                               const GapFillOptions& options, MotionFrames& out);
-// Whether half the joints or more are missing in `frame` of `observed`.
+// Whether half the joints or more are missing (any of a joint's values NaN)
+// in `frame` of `observed`.
 bool most_joints_missing(const MotionFrames& observed, int64_t frame);
 // The same for one frame's values (`columns` of them, in the layout above).
 bool most_joints_missing(const float* values, int columns);
