@@ -79,7 +79,8 @@ class SearchableTake {
 
   // The best source of `span` (both borders inside the take), searched
   // wholly before its left border and within the search.
-  BorrowedSpan search(const FrameSpan& span) const {
+  // `part` (may be null: every joint) limits the joints compared.
+  BorrowedSpan search(const FrameSpan& span, const std::vector<int>* part) const {
     BorrowedSpan record;
     record.span = span;
     const int64_t left = span.first - 1, right = span.last + 1;
@@ -93,6 +94,7 @@ class SearchableTake {
     const auto add = [&](int64_t f, Comparison c) {
       if (f < 0 || f >= frames_) return;
       for (int j = 1; j < joints_; ++j) {
+        if (part && std::find(part->begin(), part->end(), j) == part->end()) continue;
         if (!present_[index(f, j)] || at_rest(observed_.frame(left) + kRootTranslationValues + 3 * j)) continue;
         c.joint = j;
         c.target = rotations_[index(f, j)];
@@ -169,8 +171,10 @@ class SearchableTake {
 };
 
 // Writes `source`'s frames, stretched, into `donor`'s frames left - 1 ..
-// right + 1 of its span (those the fill reads).
-void write_source(const MotionFrames& observed, const BorrowedSpan& source, MotionFrames& donor) {
+// right + 1 of its span (those the fill reads), for the joints of `part`
+// (null: every joint).
+void write_source(const MotionFrames& observed, const BorrowedSpan& source, const std::vector<int>* part,
+                  MotionFrames& donor) {
   const int64_t frames = observed.frame_count();
   const int joints = (observed.columns - kRootTranslationValues) / 3;
   const int64_t left = source.span.first - 1, right = source.span.last + 1;
@@ -179,6 +183,7 @@ void write_source(const MotionFrames& observed, const BorrowedSpan& source, Moti
     const double at = static_cast<double>(source.source_left) + static_cast<double>(f - left) * scale;
     const auto below = static_cast<int64_t>(std::floor(at));
     for (int j = 0; j < joints; ++j) {
+      if (part && std::find(part->begin(), part->end(), j) == part->end()) continue;
       const int column = kRootTranslationValues + 3 * j;
       slerp_expmap(observed.frame(below) + column, observed.frame(below + 1) + column, at - static_cast<double>(below),
                    donor.frame(f) + column);
@@ -187,6 +192,32 @@ void write_source(const MotionFrames& observed, const BorrowedSpan& source, Moti
 }
 
 }  // namespace
+
+std::vector<std::vector<int>> body_parts(const Skeleton& skeleton) {
+  const int n = skeleton.joint_count();
+  if (n < 2) return {};
+  std::vector<std::vector<int>> children(static_cast<size_t>(n));
+  for (int j = 1; j < n; ++j) children[static_cast<size_t>(skeleton.joints[static_cast<size_t>(j)].parent)].push_back(j);
+  // The pelvis: the first joint from the root with more than one child.
+  int pelvis = 0;
+  while (children[static_cast<size_t>(pelvis)].size() == 1) pelvis = children[static_cast<size_t>(pelvis)].front();
+  const auto& branches = children[static_cast<size_t>(pelvis)];
+  if (branches.size() < 2) return {};
+  // Each joint's branch below the pelvis (-1: the pelvis and above it).
+  std::vector<int> branch(static_cast<size_t>(n), -1);
+  std::vector<int> size(static_cast<size_t>(n), 0);
+  for (int j = 1; j < n; ++j) {
+    const int parent = skeleton.joints[static_cast<size_t>(j)].parent;
+    branch[static_cast<size_t>(j)] = parent == pelvis ? j : branch[static_cast<size_t>(parent)];
+    if (branch[static_cast<size_t>(j)] >= 0) ++size[static_cast<size_t>(branch[static_cast<size_t>(j)])];
+  }
+  const int upper = *std::max_element(branches.begin(), branches.end(), [&](int a, int b) {
+    return size[static_cast<size_t>(a)] < size[static_cast<size_t>(b)];
+  });
+  std::vector<std::vector<int>> parts(2);  // the legs with the pelvis and above it, the upper body
+  for (int j = 0; j < n; ++j) parts[branch[static_cast<size_t>(j)] == upper ? 1 : 0].push_back(j);
+  return parts;
+}
 
 MotionFrames borrow_take_motion(const MotionFrames& observed, double rate_hz, const BorrowOptions& options,
                                 int64_t needed_from, std::vector<BorrowedSpan>* spans) {
@@ -206,10 +237,20 @@ MotionFrames borrow_take_motion(const MotionFrames& observed, double rate_hz, co
   if (searched.empty()) return donor;
   const SearchableTake searchable(observed, rate_hz, options);
   for (const FrameSpan& span : searched) {
-    BorrowedSpan record = searchable.search(span);
+    // The whole body first: one stretch keeps the arms in step with the legs.
+    BorrowedSpan record = searchable.search(span, nullptr);
     record.used = record.found && record.cost <= options.max_cost;
-    if (record.used) write_source(observed, record, donor);
+    if (record.used) write_source(observed, record, nullptr, donor);
     if (spans) spans->push_back(record);
+    if (record.used) continue;
+    for (size_t p = 0; p < options.parts.size(); ++p) {
+      const std::vector<int>& part = options.parts[p];
+      BorrowedSpan record = searchable.search(span, &part);
+      record.part = static_cast<int>(p);
+      record.used = record.found && record.cost <= options.part_max_cost;
+      if (record.used) write_source(observed, record, &part, donor);
+      if (spans) spans->push_back(record);
+    }
   }
   return donor;
 }

@@ -24,9 +24,17 @@
 #include <vector>
 
 #include "format/motion_frames.h"
+#include "format/skeleton.h"
 #include "model/gap_interpolation.h"
 
 namespace mm {
+
+// The groups of joints the take path borrows for apart
+// (BorrowOptions::parts): the legs, with the joints from the root to the
+// pelvis (the first joint with more than one child), and the upper body (the
+// pelvis's branch holding the most joints). Empty for a skeleton that does
+// not branch so.
+std::vector<std::vector<int>> body_parts(const Skeleton& skeleton);
 
 // Where a missing span's movement was borrowed from.
 struct BorrowedSpan {
@@ -39,6 +47,7 @@ struct BorrowedSpan {
   // about (angle / 2)^2 for small angles).
   double cost = 0;
   bool used = false;  // found, and cheap enough to be laid over the span
+  int part = -1;      // the index in BorrowOptions::parts searched for (-1: the whole body)
 };
 
 // A motion of `observed`'s shape whose frames first - 2 .. last + 2 of each
@@ -46,8 +55,12 @@ struct BorrowedSpan {
 // options.max_cost hold that source, stretched to the span (the borders and
 // their neighbours included, as fill_gaps reads them); every other value is
 // the observed one (so missing in the other spans: fill_gaps lays no
-// detail there). Spans ending before frame `needed_from` are not searched.
-// `spans` (may be null) receives each searched span's best source.
+// detail there). A span whose whole-body source costs more than that, with
+// options.parts, holds in each part's joints the part's own best source
+// where it costs at most options.part_max_cost. Spans ending before frame
+// `needed_from` are not searched. `spans` (may be null) receives each
+// searched span's best source of the whole body, then where the parts were
+// searched each part's, in order.
 MotionFrames borrow_take_motion(const MotionFrames& observed, double rate_hz, const BorrowOptions& options,
                                 int64_t needed_from = 0, std::vector<BorrowedSpan>* spans = nullptr);
 

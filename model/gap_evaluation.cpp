@@ -24,7 +24,7 @@ constexpr double kRate = kTakeModelRate;
 // The methods the tables show, then the fitted fill at fixed detail
 // weights, then with its weights and the speed-matched gain in other
 // ranges (the JSON's, for choosing them on training subjects).
-constexpr int kShown = 9, kFixedWeights = 5, kMethods = 29;
+constexpr int kShown = 9, kFixedWeights = 5, kMethods = 33;
 // The fitted codes' frames as they are, and their detail at full weight.
 constexpr int kFitRaw = 5, kFitFull = 6;
 // The borrowed fill (borrowed_motion.h) with its defaults, and with every
@@ -37,6 +37,10 @@ constexpr int kBorrowed = 8, kBorrowedUngated = 21, kLowcut = 22;
 // Then the borrowed fill with every fitted window laying its detail, none
 // bounded by its error on its observed values (GapCodeFitOptions::max_observed_error).
 constexpr int kFitUnbounded = 28;
+// Then the borrowed fill searching the whole body alone, the legs and the
+// upper body alone, and both at other bounds for the parts
+// (BorrowOptions::parts and part_max_cost; the JSON's, for choosing them).
+constexpr int kParts = 29, kPartVariants = 4;
 const char* const kMethodNames[kMethods] = {
     "hold",          "slerp",           "cubic",          "manifold",        "matched",
     "fit_raw",       "fit_full",        "fitted",         "borrowed",        "detail_0",
@@ -44,7 +48,18 @@ const char* const kMethodNames[kMethods] = {
     "speed_0.5_2",   "shared_0.5_1.5",  "shared_0.5_2",   "shared_1_2",      "shared_0.75_1.5",
     "shared_0.5_3",  "borrow_ungated",  "borrowed_lowcut_1", "fallback_lowcut_1", "fallback_lowcut_1_full",
     "fallback_lowcut_1_full_gain_1_2", "fallback_lowcut_1_full_gain_1_3", "fallback_lowcut_0.5_full",
-    "borrowed_no_fit_bound"};
+    "borrowed_no_fit_bound", "borrowed_whole_body", "borrowed_parts_only", "borrowed_parts_0.0025",
+    "borrowed_parts_0.0075"};
+// Those columns: whether the whole body is searched first, whether the
+// parts are searched where it finds nothing like enough, and their bound
+// (the whole body alone is the borrowed fill as it was; the parts alone
+// search no whole body first).
+struct PartVariant {
+  bool whole_body, parts;
+  double part_max_cost;
+};
+constexpr PartVariant kPartVariantList[kPartVariants] = {
+    {true, false, 0.005}, {false, true, 0.005}, {true, true, 0.0025}, {true, true, 0.0075}};
 // The low-cut period (s, 0: none) of the fitted fallback's detail and of
 // the sources', whether the fallback lays its detail at full weight, and
 // the fallback's speed gain.
@@ -164,6 +179,10 @@ GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vec
                                      const GapBenchmarkOptions& options) {
   const Skeleton& skeleton = model.skeleton();
   const int joint_count = skeleton.joint_count();
+  // The fills as the take path gives them: the borrowed fill searching the
+  // model's legs and upper body apart.
+  GapFillOptions fill = options.fill;
+  fill.borrow.parts = body_parts(skeleton);
   std::vector<Config> configs;
   for (int joints : options.joint_counts) {
     for (double seconds : options.gap_seconds) configs.push_back({seconds, joints});
@@ -268,9 +287,14 @@ GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vec
         // Its gaps written missing: no clip read.
         if (!window.lays_detail) write_fitted_window(window, nullptr, model.config().frames, true, bounded, 0, bounded_written);
       }
-      // Where each span's movement would be borrowed from, and at what cost.
-      std::vector<BorrowedSpan> borrowed_spans;
-      borrow_take_motion(corrupted, kRate, options.fill.borrow, 0, &borrowed_spans);
+      // Where each span's movement would be borrowed from, and at what
+      // cost: the whole body's source, and each body part's.
+      std::vector<BorrowedSpan> borrowed_spans, part_spans;
+      BorrowOptions whole_body = fill.borrow, parts_only = fill.borrow;
+      whole_body.parts.clear();
+      parts_only.max_cost = -1;
+      borrow_take_motion(corrupted, kRate, whole_body, 0, &borrowed_spans);
+      borrow_take_motion(corrupted, kRate, parts_only, 0, &part_spans);
       GapFillOptions method_options[kMethods];
       for (auto& o : method_options) {
         o.max_tangent_seconds = options.fill.max_tangent_seconds;
@@ -291,11 +315,18 @@ GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vec
       method_options[kFitFull].few_joints_detail = method_options[kFitFull].most_joints_detail = {1.0, 1.0, 1.0};
       method_options[7] = options.fill;
       method_options[7].method = GapMethod::kMatched;
-      method_options[kBorrowed] = options.fill;
+      method_options[kBorrowed] = fill;
       method_options[kBorrowed].method = GapMethod::kBorrowed;
       method_options[kBorrowedUngated] = method_options[kBorrowed];
       method_options[kBorrowedUngated].borrow.max_cost = std::numeric_limits<double>::infinity();
       method_options[kFitUnbounded] = method_options[kBorrowed];
+      for (int m = kParts; m < kParts + kPartVariants; ++m) {
+        const PartVariant& variant = kPartVariantList[m - kParts];
+        method_options[m] = method_options[kBorrowed];
+        if (!variant.whole_body) method_options[m].borrow.max_cost = -1;  // no cost is below it
+        if (!variant.parts) method_options[m].borrow.parts.clear();
+        method_options[m].borrow.part_max_cost = variant.part_max_cost;
+      }
       for (int m = kLowcut; m < kFitUnbounded; ++m) {
         const LowcutVariant& variant = kLowcutVariants[m - kLowcut];
         method_options[m] = method_options[kBorrowed];
@@ -369,6 +400,11 @@ GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vec
           if (span.span.first <= gap.first && gap.last <= span.span.last && span.found) {
             record["borrow_cost"] = span.cost;
             record["borrow_source"] = {span.source_left, span.source_frames};
+          }
+        }
+        for (const BorrowedSpan& span : part_spans) {
+          if (span.part >= 0 && span.span.first <= gap.first && gap.last <= span.span.last && span.found) {
+            record["part_borrow_costs"][std::to_string(span.part)] = span.cost;
           }
         }
         for (int m = 0; m < kMethods; ++m) {

@@ -103,6 +103,19 @@ struct BorrowOptions {
   // The source's detail's slow movement taken out
   // (GapFillOptions::detail_lowcut_seconds, for the borrowed spans; 0: none).
   double detail_lowcut_seconds = 0.0;
+  // Where no stretch of the whole body costs at most max_cost: groups of
+  // joints whose stretches are searched and taken apart, each compared on
+  // its own joints and taken where it costs at most part_max_cost; a joint
+  // in no group borrows nothing there. Empty: the whole body alone. The take
+  // path searches the legs and the upper body (body_parts() in
+  // borrowed_motion.h, from the model's skeleton): a take's legs repeat
+  // their steps where its arms do something else, while one stretch of the
+  // whole body, where there is one, keeps the arms in step with the legs. A
+  // part's cost, over fewer joints, finds a like stretch more easily than
+  // the whole body's, so its bound is tighter; both chosen on S5's trial-1
+  // takes (docs/RESULTS.md, "Gaps").
+  std::vector<std::vector<int>> parts;
+  double part_max_cost = 0.005;
 };
 
 // How much of the manifold's detail the matched fill keeps, by the gap's

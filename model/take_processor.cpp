@@ -16,6 +16,7 @@
 #include "format/input_error.h"
 #include "format/motion_resampling.h"
 #include "format/motion_text.h"
+#include "model/borrowed_motion.h"
 #include "model/take_gap_filler.h"
 #include "model/take_gap_fitter.h"
 
@@ -125,7 +126,11 @@ struct TakeProcessor::State {
         reference(columns) {
     if (answers() && !options.at_model_rate) to_output.emplace(columns, kTakeModelRate, options.frame_rate);
     if (denoises() && options.denoise.keep_observed) {
-      gap_filler.emplace(columns, options.gap_fill, options.at_model_rate ? kTakeModelRate : options.frame_rate);
+      // The borrowed fill searches the legs and the upper body apart, which
+      // only the model's skeleton tells (BorrowOptions::parts).
+      GapFillOptions fill = options.gap_fill;
+      fill.borrow.parts = body_parts(m.skeleton());
+      gap_filler.emplace(columns, fill, options.at_model_rate ? kTakeModelRate : options.frame_rate);
       if (reads_fitted_codes(options.gap_fill.method)) {
         gap_fitter.emplace(model, options.decoder, options.gap_fit,
                            [this](const std::function<void()>& work) { run_tensor_work(run, work); });

@@ -221,7 +221,8 @@ void add_take_operation(CLI::App* take, Action& action, TakeOperation operation)
         ->add_option("--gap-fill", o->gap_fill,
                      "with --keep-observed, how a gap (a run of frames where a joint is nan) is filled: borrowed "
                      "(the movement of the take's own stretch most like the gap's surroundings, within 60 s before "
-                     "and 10 s after it, laid over the cubic where one is like enough, fitted elsewhere), fitted (a "
+                     "and 10 s after it, laid over the cubic where one is like enough, else for the legs and the "
+                     "upper body apart, fitted elsewhere), fitted (a "
                      "code fitted to the observed frames of a 6 s window centred on each gap of 0.6 s or more, its "
                      "movement laid over a cubic that meets both borders; at most 20 windows a take, later gaps "
                      "matched), matched (the take's own windows' movement over the cubic), cubic, slerp, hold or "

@@ -328,13 +328,15 @@ TEST_F(GapFilling, TheTakePathFitsGapsAsTheWholeTakeFitDoesUpToItsBound) {
   // stretch where one is like a gap's surroundings (here the 2 s gap of
   // every joint: a walk repeats itself), the same fitted windows elsewhere
   // (the gaps shorter than 2 s); the whole-take fill of the same fitted
-  // frames.
+  // frames, searching the model's legs and upper body apart as the take
+  // path does.
   GapFillOptions by_borrowing;
+  by_borrowing.borrow.parts = body_parts(model_->skeleton());
   const MotionFrames whole_borrowed = fill_gaps(gapped, &fitted, by_borrowing, 25);
   std::vector<BorrowedSpan> spans;
   borrow_take_motion(gapped, 25, by_borrowing.borrow, 0, &spans);
   const auto used = std::count_if(spans.begin(), spans.end(), [](const BorrowedSpan& s) { return s.used; });
-  EXPECT_EQ(used, 1);
+  EXPECT_GE(used, 1);
   GapCodeFitOptions unbounded = fit;
   unbounded.max_windows = GapCodeFitOptions{}.max_windows;
   const TakeResult borrowed = denoise(gapped, GapMethod::kBorrowed, true, 1, unbounded);
