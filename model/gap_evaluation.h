@@ -10,8 +10,11 @@
 // fills the same gaps of the same run: hold, slerp, cubic (gap_interpolation.h),
 // the manifold's fill as keep_observed gave it before ("manifold"), the
 // take's own windows' movement ("matched"), the fitted fill ("fitted") and
-// the default, the take's own stretches where like enough ("borrowed",
-// options.fill; "borrow_ungated" takes every stretch found, in the JSON).
+// the default, the take's own stretches where like enough, of the whole
+// body or else of the model's legs and upper body apart, as the take path
+// searches them ("borrowed", options.fill with body_parts(); in the JSON
+// "borrow_ungated" takes every stretch found, "borrowed_whole_body"
+// searches the whole body alone).
 //
 // Measures on the gap frames, at 25 Hz, positions by forward kinematics
 // with the root at the origin (as Table 1's): MPJPE over the joints a
