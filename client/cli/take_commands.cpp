@@ -160,7 +160,8 @@ void add_take_transform(CLI::App* take, const ClientSettings& settings, Action& 
     command->add_flag("--keep-observed", o->keep_observed, "fill only the missing values");
     command->add_option("--gap-fill", o->gap_fill,
                         "with --keep-observed, how a gap is filled: borrowed (default: the take's own stretch most "
-                        "like the gap's surroundings where one is like enough, else fitted), fitted (a code fitted to "
+                        "like the gap's surroundings where one is like enough, of the whole body or else of the legs "
+                        "and the upper body apart, else fitted), fitted (a code fitted to "
                         "a 6 s window around each gap of 0.6 s or more), matched, cubic, slerp, hold or manifold");
   }
   command->callback([o, operation, denoise, &settings, &action] {

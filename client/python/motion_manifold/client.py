@@ -349,7 +349,8 @@ class Client:
         filled (keep_observed: only those): TakeResult. With keep_observed,
         gap_fill says how a gap is filled: "borrowed" ("" means this: the
         take's own stretch most like the gap's surroundings where one is like
-        enough, else "fitted"), "fitted" (a code fitted to a 6 s window around
+        enough, of the whole body or else of the legs and the upper body apart,
+        else "fitted"), "fitted" (a code fitted to a 6 s window around
         each gap of 0.6 s or more), "matched", "cubic", "slerp", "hold" or
         "manifold"; the result's
         gap_windows_fitted, gaps_fitted and gaps_over_fit_limit count the
