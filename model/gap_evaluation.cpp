@@ -288,13 +288,12 @@ GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vec
         if (!window.lays_detail) write_fitted_window(window, nullptr, model.config().frames, true, bounded, 0, bounded_written);
       }
       // Where each span's movement would be borrowed from, and at what
-      // cost: the whole body's source, and each body part's.
-      std::vector<BorrowedSpan> borrowed_spans, part_spans;
-      BorrowOptions whole_body = fill.borrow, parts_only = fill.borrow;
-      whole_body.parts.clear();
-      parts_only.max_cost = -1;
-      borrow_take_motion(corrupted, kRate, whole_body, 0, &borrowed_spans);
-      borrow_take_motion(corrupted, kRate, parts_only, 0, &part_spans);
+      // cost: the whole body's source, and each body part's (no whole-body
+      // source taken, so that every part is searched).
+      std::vector<BorrowedSpan> borrowed_spans;
+      BorrowOptions every_search = fill.borrow;
+      every_search.max_cost = -1;
+      borrow_take_motion(corrupted, kRate, every_search, 0, &borrowed_spans);
       GapFillOptions method_options[kMethods];
       for (auto& o : method_options) {
         o.max_tangent_seconds = options.fill.max_tangent_seconds;
@@ -397,14 +396,12 @@ GapBenchmarkResult run_gap_benchmark(const MotionManifold& model, const std::vec
           }
         }
         for (const BorrowedSpan& span : borrowed_spans) {
-          if (span.span.first <= gap.first && gap.last <= span.span.last && span.found) {
+          if (!(span.span.first <= gap.first && gap.last <= span.span.last && span.found)) continue;
+          if (span.part >= 0) {
+            record["part_borrow_costs"][std::to_string(span.part)] = span.cost;
+          } else {
             record["borrow_cost"] = span.cost;
             record["borrow_source"] = {span.source_left, span.source_frames};
-          }
-        }
-        for (const BorrowedSpan& span : part_spans) {
-          if (span.part >= 0 && span.span.first <= gap.first && gap.last <= span.span.last && span.found) {
-            record["part_borrow_costs"][std::to_string(span.part)] = span.cost;
           }
         }
         for (int m = 0; m < kMethods; ++m) {

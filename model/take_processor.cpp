@@ -126,8 +126,9 @@ struct TakeProcessor::State {
         reference(columns) {
     if (answers() && !options.at_model_rate) to_output.emplace(columns, kTakeModelRate, options.frame_rate);
     if (denoises() && options.denoise.keep_observed) {
-      // The borrowed fill searches the legs and the upper body apart, which
-      // only the model's skeleton tells (BorrowOptions::parts).
+      // Where no stretch of the whole body is like enough, the borrowed fill
+      // searches the legs and the upper body apart, which only the model's
+      // skeleton tells (BorrowOptions::parts).
       GapFillOptions fill = options.gap_fill;
       fill.borrow.parts = body_parts(m.skeleton());
       gap_filler.emplace(columns, fill, options.at_model_rate ? kTakeModelRate : options.frame_rate);

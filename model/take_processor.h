@@ -79,9 +79,11 @@ struct TakeOptions {
   // it is NaN) is filled, at the output's rate (gap_interpolation.h). The
   // default, kBorrowed, lays the movement of the take's own stretch most
   // like a gap's surroundings over the cubic where one is like enough
-  // (borrowed_motion.h; its frames wait for the 10 s after the gap), for the
-  // legs and the upper body apart (gap_fill.borrow.parts is the model's
-  // skeleton's body_parts(), whatever it is given), and is kFitted elsewhere. kFitted meets the observed frames at both borders: the cubic
+  // (borrowed_motion.h; its frames wait for the 10 s after the gap), a
+  // stretch of the whole body or else of the legs and the upper body apart
+  // (gap_fill.borrow.parts is the model's skeleton's body_parts(), whatever
+  // it is given), and is kFitted elsewhere. kFitted meets the observed
+  // frames at both borders: the cubic
   // across the gap for short gaps and between lone keyframes (no window is
   // fitted for those), and for gaps of gap_fit.min_seconds or more the
   // movement of a code fitted to the observed values of a window centred on
